@@ -1,0 +1,37 @@
+#pragma once
+/// \file camera.h
+/// Pinhole camera with optional radial-tangential distortion, shared by all modules.
+
+#include <array>
+#include <string>
+
+namespace dypho {
+
+/// Intrinsics of the colour camera that the depth image is registered to.
+///
+/// Pixel convention: (u, v) with u to the right and v down, origin at the centre of the top-left
+/// pixel (OpenCV convention). Distortion follows OpenCV's plumb_bob model (k1 k2 p1 p2 k3), the
+/// same as `sensor_msgs/CameraInfo` with `distortion_model: plumb_bob`.
+struct CameraIntrinsics {
+  double fx = 0.0;  ///< focal length along u [px]
+  double fy = 0.0;  ///< focal length along v [px]
+  double cx = 0.0;  ///< principal point u [px]
+  double cy = 0.0;  ///< principal point v [px]
+  int width = 0;    ///< image width [px]
+  int height = 0;   ///< image height [px]
+  /// plumb_bob distortion k1 k2 p1 p2 k3 (all zero = already rectified).
+  std::array<double, 5> distortion{{0.0, 0.0, 0.0, 0.0, 0.0}};
+
+  /// True when the numbers describe a usable camera (positive focal lengths and size).
+  bool valid() const { return fx > 0.0 && fy > 0.0 && width > 0 && height > 0; }
+
+  /// True when any distortion coefficient is non-zero.
+  bool distorted() const {
+    for (double d : distortion) {
+      if (d != 0.0) return true;
+    }
+    return false;
+  }
+};
+
+}  // namespace dypho
