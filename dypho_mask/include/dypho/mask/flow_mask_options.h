@@ -1,0 +1,55 @@
+#pragma once
+/// \file flow_mask_options.h
+/// Settings of the optical-flow motion mask (`FlowMotionMasker`).
+
+#include <string>
+
+namespace dypho {
+namespace mask {
+
+/// Settings of `FlowMotionMasker`. Pixel quantities are in FULL input resolution unless stated
+/// otherwise; they are converted to the reduced flow resolution internally.
+struct FlowMaskOptions {
+  /// Dense flow is computed at this fraction of the input resolution, in (0, 1]. Default 0.25
+  /// (640x480 -> 160x120).
+  double flow_scale = 0.25;
+  /// A pixel is dynamic when its flow differs from the camera-induced global motion by more than
+  /// this [full-res px], > 0. Default 2.0.
+  double residual_threshold_px = 2.0;
+  /// Connected dynamic regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.
+  int min_region_area_px = 400;
+  /// Safety margin grown around the final mask [full-res px], >= 0. Default 8.
+  int dilate_px = 8;
+  /// Above this masked fraction of the image (in (0, 1]) the global-motion model is considered
+  /// wrong: the result is an empty mask with `degraded = true`. Default 0.6.
+  double max_masked_fraction = 0.6;
+  /// Radius of the morphological opening that removes speckles [full-res px], >= 0 (0 = none).
+  /// Default 4.
+  int open_radius_px = 4;
+  /// Spacing of the grid of flow samples used to fit the global motion [full-res px], >= 1.
+  /// Default 16 (1200 samples at 640x480).
+  int sample_step_px = 16;
+  /// RANSAC inlier threshold of the global homography fit [full-res px], > 0. Default 1.0.
+  double ransac_threshold_px = 1.0;
+  /// RANSAC iterations of the global homography fit, >= 1. Default 500.
+  int ransac_max_iterations = 500;
+  /// Minimum fraction of grid samples that must agree with the global motion, in [0, 1); below it
+  /// the fit is not trusted and the result is degraded. Default 0.3.
+  double min_inlier_ratio = 0.3;
+  /// Flow in textureless regions (blank walls, saturated or black surfaces) is not measured but
+  /// interpolated, so its residual is no evidence of motion. A flow pixel counts as textured when
+  /// the RMS grey-level gradient of the reduced image over a 5x5 flow-pixel window reaches this
+  /// [grey levels / flow px], >= 0 (0 = every pixel is trusted). Untextured pixels are neither
+  /// used for the global-motion fit nor marked dynamic. Default 4.0.
+  double min_texture_gradient = 4.0;
+  /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
+  bool ultrafast = false;
+
+  /// Throws std::invalid_argument naming the first field that is out of range and its range.
+  void validate() const;
+  /// One line "key=value ..." with every field, for start-up logs.
+  std::string toString() const;
+};
+
+}  // namespace mask
+}  // namespace dypho

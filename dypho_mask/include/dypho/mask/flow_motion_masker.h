@@ -1,0 +1,122 @@
+#pragma once
+/// \file flow_motion_masker.h
+/// Dynamic-object mask from dense optical flow with the camera-induced motion removed.
+///
+/// The paper (Sec. "Dynamic Process", motion mask) thresholds the raw flow magnitude
+/// ||(u, v)||^2 > T. As soon as the camera moves, every pixel has a large flow and that rule masks
+/// the whole image. This milestone's answer is global-motion compensation: a homography is fitted
+/// robustly (RANSAC on a grid of flow samples) to the flow field and only the residual flow is
+/// thresholded. A homography is exact for a rotating camera and a good approximation for small
+/// translations or distant scenes; for a translating camera close to a deep scene parallax remains
+/// and may show up as residual. Depth-based ego-motion compensation (using the tracked pose and
+/// the depth image) replaces the homography in a later milestone, together with the YOLO segment
+/// mask and the static background model of the paper.
+///
+/// Pipeline per frame: grey -> resize by flow_scale -> DIS flow current->previous (so the mask
+/// lies on the objects' current positions) -> correspondences in full-resolution pixels
+/// (undistorted when the camera has distortion) -> RANSAC homography on a grid of textured samples
+/// -> residual magnitude > residual_threshold_px on textured pixels -> open, drop small regions,
+/// dilate (at flow resolution) -> upsample to the input size -> reject when above
+/// max_masked_fraction. Known limits: textureless moving surfaces are only masked through their
+/// textured border plus the margin; when moving objects cover most of the textured view the fit
+/// is rejected (degraded, empty mask).
+
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/common/types.h"
+#include "dypho/mask/flow_mask_options.h"
+#include "dypho/mask/global_motion.h"
+#include "dypho/mask/mask_cleaner.h"
+
+namespace cv {
+class DISOpticalFlow;
+}
+
+namespace dypho {
+namespace mask {
+
+/// Output of `FlowMotionMasker::compute`.
+struct MaskResult {
+  /// Final mask, CV_8UC1, input size, 255 = dynamic, 0 = static (all zero when degraded).
+  cv::Mat mask;
+  /// Thresholded residual before opening, region filtering and margin, CV_8UC1, input size,
+  /// 255 = residual above threshold (empty when no flow was computed).
+  cv::Mat raw_flow_mask;
+  /// Fraction of `mask` pixels that are dynamic, in [0, 1]; for a degraded result the fraction the
+  /// mask would have had before it was rejected (0 when none was computed).
+  double masked_fraction = 0.0;
+  /// True when the mask could not be trusted: bad input, size change, failed global-motion fit or
+  /// too much of the image masked. `mask` is then all static and `message` says why.
+  bool degraded = false;
+  /// Human-readable note: why degraded, or "first frame" (empty otherwise).
+  std::string message;
+  /// Global motion mapping a current pixel to its previous position, in full-resolution pixels
+  /// (undistorted pixels of the same K when the frame's camera has distortion).
+  cv::Matx33d H_prev_cur = cv::Matx33d::eye();
+  /// Fraction of flow samples that follow the global motion, in [0, 1].
+  double inlier_ratio = 0.0;
+  double flow_ms = 0.0;   ///< wall time of the optical flow [ms]
+  double total_ms = 0.0;  ///< wall time of the whole `compute` call [ms]
+};
+
+/// Computes the motion mask of each frame against the previous one. Not thread-safe; one instance
+/// per image stream. The first frame (and the first after `reset()` or after a size change) has no
+/// predecessor and gives an all-static mask.
+class FlowMotionMasker {
+ public:
+  /// Validates `options` (std::invalid_argument on a bad value).
+  explicit FlowMotionMasker(const FlowMaskOptions& options);
+  ~FlowMotionMasker();
+  FlowMotionMasker(const FlowMotionMasker&) = delete;
+  FlowMotionMasker& operator=(const FlowMotionMasker&) = delete;
+
+  /// Mask of `frame.bgr` (CV_8UC3 BGR, or CV_8UC1 grey). `frame.depth_m` is not used but, when
+  /// given, must match the colour size, as must `frame.camera` when it is valid. When the camera
+  /// is valid and distorted, the global motion is fitted in undistorted pixel coordinates (where a
+  /// camera rotation is exactly a homography); otherwise in raw pixel coordinates. Bad input gives
+  /// a degraded all-static result (input size when known) and leaves the history untouched.
+  MaskResult compute(const RgbdFrame& frame);
+
+  /// Forgets the previous image; the next frame is treated as a first frame.
+  void reset();
+
+  /// The options in use.
+  const FlowMaskOptions& options() const { return options_; }
+
+ private:
+  bool checkInput(const RgbdFrame& frame, MaskResult& result) const;
+  void finishMask(const cv::Size& input_size, MaskResult& result);
+  void computeTexture(const cv::Mat& grey_small);
+  void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size,
+                       const CameraIntrinsics& camera);
+
+  FlowMaskOptions options_;
+  cv::Ptr<cv::DISOpticalFlow> dis_;
+  GlobalMotionEstimator global_motion_;
+  MaskCleaner cleaner_;
+  cv::Size input_size_;   ///< size of the previous frame (empty = no previous frame)
+  /// For each flow-resolution pixel, its full-resolution position (undistorted when
+  /// `grid_camera_` is distorted), CV_32FC2; rebuilt when the size or camera changes.
+  cv::Mat grid_px_;
+  cv::Size grid_input_size_;
+  CameraIntrinsics grid_camera_;  ///< camera `grid_px_` was built for (invalid = raw pixels)
+  // Reused buffers.
+  cv::Mat grey_;
+  cv::Mat prev_small_;
+  cv::Mat cur_small_;
+  cv::Mat flow_;
+  cv::Mat flow_target_;  ///< flow-resolution position of each pixel in the previous image
+  cv::Mat prev_px_;      ///< `grid_px_` sampled at `flow_target_` (NaN outside the image)
+  cv::Mat residual_;
+  cv::Mat small_mask_;
+  cv::Mat grad_x_;
+  cv::Mat grad_y_;
+  cv::Mat texture_energy_;
+  cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow
+};
+
+}  // namespace mask
+}  // namespace dypho

@@ -1,0 +1,242 @@
+#include "dypho/mask/flow_motion_masker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+namespace dypho {
+namespace mask {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::string sizeString(const cv::Size& s) {
+  return std::to_string(s.width) + "x" + std::to_string(s.height);
+}
+
+GlobalMotionSettings globalMotionSettings(const FlowMaskOptions& o) {
+  GlobalMotionSettings s;
+  s.sample_step = std::max(1, static_cast<int>(std::lround(o.sample_step_px * o.flow_scale)));
+  s.ransac_threshold_px = o.ransac_threshold_px;  // correspondences are in full-res pixels
+  s.max_iterations = o.ransac_max_iterations;
+  s.min_inlier_ratio = o.min_inlier_ratio;
+  return s;
+}
+
+bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion;
+}
+
+MaskCleanerSettings cleanerSettings(const FlowMaskOptions& o) {
+  MaskCleanerSettings s;
+  // Lengths scale with flow_scale, areas with its square; a non-zero length stays >= 1 flow px.
+  auto length = [&](int full_px) {
+    return full_px > 0 ? std::max(1, static_cast<int>(std::lround(full_px * o.flow_scale))) : 0;
+  };
+  s.open_radius_px = length(o.open_radius_px);
+  s.dilate_radius_px = length(o.dilate_px);
+  s.min_region_area_px =
+      static_cast<int>(std::lround(o.min_region_area_px * o.flow_scale * o.flow_scale));
+  return s;
+}
+
+}  // namespace
+
+FlowMotionMasker::FlowMotionMasker(const FlowMaskOptions& options)
+    : options_((options.validate(), options)),
+      dis_(cv::DISOpticalFlow::create(options.ultrafast ? cv::DISOpticalFlow::PRESET_ULTRAFAST
+                                                        : cv::DISOpticalFlow::PRESET_FAST)),
+      global_motion_(globalMotionSettings(options)),
+      cleaner_(cleanerSettings(options)) {
+  // The presets stop their coarse-to-fine pyramid at scale 2 (1/4 of the input they get). We hand
+  // DIS an image already reduced by flow_scale, so let it refine down to that image's full
+  // resolution; otherwise the flow would be 4x coarser than flow_scale says.
+  dis_->setFinestScale(0);
+}
+
+FlowMotionMasker::~FlowMotionMasker() = default;
+
+void FlowMotionMasker::reset() { input_size_ = cv::Size(); }
+
+bool FlowMotionMasker::checkInput(const RgbdFrame& frame, MaskResult& result) const {
+  std::string problem;
+  const cv::Size size = frame.bgr.size();
+  if (frame.bgr.empty()) {
+    problem = "empty colour image (check the rgb topic / image loader)";
+  } else if (frame.bgr.type() != CV_8UC3 && frame.bgr.type() != CV_8UC1) {
+    problem = "colour image must be CV_8UC3 (bgr8) or CV_8UC1 (mono8), got type " +
+              std::to_string(frame.bgr.type());
+  } else if (!frame.depth_m.empty() && frame.depth_m.size() != size) {
+    problem = "depth " + sizeString(frame.depth_m.size()) + " does not match colour " +
+              sizeString(size) + " (register depth to colour)";
+  } else if (frame.camera.valid() &&
+             cv::Size(frame.camera.width, frame.camera.height) != size) {
+    problem = "camera intrinsics are for " +
+              sizeString(cv::Size(frame.camera.width, frame.camera.height)) +
+              " but the colour image is " + sizeString(size);
+  } else if (std::lround(size.width * options_.flow_scale) < 8 ||
+             std::lround(size.height * options_.flow_scale) < 8) {
+    problem = "image " + sizeString(size) + " is too small for flow_scale " +
+              std::to_string(options_.flow_scale) + " (needs >= 8 px at flow resolution)";
+  }
+  if (problem.empty()) return true;
+  result.degraded = true;
+  result.message = "bad input: " + problem;
+  if (!frame.bgr.empty()) result.mask = cv::Mat::zeros(size, CV_8UC1);
+  return false;
+}
+
+MaskResult FlowMotionMasker::compute(const RgbdFrame& frame) {
+  const auto t0 = Clock::now();
+  MaskResult result;
+  if (!checkInput(frame, result)) {
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  const cv::Size size = frame.bgr.size();
+  result.mask = cv::Mat::zeros(size, CV_8UC1);
+
+  // grey_ is only written by cvtColor; a mono8 input is read in place (never written).
+  if (frame.bgr.channels() == 3) cv::cvtColor(frame.bgr, grey_, cv::COLOR_BGR2GRAY);
+  const cv::Mat& grey = frame.bgr.channels() == 3 ? grey_ : frame.bgr;
+  const cv::Size small(static_cast<int>(std::lround(size.width * options_.flow_scale)),
+                       static_cast<int>(std::lround(size.height * options_.flow_scale)));
+  if (small == size) {
+    grey.copyTo(cur_small_);
+  } else {
+    cv::resize(grey, cur_small_, small, 0, 0, cv::INTER_AREA);
+  }
+
+  const bool have_previous = !input_size_.empty() && input_size_ == size;
+  if (!have_previous) {
+    if (!input_size_.empty()) {
+      result.degraded = true;
+      result.message = "image size changed from " + sizeString(input_size_) + " to " +
+                       sizeString(size) + ": flow history reset, mask empty for this frame";
+    } else {
+      result.message = "first frame: no previous image, mask empty";
+    }
+    input_size_ = size;
+    std::swap(prev_small_, cur_small_);
+    result.total_ms = msSince(t0);
+    return result;
+  }
+
+  // Backward flow: defined on current pixels, pointing to where they were in the previous image,
+  // so that the mask lies on the objects' current positions.
+  const auto t_flow = Clock::now();
+  dis_->calc(cur_small_, prev_small_, flow_);
+  result.flow_ms = msSince(t_flow);
+  computeTexture(cur_small_);
+  std::swap(prev_small_, cur_small_);
+
+  // Correspondences in full-resolution (undistorted) pixels: current = the pixel grid, previous =
+  // the grid sampled where the flow points (NaN when that is outside the previous image).
+  updatePixelGrid(size, small, frame.camera);
+  flow_target_.create(flow_.size(), CV_32FC2);
+  for (int y = 0; y < flow_.rows; ++y) {
+    const cv::Vec2f* f = flow_.ptr<cv::Vec2f>(y);
+    cv::Vec2f* t = flow_target_.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < flow_.cols; ++x) t[x] = cv::Vec2f(x + f[x][0], y + f[x][1]);
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR,
+            cv::BORDER_CONSTANT, cv::Scalar(nan, nan));
+
+  const GlobalMotionFit fit = global_motion_.fit(grid_px_, prev_px_, textured_);
+  result.inlier_ratio = fit.inlierRatio();
+  if (!fit.ok) {
+    result.degraded = true;
+    result.message = "global motion not found: " + fit.message;
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  result.H_prev_cur = fit.H_prev_cur;
+
+  computeResidualMagnitude(grid_px_, prev_px_, fit.H_prev_cur, residual_);
+  cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
+  residual_.convertTo(small_mask_, CV_8U);
+  if (!textured_.empty()) small_mask_ &= textured_;
+  cv::resize(small_mask_, result.raw_flow_mask, size, 0, 0, cv::INTER_NEAREST);
+
+  finishMask(size, result);
+  result.total_ms = msSince(t0);
+  return result;
+}
+
+void FlowMotionMasker::updatePixelGrid(const cv::Size& input_size, const cv::Size& small,
+                                       const CameraIntrinsics& frame_camera) {
+  const CameraIntrinsics camera =
+      frame_camera.valid() && frame_camera.distorted() ? frame_camera : CameraIntrinsics();
+  if (!grid_px_.empty() && grid_px_.size() == small && grid_input_size_ == input_size &&
+      sameCamera(camera, grid_camera_)) {
+    return;
+  }
+  grid_input_size_ = input_size;
+  grid_camera_ = camera;
+  // Centre of reduced pixel (i, j) in full-resolution pixels (cv::resize convention).
+  const double sx = static_cast<double>(input_size.width) / small.width;
+  const double sy = static_cast<double>(input_size.height) / small.height;
+  grid_px_.create(small, CV_32FC2);
+  for (int y = 0; y < small.height; ++y) {
+    cv::Vec2f* g = grid_px_.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < small.width; ++x) {
+      g[x] = cv::Vec2f(static_cast<float>((x + 0.5) * sx - 0.5),
+                       static_cast<float>((y + 0.5) * sy - 0.5));
+    }
+  }
+  if (!camera.valid()) return;
+  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const cv::Mat D(1, 5, CV_64F, const_cast<double*>(camera.distortion.data()));
+  cv::Mat points = grid_px_.reshape(2, small.area());
+  cv::Mat undistorted;
+  cv::undistortPoints(points, undistorted, K, D, cv::noArray(), K,
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 50, 1e-4));
+  undistorted.reshape(2, small.height).copyTo(grid_px_);
+}
+
+void FlowMotionMasker::computeTexture(const cv::Mat& grey_small) {
+  if (options_.min_texture_gradient <= 0.0) {
+    textured_.release();
+    return;
+  }
+  // Sobel 3x3 scaled by 1/8 gives the gradient in grey levels per pixel.
+  cv::Sobel(grey_small, grad_x_, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(grey_small, grad_y_, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::multiply(grad_x_, grad_x_, grad_x_);
+  cv::multiply(grad_y_, grad_y_, grad_y_);
+  cv::add(grad_x_, grad_y_, texture_energy_);
+  cv::boxFilter(texture_energy_, texture_energy_, -1, cv::Size(5, 5));
+  const double threshold = options_.min_texture_gradient * options_.min_texture_gradient;
+  cv::compare(texture_energy_, threshold, textured_, cv::CMP_GE);
+}
+
+void FlowMotionMasker::finishMask(const cv::Size& size, MaskResult& result) {
+  cleaner_.apply(small_mask_);
+  // Linear upsampling then a mid-level threshold gives boundaries without blocky steps.
+  cv::resize(small_mask_, result.mask, size, 0, 0, cv::INTER_LINEAR);
+  cv::threshold(result.mask, result.mask, 127, 255, cv::THRESH_BINARY);
+  result.masked_fraction =
+      static_cast<double>(cv::countNonZero(result.mask)) / static_cast<double>(size.area());
+  if (result.masked_fraction > options_.max_masked_fraction) {
+    result.degraded = true;
+    result.message = "masked fraction " + std::to_string(result.masked_fraction) +
+                     " exceeds max_masked_fraction " +
+                     std::to_string(options_.max_masked_fraction) +
+                     ": global motion model considered wrong, mask emptied";
+    result.mask.setTo(0);
+  }
+}
+
+}  // namespace mask
+}  // namespace dypho
