@@ -1,0 +1,63 @@
+#pragma once
+/// \file keyframe_aligner.h
+/// Estimates the pose of one frame against the reference keyframe's 3D points.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "dypho/tracking/feature_matcher.h"
+#include "dypho/tracking/frame_features.h"
+#include "dypho/tracking/keyframe_points.h"
+#include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/pose_optimizer.h"
+#include "dypho/tracking/tracking_options.h"
+#include "dypho/tracking/tracking_result.h"
+
+namespace dypho {
+namespace tracking {
+
+/// Result of KeyframeAligner::align.
+struct AlignmentResult {
+  bool success = false;  ///< pose found with >= min_inliers inliers
+  Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();  ///< world -> camera
+  std::vector<FeatureMatch> matches;  ///< matches used for the final pose
+  std::vector<bool> inliers;          ///< per match: pose inlier
+  int num_inliers = 0;                ///< count of inliers
+  bool used_pnp = false;              ///< the PnP RANSAC fallback produced the initial pose
+  std::string message;                ///< why it failed; empty on success
+};
+
+/// Frame-to-keyframe pose estimation in three steps:
+///  1. projection-guided matching around the predicted pose (search_radius_px) and Ceres
+///     refinement from the prediction; accepted when >= min_inliers inliers remain;
+///  2. otherwise global brute-force matching + cv::solvePnPRansac (EPnP, undistorted pixels and K)
+///     for an initial pose, refined with Ceres on all brute-force matches;
+///  3. a second projection pass with the small refine_search_radius_px around the pose of step
+///     1/2 collects more matches, and Ceres refines once more (kept when it still has
+///     >= min_inliers inliers).
+class KeyframeAligner {
+ public:
+  /// Throws std::invalid_argument when options.validate() does.
+  explicit KeyframeAligner(const TrackingOptions& options);
+
+  /// T_camera_world_predicted: prediction (constant velocity or last pose). Adds stage times to
+  /// `times` (matching, pnp, refine) when not null. Never throws on data.
+  AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame,
+                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
+                        TrackingTimesMs* times) const;
+
+ private:
+  /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
+  bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+              const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
+              AlignmentResult* result) const;
+
+  TrackingOptions options_;
+  FeatureMatcher matcher_;
+  PoseOptimizer optimizer_;
+};
+
+}  // namespace tracking
+}  // namespace dypho

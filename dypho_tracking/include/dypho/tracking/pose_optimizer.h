@@ -1,0 +1,63 @@
+#pragma once
+/// \file pose_optimizer.h
+/// Motion-only bundle adjustment of one camera pose against fixed 3D points (Ceres).
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/tracking_options.h"
+
+namespace dypho {
+namespace tracking {
+
+/// One 3D-2D correspondence.
+struct PoseObservation {
+  Eigen::Vector3d p_world_m = Eigen::Vector3d::Zero();  ///< fixed 3D point in the world [m]
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();      ///< observed undistorted pixel [px]
+  int level = 0;  ///< pyramid level of the observation; sigma = scale_factor^level [px]
+  /// Depth measured at the observation in the current frame [m]; > 0 adds the depth residual
+  /// (RgbdReprojectionError) when depth_baseline_m > 0, 0 = reprojection only.
+  double depth_m = 0.0;
+};
+
+/// Result of PoseOptimizer::optimize.
+struct PoseOptimizerResult {
+  bool success = false;  ///< true when Ceres ran and at least 3 inliers remained
+  /// Refined pose (world -> camera). Equals the initial pose when !success.
+  Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();
+  std::vector<bool> inliers;  ///< per observation: chi2 < chi2_threshold at the final pose
+  int num_inliers = 0;        ///< count of true in `inliers`
+  double rms_inlier_px = 0;   ///< RMS reprojection error of the inliers (not whitened) [px]
+  std::string message;        ///< why it failed; empty on success
+};
+
+/// Minimises sum_j rho_huber(|e_j|^2 / sigma_j^2), e_j = uv_j - pi(T_camera_world P_j) (plus the
+/// depth component u - b fx / z when the observation has a depth, see RgbdReprojectionError), over
+/// the pose only, with Levenberg-Marquardt (Ceres, dense normal Cholesky, analytic Jacobians).
+/// Outliers use chi2_threshold (2 dof) or chi2_threshold_depth (3 dof). Parameterisation: unit quaternion (ceres::EigenQuaternionManifold) +
+/// translation. Outliers are handled as in ORB-SLAM: `outlier_rounds` times (optimise
+/// `refine_iterations` LM steps, then classify every observation by chi2 >= chi2_threshold at the
+/// current pose); outliers are left out of the next round but may come back; a final round
+/// optimises the inliers once more.
+class PoseOptimizer {
+ public:
+  /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.
+  explicit PoseOptimizer(const TrackingOptions& options);
+
+  /// Never throws on data: returns !success with a message when fewer than 3 observations are in
+  /// front of the camera or Ceres fails.
+  PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations,
+                               const Pinhole& pinhole,
+                               const Eigen::Isometry3d& T_camera_world_init) const;
+
+ private:
+  TrackingOptions options_;
+  std::vector<double> level_sigma_;
+};
+
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,75 @@
+#pragma once
+/// \file reprojection_error.h
+/// Ceres reprojection residual with an analytic Jacobian for motion-only pose refinement.
+
+#include <Eigen/Core>
+#include <ceres/sized_cost_function.h>
+
+#include "dypho/tracking/pinhole.h"
+
+namespace dypho {
+namespace tracking {
+
+/// Residual r = (pi(R(q) P_world + t) - uv_obs) / sigma, 2 x 1, whitened by the keypoint's scale
+/// sigma = scale_factor^level (information 1/sigma^2, paper eq. "Pose Optimization").
+///
+/// Parameters (pose T_camera_world, i.e. world -> camera):
+///  - block 0: quaternion q = [x, y, z, w] (Eigen storage order; use ceres::EigenQuaternionManifold);
+///  - block 1: translation t [m].
+/// The rotation is evaluated as R(q) P = P + 2 w (v x P) + 2 v x (v x P) with v = (x, y, z), exact
+/// for unit q; the analytic Jacobian is the derivative of exactly this expression with respect
+/// to the 4 ambient quaternion coordinates, and Ceres maps it to the 3-dof tangent space through the
+/// manifold. Points with z <= 1e-6 m make Evaluate return false (Ceres then rejects the step).
+class ReprojectionError final : public ceres::SizedCostFunction<2, 4, 3> {
+ public:
+  /// p_world_m: 3D point [m]; uv_px: observed undistorted pixel [px]; sigma_px: keypoint
+  /// standard deviation [px] (> 0).
+  ReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px,
+                    double sigma_px, const Pinhole& pinhole)
+      : p_world_m_(p_world_m), uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  /// Rotates p by the (possibly not exactly unit) quaternion q = [x, y, z, w] with the formula above.
+  static Eigen::Vector3d rotate(const double* q, const Eigen::Vector3d& p);
+
+ private:
+  Eigen::Vector3d p_world_m_;
+  Eigen::Vector2d uv_px_;
+  double inv_sigma_;
+  Pinhole pinhole_;
+};
+
+/// RGB-D variant with a third, depth residual in the style of ORB-SLAM's RGB-D tracking: the depth
+/// measured in the current frame is turned into the column of a virtual right camera,
+/// u_r = u - b f_x / z, so r = ([u, v, u - b f_x / z]_predicted - [u, v, u - b f_x / z_measured]) / sigma.
+/// In disparity units the Kinect-like depth noise is roughly constant, so one sigma fits all three
+/// components. Same parameter blocks and Jacobian conventions as ReprojectionError.
+class RgbdReprojectionError final : public ceres::SizedCostFunction<3, 4, 3> {
+ public:
+  /// depth_m: depth measured at the observation in the current frame [m] (> 0);
+  /// baseline_m: virtual stereo baseline b [m] (> 0).
+  RgbdReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px,
+                        double depth_m, double baseline_m, double sigma_px, const Pinhole& pinhole)
+      : p_world_m_(p_world_m),
+        uv_px_(uv_px),
+        u_right_px_(uv_px.x() - baseline_m * pinhole.fx / depth_m),
+        bf_(baseline_m * pinhole.fx),
+        inv_sigma_(1.0 / sigma_px),
+        pinhole_(pinhole) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d p_world_m_;
+  Eigen::Vector2d uv_px_;
+  double u_right_px_;
+  double bf_;
+  double inv_sigma_;
+  Pinhole pinhole_;
+};
+
+}  // namespace tracking
+}  // namespace dypho

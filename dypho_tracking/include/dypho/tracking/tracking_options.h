@@ -1,0 +1,113 @@
+#pragma once
+/// \file tracking_options.h
+/// Settings of the RGB-D visual odometry (`RgbdOdometry`) and its parts. One struct, documented
+/// defaults, `validate()` and `toString()` (house style, STYLE.md section 9).
+
+#include <string>
+
+namespace dypho {
+namespace tracking {
+
+/// All settings of the tracking core. Defaults are tuned on TUM fr1/rpy (640x480, fast rotation).
+struct TrackingOptions {
+  // --- ORB extraction (OrbExtractor) ---
+  /// Keypoints wanted per frame over all pyramid levels [count]; default 1000, range [50, 20000].
+  int num_features = 1000;
+  /// Scale ratio between consecutive pyramid levels [-]; default 1.2, range (1.0, 2.0].
+  double scale_factor = 1.2;
+  /// Number of pyramid levels [count]; default 8, range [1, 16].
+  int num_levels = 8;
+  /// FAST intensity threshold in normal cells [grey levels]; default 20, range [1, 254].
+  int fast_threshold = 20;
+  /// FAST threshold retried in grid cells where `fast_threshold` found nothing [grey levels];
+  /// default 7, range [1, fast_threshold].
+  int min_fast_threshold = 7;
+  /// Grid cell size on each pyramid level for spreading keypoints [px of that level]; default 30,
+  /// range [8, 200].
+  int grid_cell_px = 30;
+  /// Keypoints keep this distance from every dynamic (masked) pixel, scaled by the level scale, so
+  /// that descriptors do not straddle the mask border [px at level 0]; default 4, range [0, 50].
+  int mask_border_px = 4;
+  /// Paper's relaxed features (sigma_dy = sigma_0 (1 - k * masked fraction)): the FAST threshold
+  /// is multiplied by (1 - k * masked_fraction), never below `min_fast_threshold` [-]; default 0.5,
+  /// range [0, 1]; 0 disables.
+  double mask_threshold_relaxation = 0.5;
+
+  // --- depth ---
+  /// Keypoints with a depth below this are dropped [m]; default 0.1, range (0, max_depth_m).
+  double min_depth_m = 0.1;
+  /// Keypoints with a depth above this are dropped [m]; default 6.0, range (min_depth_m, 100].
+  double max_depth_m = 6.0;
+
+  // --- matching (FeatureMatcher) ---
+  /// Largest accepted Hamming distance between two 256-bit ORB descriptors [bits]; default 64,
+  /// range [1, 256].
+  int max_hamming_distance = 64;
+  /// Lowe ratio: best distance must be below ratio_test * second best [-]; default 0.8, (0, 1].
+  double ratio_test = 0.8;
+  /// Search radius around the constant-velocity prediction, multiplied by the keyframe point's
+  /// level scale [px at level 0]; default 15, range [1, 200].
+  double search_radius_px = 15.0;
+  /// Search radius of the second, refining projection pass around the first pose estimate
+  /// [px at level 0]; default 4, range [0.5, 50].
+  double refine_search_radius_px = 4.0;
+  /// Projection-guided search accepts candidates whose pyramid level differs by at most this
+  /// from the keyframe point's level [levels]; default 2, range [0, num_levels - 1].
+  int max_level_difference = 2;
+
+  // --- initial pose (PnP RANSAC, used when the prediction finds too few inliers) ---
+  /// RANSAC iterations of cv::solvePnPRansac [count]; default 200, range [10, 100000].
+  int ransac_iterations = 200;
+  /// RANSAC inlier threshold on undistorted pixels [px]; default 3.0, range (0, 50].
+  double ransac_reprojection_px = 3.0;
+  /// Fewest pose inliers for a frame to count as tracked [count]; default 15, range [6, 10000].
+  int min_inliers = 15;
+
+  // --- pose refinement (PoseOptimizer, Ceres Levenberg-Marquardt) ---
+  /// Huber threshold on the whitened reprojection residual (px / sigma_level) [px]; default 2.0,
+  /// range (0, 100].
+  double huber_px = 2.0;
+  /// Levenberg-Marquardt iterations per optimisation round [count]; default 10, range [1, 1000].
+  int refine_iterations = 10;
+  /// Rounds of optimise-then-reclassify outliers by chi2 (ORB-SLAM style) [count]; default 3,
+  /// range [1, 20].
+  int outlier_rounds = 3;
+  /// chi2 threshold (2 dof) separating inliers from outliers on the whitened residual [-];
+  /// default 5.991 (95 %), range (0, 100].
+  double chi2_threshold = 5.991;
+  /// Virtual stereo baseline b that turns the measured depth into a third residual
+  /// u - b fx / z (ORB-SLAM RGB-D style; Kinect ~0.075 m) [m]; default 0.075, range [0, 1];
+  /// 0 = reprojection only (2D residuals).
+  double depth_baseline_m = 0.075;
+  /// chi2 threshold (3 dof) for observations with the depth residual [-]; default 7.815 (95 %),
+  /// range (0, 100].
+  double chi2_threshold_depth = 7.815;
+
+  // --- keyframes (KeyframeSelector) ---
+  /// New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10,
+  /// range (0, 10].
+  double keyframe_translation_m = 0.10;
+  /// New keyframe when the camera rotated more than this since the last keyframe [deg]; default 8,
+  /// range (0, 180].
+  double keyframe_rotation_deg = 8.0;
+  /// New keyframe when fewer than this fraction of the keyframe's points are pose inliers [-];
+  /// default 0.6, range [0, 1].
+  double keyframe_min_tracked_ratio = 0.6;
+  /// New keyframe at the latest after this many frames since the last keyframe [frames];
+  /// default 20, range [1, 100000].
+  int keyframe_max_frames = 20;
+  /// Fewest keypoints with valid depth needed to start (or restart) on a frame [count];
+  /// default 100, range [min_inliers, 20000].
+  int min_init_features = 100;
+  /// After this many consecutive lost frames a new keyframe is started at the last good pose
+  /// [frames]; default 5, range [1, 100000].
+  int max_lost_frames = 5;
+
+  /// Throws std::invalid_argument naming the first field out of range and its allowed range.
+  void validate() const;
+  /// One "name: value" line per field, in declaration order.
+  std::string toString() const;
+};
+
+}  // namespace tracking
+}  // namespace dypho

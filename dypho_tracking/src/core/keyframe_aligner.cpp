@@ -1,0 +1,166 @@
+#include "dypho/tracking/keyframe_aligner.h"
+
+#include <chrono>
+#include <string>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// Initial pose from brute-force matches by EPnP RANSAC; false when RANSAC fails.
+bool solvePnp(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+              const std::vector<FeatureMatch>& matches, const TrackingOptions& options,
+              Eigen::Isometry3d* T_camera_world, int* num_inliers) {
+  std::vector<cv::Point3f> object;
+  std::vector<cv::Point2f> image;
+  object.reserve(matches.size());
+  image.reserve(matches.size());
+  for (const FeatureMatch& m : matches) {
+    const Eigen::Vector3d& p = reference.p_world_m[static_cast<size_t>(m.reference_index)];
+    const Eigen::Vector2d& uv = frame.uv_undistorted_px[static_cast<size_t>(m.frame_index)];
+    object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
+    image.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()));
+  }
+  const cv::Matx33d K(pinhole.fx, 0, pinhole.cx, 0, pinhole.fy, pinhole.cy, 0, 0, 1);
+  cv::Mat rvec, tvec;
+  std::vector<int> inliers;
+  bool ok = false;
+  try {
+    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false,
+                            options.ransac_iterations,
+                            static_cast<float>(options.ransac_reprojection_px), 0.99, inliers,
+                            cv::SOLVEPNP_EPNP);
+  } catch (const cv::Exception&) {
+    ok = false;  // degenerate configurations make OpenCV throw; treat as failure
+  }
+  if (!ok || rvec.empty() || tvec.empty()) return false;
+  cv::Mat R_cv;
+  cv::Rodrigues(rvec, R_cv);
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  cv::cv2eigen(R_cv, R);
+  cv::cv2eigen(tvec, t);
+  if (!R.allFinite() || !t.allFinite()) return false;
+  T_camera_world->setIdentity();
+  T_camera_world->linear() = R;
+  T_camera_world->translation() = t;
+  *num_inliers = static_cast<int>(inliers.size());
+  return true;
+}
+
+}  // namespace
+
+KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
+    : options_(options), matcher_(options), optimizer_(options) {}
+
+bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame,
+                             const Pinhole& pinhole, const std::vector<FeatureMatch>& matches,
+                             const Eigen::Isometry3d& T_init, AlignmentResult* result) const {
+  std::vector<PoseObservation> observations;
+  observations.reserve(matches.size());
+  for (const FeatureMatch& m : matches) {
+    PoseObservation o;
+    o.p_world_m = reference.p_world_m[static_cast<size_t>(m.reference_index)];
+    o.uv_px = frame.uv_undistorted_px[static_cast<size_t>(m.frame_index)];
+    o.level = frame.keypoints[static_cast<size_t>(m.frame_index)].octave;
+    o.depth_m = frame.depth_m[static_cast<size_t>(m.frame_index)];
+    observations.push_back(o);
+  }
+  const PoseOptimizerResult opt = optimizer_.optimize(observations, pinhole, T_init);
+  if (!opt.success || opt.num_inliers < options_.min_inliers) {
+    result->message = "pose refinement kept " + std::to_string(opt.num_inliers) + " of " +
+                      std::to_string(matches.size()) + " matches (need " +
+                      std::to_string(options_.min_inliers) + ")" +
+                      (opt.message.empty() ? "" : ": " + opt.message);
+    return false;
+  }
+  result->T_camera_world = opt.T_camera_world;
+  result->matches = matches;
+  result->inliers = opt.inliers;
+  result->num_inliers = opt.num_inliers;
+  result->success = true;
+  result->message.clear();
+  return true;
+}
+
+AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
+                                       const Pinhole& pinhole,
+                                       const Eigen::Isometry3d& T_camera_world_predicted,
+                                       TrackingTimesMs* times) const {
+  TrackingTimesMs local;
+  TrackingTimesMs& t = times != nullptr ? *times : local;
+  AlignmentResult result;
+  result.T_camera_world = T_camera_world_predicted;
+
+  // 1. Guided by the prediction.
+  auto t0 = Clock::now();
+  std::vector<FeatureMatch> guided = matcher_.matchByProjection(
+      reference, frame, T_camera_world_predicted, pinhole, options_.search_radius_px);
+  t.matching += msSince(t0);
+  bool ok = false;
+  if (static_cast<int>(guided.size()) >= options_.min_inliers) {
+    t0 = Clock::now();
+    ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, &result);
+    t.refine += msSince(t0);
+  }
+
+  // 2. Global search + PnP RANSAC when the prediction did not work out.
+  if (!ok) {
+    t0 = Clock::now();
+    const std::vector<FeatureMatch> global = matcher_.matchBruteForce(reference, frame);
+    t.matching += msSince(t0);
+    if (static_cast<int>(global.size()) < options_.min_inliers) {
+      result.message = "only " + std::to_string(guided.size()) + " guided and " +
+                       std::to_string(global.size()) + " brute-force matches to keyframe (need " +
+                       std::to_string(options_.min_inliers) + ")";
+      return result;
+    }
+    t0 = Clock::now();
+    Eigen::Isometry3d T_pnp = Eigen::Isometry3d::Identity();
+    int pnp_inliers = 0;
+    const bool pnp_ok =
+        solvePnp(reference, frame, pinhole, global, options_, &T_pnp, &pnp_inliers);
+    t.pnp += msSince(t0);
+    if (!pnp_ok || pnp_inliers < options_.min_inliers) {
+      result.message = "PnP RANSAC found " + std::to_string(pnp_inliers) + " inliers among " +
+                       std::to_string(global.size()) + " matches (need " +
+                       std::to_string(options_.min_inliers) + ")";
+      return result;
+    }
+    result.used_pnp = true;
+    t0 = Clock::now();
+    ok = refine(reference, frame, pinhole, global, T_pnp, &result);
+    t.refine += msSince(t0);
+    if (!ok) return result;
+  }
+
+  // 3. Tight projection pass around the estimate for more (and better) matches.
+  t0 = Clock::now();
+  const std::vector<FeatureMatch> tight = matcher_.matchByProjection(
+      reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px);
+  t.matching += msSince(t0);
+  if (static_cast<int>(tight.size()) >= options_.min_inliers) {
+    AlignmentResult second = result;
+    t0 = Clock::now();
+    if (refine(reference, frame, pinhole, tight, result.T_camera_world, &second) &&
+        second.num_inliers >= result.num_inliers / 2) {
+      second.used_pnp = result.used_pnp;
+      result = std::move(second);
+    }
+    t.refine += msSince(t0);
+  }
+  return result;
+}
+
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,208 @@
+#include "dypho/tracking/orb_extractor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+constexpr int kHalfPatch = 15;  // radius of the orientation disc (ORB patch 31 x 31)
+constexpr int kFastBorder = 3;  // FAST needs 3 px around a candidate
+
+/// Orientation by intensity centroid over a disc of radius kHalfPatch [deg, 0..360).
+float intensityCentroidAngle(const cv::Mat& image, int x, int y, const std::vector<int>& umax) {
+  long m01 = 0;
+  long m10 = 0;
+  const uchar* center = image.ptr<uchar>(y) + x;
+  for (int u = -kHalfPatch; u <= kHalfPatch; ++u) m10 += u * center[u];
+  const int step = static_cast<int>(image.step1());
+  for (int v = 1; v <= kHalfPatch; ++v) {
+    long v_sum = 0;
+    const int d = umax[static_cast<size_t>(v)];
+    for (int u = -d; u <= d; ++u) {
+      const int val_plus = center[u + v * step];
+      const int val_minus = center[u - v * step];
+      v_sum += (val_plus - val_minus);
+      m10 += u * (val_plus + val_minus);
+    }
+    m01 += v * v_sum;
+  }
+  return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));
+}
+
+/// Keeps up to `budget` keypoints, taking cells round-robin (best response first in each round).
+std::vector<cv::KeyPoint> distributeOverCells(std::vector<std::vector<cv::KeyPoint>>& cells,
+                                              int budget) {
+  std::vector<cv::KeyPoint> out;
+  const auto by_response = [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    return a.response > b.response;
+  };
+  size_t max_len = 0;
+  for (auto& cell : cells) {
+    std::sort(cell.begin(), cell.end(), by_response);
+    max_len = std::max(max_len, cell.size());
+  }
+  for (size_t rank = 0; rank < max_len && static_cast<int>(out.size()) < budget; ++rank) {
+    std::vector<cv::KeyPoint> round;
+    for (const auto& cell : cells) {
+      if (rank < cell.size()) round.push_back(cell[rank]);
+    }
+    const size_t room = static_cast<size_t>(budget) - out.size();
+    if (round.size() > room) {
+      std::partial_sort(round.begin(), round.begin() + static_cast<long>(room), round.end(),
+                        by_response);
+      round.resize(room);
+    }
+    out.insert(out.end(), round.begin(), round.end());
+  }
+  return out;
+}
+
+}  // namespace
+
+OrbExtractor::OrbExtractor(const TrackingOptions& options) : options_(options) {
+  options_.validate();
+  const int levels = options_.num_levels;
+  level_scales_.resize(static_cast<size_t>(levels));
+  for (int l = 0; l < levels; ++l) {
+    // Same float arithmetic as cv::ORB so that both pyramids have identical level sizes.
+    level_scales_[static_cast<size_t>(l)] =
+        static_cast<float>(std::pow(options_.scale_factor, static_cast<double>(l)));
+  }
+  // Geometric budget per level: n_l = n_0 f^l with f = 1 / scale_factor, sum = num_features.
+  const double f = 1.0 / options_.scale_factor;
+  double n_l = options_.num_features * (1.0 - f) / (1.0 - std::pow(f, levels));
+  int assigned = 0;
+  features_per_level_.resize(static_cast<size_t>(levels));
+  for (int l = 0; l < levels - 1; ++l) {
+    features_per_level_[static_cast<size_t>(l)] = static_cast<int>(std::lround(n_l));
+    assigned += features_per_level_[static_cast<size_t>(l)];
+    n_l *= f;
+  }
+  features_per_level_.back() = std::max(0, options_.num_features - assigned);
+
+  umax_.assign(kHalfPatch + 1, 0);
+  for (int v = 0; v <= kHalfPatch; ++v) {
+    umax_[static_cast<size_t>(v)] =
+        static_cast<int>(std::floor(std::sqrt(double(kHalfPatch * kHalfPatch - v * v))));
+  }
+  orb_ = cv::ORB::create(options_.num_features, static_cast<float>(options_.scale_factor),
+                         options_.num_levels, kEdgePx, 0, 2, cv::ORB::FAST_SCORE, 31,
+                         options_.fast_threshold);
+}
+
+OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
+  if (gray.empty() || gray.type() != CV_8UC1 || gray.cols < 64 || gray.rows < 64) {
+    throw std::invalid_argument(
+        "OrbExtractor::extract: need a CV_8UC1 image of at least 64x64 px (convert colour with "
+        "cv::cvtColor(..., COLOR_BGR2GRAY))");
+  }
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != gray.size())) {
+    throw std::invalid_argument(
+        "OrbExtractor::extract: the mask must be empty or CV_8UC1 with the image size "
+        "(255 = dynamic, 0 = static)");
+  }
+  OrbFeatures out;
+
+  // Distance of every pixel to the nearest dynamic pixel [level-0 px]; empty = no dynamic pixel.
+  cv::Mat dist_to_dynamic;
+  if (!mask.empty()) {
+    const int dynamic = cv::countNonZero(mask);
+    out.masked_fraction = static_cast<double>(dynamic) / static_cast<double>(mask.total());
+    if (dynamic == static_cast<int>(mask.total())) return out;  // nothing static to describe
+    if (dynamic > 0) {
+      cv::Mat is_static;
+      cv::compare(mask, 0, is_static, cv::CMP_EQ);
+      cv::distanceTransform(is_static, dist_to_dynamic, cv::DIST_L2, 3);
+    }
+  }
+  const int threshold = std::max(
+      options_.min_fast_threshold,
+      static_cast<int>(std::lround(options_.fast_threshold *
+                                   (1.0 - options_.mask_threshold_relaxation * out.masked_fraction))));
+  out.fast_threshold_used = threshold;
+
+  std::vector<cv::KeyPoint> all;
+  cv::Mat level_image = gray;
+  for (int level = 0; level < options_.num_levels; ++level) {
+    const double scale = level_scales_[static_cast<size_t>(level)];
+    if (level > 0) {
+      const cv::Size size(cvRound(gray.cols / scale), cvRound(gray.rows / scale));
+      cv::Mat next;
+      cv::resize(level_image, next, size, 0, 0, cv::INTER_LINEAR);
+      level_image = next;
+    }
+    const int x_lo = kEdgePx, y_lo = kEdgePx;
+    const int x_hi = level_image.cols - kEdgePx, y_hi = level_image.rows - kEdgePx;
+    if (x_hi - x_lo < 8 || y_hi - y_lo < 8) break;  // level too small for a patch
+
+    const double min_mask_distance = std::max(1.0, options_.mask_border_px * scale);
+    const auto is_allowed = [&](float x, float y) {
+      if (dist_to_dynamic.empty()) return true;
+      const int u = std::min(gray.cols - 1, static_cast<int>(std::lround(x * scale)));
+      const int v = std::min(gray.rows - 1, static_cast<int>(std::lround(y * scale)));
+      return dist_to_dynamic.at<float>(v, u) >= min_mask_distance;
+    };
+
+    const int cell = options_.grid_cell_px;
+    const int ncols = std::max(1, (x_hi - x_lo + cell / 2) / cell);
+    const int nrows = std::max(1, (y_hi - y_lo + cell / 2) / cell);
+    const int cell_w = (x_hi - x_lo + ncols - 1) / ncols;
+    const int cell_h = (y_hi - y_lo + nrows - 1) / nrows;
+    std::vector<std::vector<cv::KeyPoint>> cells;
+    cells.reserve(static_cast<size_t>(ncols * nrows));
+    std::vector<cv::KeyPoint> found;
+    for (int r = 0; r < nrows; ++r) {
+      for (int c = 0; c < ncols; ++c) {
+        const int x0 = x_lo + c * cell_w, y0 = y_lo + r * cell_h;
+        const int x1 = std::min(x0 + cell_w, x_hi), y1 = std::min(y0 + cell_h, y_hi);
+        if (x1 <= x0 || y1 <= y0) continue;
+        const cv::Rect roi(x0 - kFastBorder, y0 - kFastBorder, x1 - x0 + 2 * kFastBorder,
+                           y1 - y0 + 2 * kFastBorder);
+        std::vector<cv::KeyPoint> kept;
+        for (int attempt = 0; attempt < 2 && kept.empty(); ++attempt) {
+          const int th = attempt == 0 ? threshold : options_.min_fast_threshold;
+          if (attempt == 1 && th >= threshold) break;
+          cv::FAST(level_image(roi), found, th, true);
+          for (cv::KeyPoint kp : found) {
+            kp.pt.x += static_cast<float>(roi.x);
+            kp.pt.y += static_cast<float>(roi.y);
+            if (kp.pt.x < x0 || kp.pt.x >= x1 || kp.pt.y < y0 || kp.pt.y >= y1) continue;
+            if (!is_allowed(kp.pt.x, kp.pt.y)) continue;
+            kept.push_back(kp);
+          }
+        }
+        if (!kept.empty()) cells.push_back(std::move(kept));
+      }
+    }
+    std::vector<cv::KeyPoint> chosen =
+        distributeOverCells(cells, features_per_level_[static_cast<size_t>(level)]);
+    for (cv::KeyPoint& kp : chosen) {
+      kp.angle = intensityCentroidAngle(level_image, cvRound(kp.pt.x), cvRound(kp.pt.y), umax_);
+      kp.octave = level;
+      kp.size = static_cast<float>(31.0 * scale);
+      kp.pt.x = static_cast<float>(kp.pt.x * scale);
+      kp.pt.y = static_cast<float>(kp.pt.y * scale);
+      kp.class_id = static_cast<int>(all.size());
+      all.push_back(kp);
+    }
+  }
+  if (all.empty()) return out;
+  // cv::ORB computes rBRIEF on its own copy of the pyramid (Gaussian-blurred), using our angles.
+  orb_->compute(gray, all, out.descriptors);
+  out.keypoints = std::move(all);
+  if (static_cast<int>(out.keypoints.size()) != out.descriptors.rows) {
+    throw std::logic_error("OrbExtractor: cv::ORB::compute returned " +
+                           std::to_string(out.descriptors.rows) + " descriptors for " +
+                           std::to_string(out.keypoints.size()) + " keypoints");
+  }
+  return out;
+}
+
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,134 @@
+#include "dypho/tracking/pose_optimizer.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include "dypho/tracking/reprojection_error.h"
+
+namespace dypho {
+namespace tracking {
+
+PoseOptimizer::PoseOptimizer(const TrackingOptions& options) : options_(options) {
+  options_.validate();
+  level_sigma_.resize(static_cast<size_t>(options_.num_levels));
+  for (int l = 0; l < options_.num_levels; ++l) {
+    level_sigma_[static_cast<size_t>(l)] = std::pow(options_.scale_factor, l);
+  }
+}
+
+PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations,
+                                            const Pinhole& pinhole,
+                                            const Eigen::Isometry3d& T_camera_world_init) const {
+  PoseOptimizerResult result;
+  result.T_camera_world = T_camera_world_init;
+  const size_t n = observations.size();
+  result.inliers.assign(n, false);
+
+  Eigen::Quaterniond q_cw(T_camera_world_init.rotation());
+  q_cw.normalize();
+  Eigen::Vector3d t_cw = T_camera_world_init.translation();
+  if (!q_cw.coeffs().allFinite() || !t_cw.allFinite()) {
+    result.message = "initial pose is not finite";
+    return result;
+  }
+  const auto sigma = [&](int level) {
+    if (level >= 0 && level < static_cast<int>(level_sigma_.size())) {
+      return level_sigma_[static_cast<size_t>(level)];
+    }
+    return std::pow(options_.scale_factor, std::max(0, level));
+  };
+  const double bf = options_.depth_baseline_m * pinhole.fx;
+  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
+  // Classifies every observation at the current pose; returns the number of inliers.
+  const auto classify = [&](bool accept_all_in_front) {
+    int count = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const PoseObservation& o = observations[i];
+      const Eigen::Vector3d p_c = q_cw * o.p_world_m + t_cw;
+      bool inlier = p_c.z() > 1e-6;
+      if (inlier && !accept_all_in_front) {
+        const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
+        double chi2 = e.squaredNorm();
+        if (has_depth(o)) {
+          const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
+          chi2 += e_right * e_right;
+        }
+        chi2 /= sigma(o.level) * sigma(o.level);
+        inlier = chi2 < (has_depth(o) ? options_.chi2_threshold_depth : options_.chi2_threshold);
+      }
+      result.inliers[i] = inlier;
+      count += inlier ? 1 : 0;
+    }
+    return count;
+  };
+
+  ceres::Solver::Options solver_options;
+  solver_options.minimizer_type = ceres::TRUST_REGION;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options_.refine_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+
+  // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
+  int active = classify(true);
+  for (int round = 0; round < options_.outlier_rounds; ++round) {
+    if (active < 3) {
+      result.message = "only " + std::to_string(active) +
+                       " observations left in front of the camera / below the chi2 threshold";
+      result.T_camera_world = T_camera_world_init;
+      result.num_inliers = 0;
+      return result;
+    }
+    ceres::Problem problem;
+    problem.AddParameterBlock(q_cw.coeffs().data(), 4, new ceres::EigenQuaternionManifold());
+    problem.AddParameterBlock(t_cw.data(), 3);
+    ceres::LossFunction* loss = new ceres::HuberLoss(options_.huber_px);  // owned by problem
+    for (size_t i = 0; i < n; ++i) {
+      if (!result.inliers[i]) continue;
+      const PoseObservation& o = observations[i];
+      ceres::CostFunction* cost =
+          has_depth(o) ? static_cast<ceres::CostFunction*>(new RgbdReprojectionError(
+                             o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
+                             sigma(o.level), pinhole))
+                       : new ReprojectionError(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
+      problem.AddResidualBlock(cost, loss, q_cw.coeffs().data(), t_cw.data());
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    if (!summary.IsSolutionUsable() || !q_cw.coeffs().allFinite() || !t_cw.allFinite()) {
+      result.message = "Ceres failed: " + summary.message;
+      result.T_camera_world = T_camera_world_init;
+      result.inliers.assign(n, false);
+      result.num_inliers = 0;
+      return result;
+    }
+    q_cw.normalize();
+    active = classify(false);
+  }
+
+  result.num_inliers = active;
+  result.success = active >= 3;
+  if (!result.success) result.message = "fewer than 3 inliers after the last round";
+  result.T_camera_world = Eigen::Isometry3d::Identity();
+  result.T_camera_world.linear() = q_cw.toRotationMatrix();
+  result.T_camera_world.translation() = t_cw;
+  double sum_sq = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!result.inliers[i]) continue;
+    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+    sum_sq += (pinhole.project(p_c) - observations[i].uv_px).squaredNorm();
+  }
+  result.rms_inlier_px = active > 0 ? std::sqrt(sum_sq / active) : 0.0;
+  return result;
+}
+
+}  // namespace tracking
+}  // namespace dypho

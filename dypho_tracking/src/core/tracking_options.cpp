@@ -1,0 +1,108 @@
+#include "dypho/tracking/tracking_options.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "dypho/tracking/tracking_result.h"
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+template <typename T>
+void requireRange(const char* name, T value, T lo, T hi, bool lo_open = false) {
+  const bool ok = std::isfinite(static_cast<double>(value)) && (lo_open ? value > lo : value >= lo) &&
+                  value <= hi;
+  if (!ok) {
+    std::ostringstream os;
+    os << "TrackingOptions." << name << " = " << value << " is out of range " << (lo_open ? "(" : "[")
+       << lo << ", " << hi << "]; fix the parameter (see tracking_options.h for its meaning)";
+    throw std::invalid_argument(os.str());
+  }
+}
+
+}  // namespace
+
+void TrackingOptions::validate() const {
+  requireRange("num_features", num_features, 50, 20000);
+  requireRange("scale_factor", scale_factor, 1.0, 2.0, true);
+  requireRange("num_levels", num_levels, 1, 16);
+  requireRange("fast_threshold", fast_threshold, 1, 254);
+  requireRange("min_fast_threshold", min_fast_threshold, 1, fast_threshold);
+  requireRange("grid_cell_px", grid_cell_px, 8, 200);
+  requireRange("mask_border_px", mask_border_px, 0, 50);
+  requireRange("mask_threshold_relaxation", mask_threshold_relaxation, 0.0, 1.0);
+  requireRange("min_depth_m", min_depth_m, 0.0, 100.0, true);
+  requireRange("max_depth_m", max_depth_m, min_depth_m, 100.0, true);
+  requireRange("max_hamming_distance", max_hamming_distance, 1, 256);
+  requireRange("ratio_test", ratio_test, 0.0, 1.0, true);
+  requireRange("search_radius_px", search_radius_px, 1.0, 200.0);
+  requireRange("refine_search_radius_px", refine_search_radius_px, 0.5, 50.0);
+  requireRange("max_level_difference", max_level_difference, 0, num_levels - 1);
+  requireRange("ransac_iterations", ransac_iterations, 10, 100000);
+  requireRange("ransac_reprojection_px", ransac_reprojection_px, 0.0, 50.0, true);
+  requireRange("min_inliers", min_inliers, 6, 10000);
+  requireRange("huber_px", huber_px, 0.0, 100.0, true);
+  requireRange("refine_iterations", refine_iterations, 1, 1000);
+  requireRange("outlier_rounds", outlier_rounds, 1, 20);
+  requireRange("chi2_threshold", chi2_threshold, 0.0, 100.0, true);
+  requireRange("depth_baseline_m", depth_baseline_m, 0.0, 1.0);
+  requireRange("chi2_threshold_depth", chi2_threshold_depth, 0.0, 100.0, true);
+  requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);
+  requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
+  requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);
+  requireRange("keyframe_max_frames", keyframe_max_frames, 1, 100000);
+  requireRange("min_init_features", min_init_features, min_inliers, 20000);
+  requireRange("max_lost_frames", max_lost_frames, 1, 100000);
+}
+
+std::string TrackingOptions::toString() const {
+  std::ostringstream os;
+  os << "num_features: " << num_features << "\n"
+     << "scale_factor: " << scale_factor << "\n"
+     << "num_levels: " << num_levels << "\n"
+     << "fast_threshold: " << fast_threshold << "\n"
+     << "min_fast_threshold: " << min_fast_threshold << "\n"
+     << "grid_cell_px: " << grid_cell_px << "\n"
+     << "mask_border_px: " << mask_border_px << "\n"
+     << "mask_threshold_relaxation: " << mask_threshold_relaxation << "\n"
+     << "min_depth_m: " << min_depth_m << "\n"
+     << "max_depth_m: " << max_depth_m << "\n"
+     << "max_hamming_distance: " << max_hamming_distance << "\n"
+     << "ratio_test: " << ratio_test << "\n"
+     << "search_radius_px: " << search_radius_px << "\n"
+     << "refine_search_radius_px: " << refine_search_radius_px << "\n"
+     << "max_level_difference: " << max_level_difference << "\n"
+     << "ransac_iterations: " << ransac_iterations << "\n"
+     << "ransac_reprojection_px: " << ransac_reprojection_px << "\n"
+     << "min_inliers: " << min_inliers << "\n"
+     << "huber_px: " << huber_px << "\n"
+     << "refine_iterations: " << refine_iterations << "\n"
+     << "outlier_rounds: " << outlier_rounds << "\n"
+     << "chi2_threshold: " << chi2_threshold << "\n"
+     << "depth_baseline_m: " << depth_baseline_m << "\n"
+     << "chi2_threshold_depth: " << chi2_threshold_depth << "\n"
+     << "keyframe_translation_m: " << keyframe_translation_m << "\n"
+     << "keyframe_rotation_deg: " << keyframe_rotation_deg << "\n"
+     << "keyframe_min_tracked_ratio: " << keyframe_min_tracked_ratio << "\n"
+     << "keyframe_max_frames: " << keyframe_max_frames << "\n"
+     << "min_init_features: " << min_init_features << "\n"
+     << "max_lost_frames: " << max_lost_frames << "\n";
+  return os.str();
+}
+
+const char* toString(TrackingState state) {
+  switch (state) {
+    case TrackingState::kNotInitialized:
+      return "NOT_INITIALIZED";
+    case TrackingState::kOk:
+      return "OK";
+    case TrackingState::kLost:
+      return "LOST";
+  }
+  return "UNKNOWN";
+}
+
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,272 @@
+/// TrackingNodelet: synchronised rgb + depth + camera_info (+ dynamic mask) in; pose, path, tf
+/// (map -> odom -> camera, REP-105), tracking status, keyframes and timing out. All the work is in
+/// dypho::tracking::RgbdOdometry.
+
+#include <memory>
+#include <mutex>
+
+#include <dypho_slam/Keyframe.h>
+#include <dypho_slam/Reset.h>
+#include <dypho_slam/SaveMap.h>
+#include <dypho_slam/StageTiming.h>
+#include <dypho_slam/TrackingStatus.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/synchronizer.h>
+#include <nav_msgs/Path.h>
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include "dypho/tools/trajectory_io.h"
+#include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/tracking_options_fields.h"
+#include "dypho_ros/conversions.h"
+#include "dypho_ros/param_reader.h"
+#include "dypho_ros/sync_watchdog.h"
+
+namespace dypho::tracking_ros {
+
+namespace rc = dypho::ros_conversions;
+using sensor_msgs::CameraInfo;
+using sensor_msgs::Image;
+
+/// Frames and outputs of the nodelet (not part of the core options).
+struct TrackingRosParams {
+  std::string map_frame = "map";    ///< REP-105 world frame
+  std::string odom_frame = "odom";  ///< REP-105 odometry frame (map -> odom is identity until loop closure)
+  std::string camera_frame;         ///< tracked camera optical frame; empty = the rgb header's frame_id
+  bool publish_tf = true;           ///< broadcast map -> odom -> camera_frame
+  bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
+  int queue_size = 10;              ///< synchroniser queue [messages]
+  double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
+  std::string output_dir;           ///< where save_map writes trajectory.txt; empty = ~/.ros
+  int max_path_length = 100000;     ///< path poses kept [poses]
+};
+
+std::uint8_t toStatusState(tracking::TrackingState state) {
+  switch (state) {
+    case tracking::TrackingState::kOk: return dypho_slam::TrackingStatus::OK;
+    case tracking::TrackingState::kLost: return dypho_slam::TrackingStatus::LOST;
+    default: return dypho_slam::TrackingStatus::NOT_INITIALIZED;
+  }
+}
+
+class TrackingNodelet : public nodelet::Nodelet {
+  using Policy4 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo, Image>;
+  using Policy3 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
+
+ public:
+  void onInit() override {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+
+    // 1. Parameters.
+    rc::RosParamReader reader(pnh);
+    tracking::TrackingOptions options;
+    tracking::visitOptions(options, reader);
+    reader("map_frame", params_.map_frame, "");
+    reader("odom_frame", params_.odom_frame, "");
+    reader("camera_frame", params_.camera_frame, "");
+    reader("publish_tf", params_.publish_tf, "");
+    reader("use_mask", params_.use_mask, "");
+    reader("queue_size", params_.queue_size, "");
+    reader("watchdog_s", params_.watchdog_s, "");
+    reader("output_dir", params_.output_dir, "");
+    reader("max_path_length", params_.max_path_length, "");
+    reader.checkNoUnknownKeys();
+    options.validate();
+    NODELET_INFO_STREAM("tracking parameters:" << reader.summary());
+
+    // 2. Core.
+    odometry_ = std::make_unique<tracking::RgbdOdometry>(options);
+
+    // 3. Outputs.
+    pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
+    path_pub_ = nh.advertise<nav_msgs::Path>("path", 2, true);
+    status_pub_ = nh.advertise<dypho_slam::TrackingStatus>("tracking_status", 10);
+    keyframe_pub_ = nh.advertise<dypho_slam::Keyframe>("keyframe", 10);
+    timing_pub_ = nh.advertise<dypho_slam::StageTiming>("tracking/timing", 10);
+    reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
+    save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
+    path_.header.frame_id = params_.map_frame;
+    tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+
+    // 4. Inputs.
+    it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    const int q = params_.queue_size;
+    rgb_sub_.subscribe(*it_, "rgb/image", q);
+    depth_sub_.subscribe(*it_, "depth/image", q);
+    info_sub_.subscribe(nh, "rgb/camera_info", q);
+    std::vector<std::string> topics{nh.resolveName("rgb/image"), nh.resolveName("depth/image"),
+                                    nh.resolveName("rgb/camera_info")};
+    if (params_.use_mask) {
+      mask_sub_.subscribe(*it_, "mask", q);
+      sync4_ = std::make_unique<message_filters::Synchronizer<Policy4>>(Policy4(q), rgb_sub_,
+                                                                        depth_sub_, info_sub_, mask_sub_);
+      sync4_->registerCallback(&TrackingNodelet::callback, this);
+      topics.push_back(nh.resolveName("mask"));
+    } else {
+      sync3_ = std::make_unique<message_filters::Synchronizer<Policy3>>(Policy3(q), rgb_sub_,
+                                                                        depth_sub_, info_sub_);
+      sync3_->registerCallback(&TrackingNodelet::callbackNoMask, this);
+    }
+    watchdog_ = std::make_unique<rc::SyncWatchdog>(nh, getName(), topics, params_.watchdog_s);
+  }
+
+  ~TrackingNodelet() override {
+    if (!params_.output_dir.empty()) saveTrajectory(params_.output_dir);
+  }
+
+ private:
+  void callbackNoMask(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
+                      const sensor_msgs::CameraInfoConstPtr& info) {
+    callback(rgb, depth, info, nullptr);
+  }
+
+  void callback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
+                const sensor_msgs::CameraInfoConstPtr& info, const sensor_msgs::ImageConstPtr& mask_msg) {
+    watchdog_->tick();
+    RgbdFrame frame;
+    cv::Mat mask;
+    try {
+      frame = rc::toRgbdFrame(*rgb, *depth, *info);
+      if (mask_msg) mask = rc::toMask(*mask_msg);
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!trajectory_.empty() && rc::toTimestamp(rgb->header.stamp) <= last_stamp_ns_) {
+      NODELET_WARN_STREAM("time jumped backwards (bag restarted?): clearing the path");
+      clearLocked();
+    }
+    last_stamp_ns_ = rc::toTimestamp(rgb->header.stamp);
+    const tracking::TrackingResult result = odometry_->track(frame, mask);
+    publish(result, rgb->header);
+  }
+
+  void publish(const tracking::TrackingResult& result, const std_msgs::Header& header) {
+    const std::string camera_frame = params_.camera_frame.empty() ? header.frame_id : params_.camera_frame;
+    dypho_slam::TrackingStatus status;
+    status.header = header;
+    status.header.frame_id = camera_frame;
+    status.state = toStatusState(result.state);
+    status.is_keyframe = result.is_keyframe;
+    status.num_features = result.num_features;
+    status.num_inliers = result.num_inliers;
+    status.masked_fraction = static_cast<float>(result.masked_fraction);
+    status.message = result.message;
+    status_pub_.publish(status);
+    if (result.state != tracking::TrackingState::kOk) {
+      NODELET_WARN_STREAM_THROTTLE(2.0, "tracking " << tracking::toString(result.state) << ": "
+                                                     << result.message);
+    }
+    publishTiming(result, header);
+    if (result.state != tracking::TrackingState::kOk || !result.T_world_camera.matrix().allFinite()) {
+      return;  // never publish a pose we do not trust
+    }
+    geometry_msgs::PoseStamped pose;
+    pose.header.stamp = header.stamp;
+    pose.header.frame_id = params_.map_frame;
+    pose.pose = rc::toPoseMsg(result.T_world_camera);
+    pose_pub_.publish(pose);
+    path_.header.stamp = header.stamp;
+    path_.poses.push_back(pose);
+    if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
+    path_pub_.publish(path_);
+    trajectory_.push_back({timestampToSeconds(result.stamp_ns), result.T_world_camera});
+    if (params_.publish_tf) publishTf(result.T_world_camera, header.stamp, camera_frame);
+    if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
+  }
+
+  void publishTf(const Eigen::Isometry3d& T_odom_camera, const ros::Time& stamp,
+                 const std::string& camera_frame) {
+    geometry_msgs::TransformStamped map_odom;
+    map_odom.header.stamp = stamp;
+    map_odom.header.frame_id = params_.map_frame;
+    map_odom.child_frame_id = params_.odom_frame;
+    map_odom.transform.rotation.w = 1.0;  // corrected by loop closure in later versions
+    geometry_msgs::TransformStamped odom_camera;
+    odom_camera.header.stamp = stamp;
+    odom_camera.header.frame_id = params_.odom_frame;
+    odom_camera.child_frame_id = camera_frame;
+    const geometry_msgs::Pose p = rc::toPoseMsg(T_odom_camera);
+    odom_camera.transform.translation.x = p.position.x;
+    odom_camera.transform.translation.y = p.position.y;
+    odom_camera.transform.translation.z = p.position.z;
+    odom_camera.transform.rotation = p.orientation;
+    tf_broadcaster_->sendTransform({map_odom, odom_camera});
+  }
+
+  void publishTiming(const tracking::TrackingResult& result, const std_msgs::Header& header) {
+    dypho_slam::StageTiming timing;
+    timing.header = header;
+    timing.node = "tracking";
+    timing.stages = {"features", "matching", "pnp", "refine"};
+    timing.ms = {static_cast<float>(result.times.features), static_cast<float>(result.times.matching),
+                 static_cast<float>(result.times.pnp), static_cast<float>(result.times.refine)};
+    timing.total_ms = static_cast<float>(result.times.total);
+    timing_pub_.publish(timing);
+  }
+
+  void clearLocked() {
+    odometry_->reset();
+    path_.poses.clear();
+    trajectory_.clear();
+    last_stamp_ns_ = 0;
+  }
+
+  bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    clearLocked();
+    res.success = true;
+    res.message = "tracking reset";
+    return true;
+  }
+
+  bool onSave(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
+    const std::string dir = req.directory.empty() ? params_.output_dir : req.directory;
+    try {
+      res.files.push_back(saveTrajectory(dir.empty() ? "." : dir));
+      res.success = true;
+      res.message = "trajectory written";
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = e.what();
+    }
+    return true;
+  }
+
+  std::string saveTrajectory(const std::string& dir) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::string path = dir + "/trajectory.txt";
+    tools::writeTumTrajectory(path, trajectory_);
+    NODELET_INFO_STREAM("wrote " << trajectory_.size() << " poses to " << path);
+    return path;
+  }
+
+  TrackingRosParams params_;
+  std::unique_ptr<tracking::RgbdOdometry> odometry_;
+  std::mutex mutex_;
+  nav_msgs::Path path_;
+  std::vector<tools::StampedPose> trajectory_;
+  Timestamp last_stamp_ns_ = 0;
+  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, timing_pub_;
+  ros::ServiceServer reset_srv_, save_srv_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  image_transport::SubscriberFilter rgb_sub_, depth_sub_, mask_sub_;
+  message_filters::Subscriber<CameraInfo> info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<Policy4>> sync4_;
+  std::unique_ptr<message_filters::Synchronizer<Policy3>> sync3_;
+  std::unique_ptr<rc::SyncWatchdog> watchdog_;
+};
+
+}  // namespace dypho::tracking_ros
+
+PLUGINLIB_EXPORT_CLASS(dypho::tracking_ros::TrackingNodelet, nodelet::Nodelet)

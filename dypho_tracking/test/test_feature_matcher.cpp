@@ -1,0 +1,84 @@
+#include <gtest/gtest.h>
+
+#include "dypho/tracking/feature_matcher.h"
+#include "dypho/tracking/frame_features.h"
+#include "dypho/tracking/keyframe_points.h"
+#include "dypho/tracking/orb_extractor.h"
+#include "synthetic_scene.h"
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+constexpr double kDepthM = 2.0;
+constexpr int kShiftU = 14, kShiftV = -9;  // content motion between the two images [px]
+
+struct Pair {
+  KeyframePoints reference;
+  FrameFeatures frame;
+};
+
+Pair makePair(OrbExtractor& extractor) {
+  const TrackingOptions o;
+  const cv::Mat img0 = test::texturedImage(11);
+  const cv::Mat img1 = test::shifted(img0, kShiftU, kShiftV);
+  const RgbdFrame f0 = test::planarFrame(img0, kDepthM, 1);
+  const RgbdFrame f1 = test::planarFrame(img1, kDepthM, 2);
+  const FrameFeatures ff0 = makeFrameFeatures(extractor.extract(img0, cv::Mat()), f0.depth_m,
+                                              f0.camera, o.min_depth_m, o.max_depth_m);
+  Pair p;
+  p.frame = makeFrameFeatures(extractor.extract(img1, cv::Mat()), f1.depth_m, f1.camera,
+                              o.min_depth_m, o.max_depth_m);
+  std::int64_t next_id = 0;
+  p.reference = makeKeyframePoints(0, f0, cv::Mat(), Eigen::Isometry3d::Identity(), ff0, nullptr,
+                                   {}, &next_id);
+  EXPECT_EQ(next_id, static_cast<std::int64_t>(ff0.size()));  // one new id per point
+  return p;
+}
+
+/// Fraction of matches whose frame keypoint lies within 1.5 px of reference + shift (FAST
+/// positions are integers per level, so level > 0 points can be off by up to ~scale/2 px).
+double correctFraction(const Pair& p, const std::vector<FeatureMatch>& matches) {
+  int correct = 0;
+  for (const auto& m : matches) {
+    const auto& a = p.reference.keypoints[static_cast<size_t>(m.reference_index)].pt;
+    const auto& b = p.frame.keypoints[static_cast<size_t>(m.frame_index)].pt;
+    const double level_scale =
+        std::pow(1.2, p.frame.keypoints[static_cast<size_t>(m.frame_index)].octave);
+    if (std::hypot(b.x - a.x - kShiftU, b.y - a.y - kShiftV) <= 1.5 * level_scale) ++correct;
+  }
+  return matches.empty() ? 0.0 : static_cast<double>(correct) / matches.size();
+}
+
+TEST(FeatureMatcher, BruteForceMatchesAreMostlyCorrectAndOneToOne) {
+  OrbExtractor extractor{TrackingOptions()};
+  const Pair p = makePair(extractor);
+  const FeatureMatcher matcher{TrackingOptions()};
+  const auto matches = matcher.matchBruteForce(p.reference, p.frame);
+  EXPECT_GT(matches.size(), 300u);
+  // Ratio + mutual + rotation checks: at least 95 % correct on this pure translation.
+  EXPECT_GT(correctFraction(p, matches), 0.95);
+  std::vector<int> used(p.frame.size(), 0);
+  for (const auto& m : matches) EXPECT_EQ(used[static_cast<size_t>(m.frame_index)]++, 0);
+}
+
+TEST(FeatureMatcher, ProjectionSearchUsesThePrediction) {
+  OrbExtractor extractor{TrackingOptions()};
+  const Pair p = makePair(extractor);
+  const FeatureMatcher matcher{TrackingOptions()};
+  const Pinhole k = Pinhole::fromIntrinsics(test::testCamera());
+  // Camera motion that moves the content by (+14, -9) px on a wall 2 m away.
+  Eigen::Isometry3d T_cw = Eigen::Isometry3d::Identity();
+  T_cw.translation() = Eigen::Vector3d(kShiftU * kDepthM / k.fx, kShiftV * kDepthM / k.fy, 0);
+  const auto good = matcher.matchByProjection(p.reference, p.frame, T_cw, k, 4.0);
+  EXPECT_GT(good.size(), 500u);
+  EXPECT_GT(correctFraction(p, good), 0.97);
+  // With a wrong prediction (identity, 17 px off) and a 4 px window almost nothing is found.
+  const auto bad = matcher.matchByProjection(p.reference, p.frame, Eigen::Isometry3d::Identity(),
+                                             k, 4.0);
+  EXPECT_LT(bad.size(), good.size() / 4);
+}
+
+}  // namespace
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,148 @@
+#include <limits>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "dypho/tracking/rgbd_odometry.h"
+#include "synthetic_scene.h"
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+constexpr Timestamp kDt = 33'000'000;  // 30 Hz
+
+bool contains(const std::string& s, const std::string& what) {
+  return s.find(what) != std::string::npos;
+}
+
+void expectFinite(const TrackingResult& r) {
+  EXPECT_TRUE(r.T_world_camera.matrix().allFinite()) << r.message;
+}
+
+TEST(RgbdOdometry, FirstGoodFrameIsKeyframeZeroAtIdentity) {
+  RgbdOdometry odo{TrackingOptions()};
+  const TrackingResult r = odo.track(test::planarFrame(test::texturedImage(21), 2.0, kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kOk) << r.message;
+  ASSERT_TRUE(r.is_keyframe);
+  ASSERT_NE(r.keyframe, nullptr);
+  EXPECT_EQ(r.keyframe->id, 0);
+  EXPECT_TRUE(r.T_world_camera.isApprox(Eigen::Isometry3d::Identity()));
+  EXPECT_GT(r.keyframe->keypoints.size(), 500u);
+  for (const auto& kp : r.keyframe->keypoints) {
+    EXPECT_NEAR(kp.depth_m, 2.0f, 1e-6f);
+    EXPECT_GE(kp.map_point_id, 0);
+  }
+}
+
+/// A pure image shift on a wall at 2 m is a camera translation of -shift * z / f.
+/// Bound 5 mm: a 1 px error in the estimated shift is 2 / 525 = 3.8 mm; with hundreds of exact
+/// matches the error must be far below one pixel.
+TEST(RgbdOdometry, TracksASyntheticTranslation) {
+  RgbdOdometry odo{TrackingOptions()};
+  const cv::Mat img = test::texturedImage(22);
+  ASSERT_EQ(odo.track(test::planarFrame(img, 2.0, kDt), {}).state, TrackingState::kOk);
+  const int shift = 10;
+  const TrackingResult r = odo.track(test::planarFrame(test::shifted(img, shift, 0), 2.0, 2 * kDt), {});
+  ASSERT_EQ(r.state, TrackingState::kOk) << r.message;
+  EXPECT_FALSE(r.is_keyframe);  // 3.8 cm, no rotation, well tracked
+  EXPECT_EQ(r.keyframe, nullptr);
+  EXPECT_NEAR(r.T_world_camera.translation().x(), -shift * 2.0 / 525.0, 0.005);
+  EXPECT_NEAR(r.T_world_camera.translation().y(), 0.0, 0.005);
+  EXPECT_GT(r.num_inliers, 300);
+  EXPECT_TRUE(r.message.empty()) << r.message;
+}
+
+TEST(RgbdOdometry, BadInputGivesStateAndMessageNeverThrows) {
+  RgbdOdometry odo{TrackingOptions()};
+  const cv::Mat img = test::texturedImage(23);
+  Timestamp t = kDt;
+
+  // All-zero depth before initialisation.
+  RgbdFrame f = test::planarFrame(img, 0.0, t += kDt);
+  TrackingResult r = odo.track(f, {});
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "no valid depth")) << r.message;
+  expectFinite(r);
+
+  // NaN depth everywhere.
+  f = test::planarFrame(img, std::numeric_limits<double>::quiet_NaN(), t += kDt);
+  r = odo.track(f, {});
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "no valid depth")) << r.message;
+  expectFinite(r);
+
+  // Everything masked dynamic.
+  f = test::planarFrame(img, 2.0, t += kDt);
+  r = odo.track(f, cv::Mat(img.size(), CV_8UC1, cv::Scalar(255)));
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "masked")) << r.message;
+  EXPECT_DOUBLE_EQ(r.masked_fraction, 1.0);
+
+  // Black image.
+  f = test::planarFrame(cv::Mat(img.size(), CV_8UC1, cv::Scalar(0)), 2.0, t += kDt);
+  r = odo.track(f, {});
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "textureless")) << r.message;
+
+  // Wrong depth type (16-bit raw).
+  f = test::planarFrame(img, 2.0, t += kDt);
+  f.depth_m = cv::Mat(img.size(), CV_16UC1, cv::Scalar(10000));
+  r = odo.track(f, {});
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "CV_32FC1")) << r.message;
+
+  // Now initialise, then a black frame: LOST, last pose kept.
+  r = odo.track(test::planarFrame(img, 2.0, t += kDt), {});
+  ASSERT_EQ(r.state, TrackingState::kOk) << r.message;
+  r = odo.track(test::planarFrame(cv::Mat(img.size(), CV_8UC1, cv::Scalar(0)), 2.0, t += kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kLost);
+  EXPECT_FALSE(r.message.empty());
+  EXPECT_FALSE(r.is_keyframe);
+  EXPECT_TRUE(r.T_world_camera.isApprox(Eigen::Isometry3d::Identity()));
+  // Zero depth while tracking: LOST too.
+  r = odo.track(test::planarFrame(img, 0.0, t += kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kLost);
+  EXPECT_TRUE(contains(r.message, "no valid depth")) << r.message;
+  // Recovers on the next good frame against the same keyframe.
+  r = odo.track(test::planarFrame(img, 2.0, t += kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kOk) << r.message;
+
+  // Stamp going backwards: reset.
+  r = odo.track(test::planarFrame(img, 2.0, t - 5 * kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kNotInitialized);
+  EXPECT_TRUE(contains(r.message, "backwards")) << r.message;
+  expectFinite(r);
+  // The next frame starts a new world with a new keyframe id (ids never repeat).
+  r = odo.track(test::planarFrame(img, 2.0, t - 4 * kDt), {});
+  EXPECT_EQ(r.state, TrackingState::kOk) << r.message;
+  ASSERT_TRUE(r.is_keyframe);
+  EXPECT_EQ(r.keyframe->id, 1);
+}
+
+TEST(RgbdOdometry, ReinitialisesAfterMaxLostFrames) {
+  TrackingOptions o;
+  o.max_lost_frames = 3;
+  RgbdOdometry odo(o);
+  Timestamp t = kDt;
+  ASSERT_EQ(odo.track(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {}).state,
+            TrackingState::kOk);
+  // A completely different scene cannot be registered to the keyframe.
+  const RgbdFrame other = test::planarFrame(test::texturedImage(99), 2.0, 0);
+  for (int i = 1; i < 3; ++i) {
+    RgbdFrame f = other;
+    f.stamp_ns = t += kDt;
+    const TrackingResult r = odo.track(f, {});
+    EXPECT_EQ(r.state, TrackingState::kLost) << "frame " << i << ": " << r.message;
+  }
+  RgbdFrame f = other;
+  f.stamp_ns = t += kDt;
+  const TrackingResult r = odo.track(f, {});
+  EXPECT_EQ(r.state, TrackingState::kOk);
+  EXPECT_TRUE(r.is_keyframe);
+  EXPECT_TRUE(contains(r.message, "re-initialised")) << r.message;
+}
+
+}  // namespace
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,69 @@
+#pragma once
+/// \file slam_pipeline.h
+/// The three cores (mask, tracking, mapping) chained in one process, without ROS: what the
+/// nodelets do over topics, done in a loop. Used by `dypho_run_dataset` and the dataset tests.
+
+#include <string>
+
+#include "dypho/mapping/keyframe_cloud_map.h"
+#include "dypho/mask/flow_motion_masker.h"
+#include "dypho/tracking/rgbd_odometry.h"
+
+namespace dypho::tools {
+
+/// Where the dynamic mask of each frame comes from.
+enum class MaskSource {
+  kFlow,      ///< the mask core (default, what the ROS graph does)
+  kExternal,  ///< given by the caller (e.g. ground-truth masks of a synthetic sequence)
+  kNone,      ///< no mask: every pixel static
+};
+
+/// Parses "flow", "external"/"gt", "none"; throws listing the valid names.
+MaskSource parseMaskSource(const std::string& name);
+
+/// All settings of the in-process pipeline.
+struct PipelineOptions {
+  mask::FlowMaskOptions mask;            ///< mask core (config/mask.yaml)
+  tracking::TrackingOptions tracking;    ///< tracking core (config/tracking.yaml)
+  mapping::CloudMapOptions mapping;      ///< mapping core (config/mapping.yaml)
+  MaskSource mask_source = MaskSource::kFlow;  ///< where masks come from
+};
+
+/// Loads `<config_dir>/{mask,tracking,mapping}.yaml`, then applies `override_yaml` (a file with
+/// optional top-level maps `mask:`, `tracking:`, `mapping:`) when not empty. Missing keys keep
+/// the built-in defaults; unknown keys and bad values throw std::runtime_error naming the file.
+PipelineOptions loadPipelineOptions(const std::string& config_dir, const std::string& override_yaml);
+
+/// Writes the effective options as one YAML document with `mask:`, `tracking:`, `mapping:` maps
+/// (usable as `--config`).
+void writePipelineOptionsYaml(std::ostream& out, PipelineOptions options);
+
+/// What happened to one frame.
+struct FrameReport {
+  tracking::TrackingResult tracking;  ///< pose, state, keyframe, tracking stage times
+  double mask_ms = 0.0;               ///< time of the mask core [ms]
+  double mapping_ms = 0.0;            ///< time spent adding a keyframe to the map [ms] (0 otherwise)
+  double masked_fraction = 0.0;       ///< share of the image the mask excluded [0, 1]
+  bool mask_degraded = false;         ///< the mask core could not trust its mask this frame
+};
+
+/// Runs mask -> tracking -> mapping on each frame, in order. Not thread-safe.
+class SlamPipeline {
+ public:
+  explicit SlamPipeline(const PipelineOptions& options);
+
+  /// Processes one frame. `external_mask` (CV_8UC1, 255 = dynamic) is used only with
+  /// MaskSource::kExternal; an empty one means "all static".
+  FrameReport process(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat());
+
+  /// The map built so far.
+  const mapping::KeyframeCloudMap& map() const { return map_; }
+
+ private:
+  PipelineOptions options_;
+  mask::FlowMotionMasker masker_;
+  tracking::RgbdOdometry odometry_;
+  mapping::KeyframeCloudMap map_;
+};
+
+}  // namespace dypho::tools

@@ -1,0 +1,105 @@
+#pragma once
+/// \file synthetic_scene.h
+/// A deterministic synthetic RGB-D sequence of a textured room with walking people, rendered by
+/// ray casting. ROS-free (OpenCV + Eigen). Used for tests, benchmarks and demos where exact ground
+/// truth (camera poses, dynamic masks, noise-free static depth) is needed.
+///
+/// World frame: x and y horizontal, z up [m]; the room spans x in [-3.5, 3.5], y in [-3, 3],
+/// z in [0, 3] (7 x 6 x 3 m). The camera is the optical frame (x right, y down, z forward), so
+/// `T_world_camera` maps camera points into the world, as everywhere in dypho.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "dypho/common/camera.h"
+#include "dypho/common/types.h"
+
+namespace dypho::tools {
+
+/// Camera trajectory of a synthetic sequence. Every motion stays within about 0.5 m/s and
+/// 40 deg/s (TUM hand-held speeds) and is smooth (C-infinity sinusoids).
+enum class SynthMotion {
+  kXyz,         ///< translation along x/y/z (amplitudes 0.3/0.2/0.2 m), fixed orientation
+  kHalfsphere,  ///< camera on a 1 m radius half sphere, always looking at a point 3 m ahead
+  kStatic,      ///< (almost) still camera: sub-millimetre, sub-0.01 deg jitter
+  kRpy,         ///< rotation only: roll, pitch, yaw of +-15 deg about a fixed position
+  kLoop,        ///< one closed horizontal circle around the room centre looking inwards;
+                ///< radius min(1.5 m, 0.45 m/s * duration / 2pi); last frame == first frame
+};
+
+/// Name of a motion as accepted by parseSynthMotion ("xyz", "halfsphere", "static", "rpy", "loop").
+std::string synthMotionName(SynthMotion motion);
+
+/// Parses "xyz" | "halfsphere" | "static" | "rpy" | "loop" (case-sensitive). Throws
+/// std::runtime_error listing the valid names for anything else.
+SynthMotion parseSynthMotion(const std::string& name);
+
+/// The default synthetic camera: 640x480, fx = fy = 525, cx = 319.5, cy = 239.5, no distortion
+/// (the ROS/TUM default registered-depth camera).
+CameraIntrinsics defaultSynthCamera();
+
+/// Settings of a synthetic sequence. The same options (including the seed) always give
+/// bit-identical images.
+struct SynthOptions {
+  int frames = 300;                                ///< number of frames, >= 1 (loop: duration >= 9 s)
+  SynthMotion motion = SynthMotion::kHalfsphere;   ///< camera trajectory
+  int people = 2;                                  ///< walking people, 0..3
+  std::uint32_t seed = 1;                          ///< seeds textures, people paths and depth noise
+  double fps = 30.0;                               ///< frame rate [Hz], (0, 1000]
+  CameraIntrinsics camera = defaultSynthCamera();  ///< pinhole camera; distortion must be zero
+  /// Kinect-like depth noise: sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 [m], quantised to 1/5000 m,
+  /// holes (0) in a thin band at depth discontinuities, 1 % random dropout, 0 beyond 8 m.
+  /// false = exact depth of the geometry (no noise, no holes, no range limit).
+  bool depth_noise = true;
+  double start_stamp_s = 1600000000.0;             ///< time of frame 0 [s since the Unix epoch]
+
+  /// Throws std::runtime_error naming the bad field, its value and the accepted range.
+  void validate() const;
+  /// One line "frames=300 motion=halfsphere people=2 ..." for logs and README files.
+  std::string toString() const;
+};
+
+/// One rendered frame with its ground truth.
+struct SynthFrame {
+  RgbdFrame frame;       ///< BGR CV_8UC3 colour, CV_32FC1 depth [m] (noisy if depth_noise), camera
+  cv::Mat mask_gt;       ///< CV_8UC1, 255 where a person is the first surface hit, else 0
+  cv::Mat static_depth_m;  ///< CV_32FC1 noise-free depth [m] of the room without people
+  /// camera optical frame in the world (ground truth)
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+};
+
+/// Deterministic synthetic dynamic scene. Construction builds the procedural textures (about
+/// 0.3-0.7 s); render() is const and thread-safe and can be called in any order.
+class SyntheticScene {
+ public:
+  /// Validates `options` (throws std::runtime_error) and builds the scene.
+  explicit SyntheticScene(const SynthOptions& options);
+  ~SyntheticScene();
+  SyntheticScene(SyntheticScene&&) noexcept;
+  SyntheticScene& operator=(SyntheticScene&&) noexcept;
+
+  /// options.frames.
+  int numFrames() const;
+  /// The options the scene was built with.
+  const SynthOptions& options() const;
+  /// Renders frame `index` (0 <= index < numFrames(), else std::out_of_range). Rows are ray cast
+  /// in parallel (cv::parallel_for_).
+  SynthFrame render(int index) const;
+  /// Ground-truth camera pose of frame `index` (camera optical frame in the world).
+  Eigen::Isometry3d cameraPose(int index) const;
+  /// Time of frame `index` [ns]: start_stamp_s + index / fps, rounded to whole microseconds so
+  /// that the "%.6f" seconds of TUM text files represent it exactly.
+  Timestamp stampNs(int index) const;
+  /// stampNs(index) in seconds.
+  double stampSeconds(int index) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<const Impl> impl_;
+};
+
+}  // namespace dypho::tools

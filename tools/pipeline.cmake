@@ -1,0 +1,32 @@
+# dypho_pipeline: the three cores chained in one process; dypho_run_dataset: the command users run.
+if(TARGET dypho_tools AND TARGET dypho_mask_core AND TARGET dypho_tracking_core AND TARGET dypho_mapping_core)
+  set(_frame_source_impl src/frame_source_nobag.cpp)
+  if(TARGET dypho_bag)
+    set(_frame_source_impl src/frame_source_bag.cpp)
+  endif()
+  add_library(dypho_pipeline
+    src/slam_pipeline.cpp
+    src/frame_source.cpp
+    ${_frame_source_impl})
+  target_include_directories(dypho_pipeline PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
+  target_link_libraries(dypho_pipeline PUBLIC
+    dypho_tools dypho_mask_core dypho_tracking_core dypho_mapping_core yaml-cpp)
+  if(TARGET dypho_bag)
+    target_link_libraries(dypho_pipeline PUBLIC dypho_bag)
+  endif()
+  dypho_set_warnings(dypho_pipeline)
+
+  add_executable(dypho_run_dataset apps/run_dataset_main.cpp)
+  target_link_libraries(dypho_run_dataset dypho_pipeline)
+  dypho_set_warnings(dypho_run_dataset)
+
+  if(DYPHO_WITH_ROS)
+    install(TARGETS dypho_pipeline LIBRARY DESTINATION ${DYPHO_LIB_DEST} ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
+    install(TARGETS dypho_run_dataset RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+  else()
+    install(TARGETS dypho_pipeline dypho_run_dataset
+            RUNTIME DESTINATION ${DYPHO_BIN_DEST} LIBRARY DESTINATION ${DYPHO_LIB_DEST}
+            ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
+  endif()
+endif()

@@ -1,0 +1,217 @@
+// Camera trajectories and walking people of the synthetic scene, plus the option helpers.
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "synthetic_internal.h"
+
+namespace dypho::tools {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+/// Loop motion turns 360 deg over the sequence; this caps its rate [deg/s].
+constexpr double kMaxLoopRateDegS = 40.0;
+/// Loop radius cap from the speed bound [m/s] (TUM hand-held speeds are up to about 0.5 m/s).
+constexpr double kLoopSpeedMS = 0.45;
+}  // namespace
+
+std::string synthMotionName(SynthMotion motion) {
+  switch (motion) {
+    case SynthMotion::kXyz: return "xyz";
+    case SynthMotion::kHalfsphere: return "halfsphere";
+    case SynthMotion::kStatic: return "static";
+    case SynthMotion::kRpy: return "rpy";
+    case SynthMotion::kLoop: return "loop";
+  }
+  return "unknown";
+}
+
+SynthMotion parseSynthMotion(const std::string& name) {
+  for (SynthMotion m : {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic,
+                        SynthMotion::kRpy, SynthMotion::kLoop}) {
+    if (synthMotionName(m) == name) return m;
+  }
+  throw std::runtime_error("unknown synthetic motion '" + name +
+                           "'; valid names: xyz, halfsphere, static, rpy, loop");
+}
+
+CameraIntrinsics defaultSynthCamera() {
+  CameraIntrinsics c;
+  c.fx = c.fy = 525.0;
+  c.cx = 319.5;
+  c.cy = 239.5;
+  c.width = 640;
+  c.height = 480;
+  return c;
+}
+
+void SynthOptions::validate() const {
+  auto fail = [](const std::string& what) { throw std::runtime_error("SynthOptions: " + what); };
+  if (frames < 1) fail("frames = " + std::to_string(frames) + " must be >= 1");
+  if (people < 0 || people > 3) fail("people = " + std::to_string(people) + " must be in 0..3");
+  if (!(fps > 0.0 && fps <= 1000.0)) fail("fps = " + std::to_string(fps) + " must be in (0, 1000]");
+  if (!std::isfinite(start_stamp_s) || start_stamp_s < 0.0) {
+    fail("start_stamp_s must be finite and >= 0 (seconds since the Unix epoch)");
+  }
+  if (!camera.valid() || camera.width > 4096 || camera.height > 4096) {
+    fail("camera must have fx, fy > 0 and 1..4096 x 1..4096 pixels (got " +
+         std::to_string(camera.width) + "x" + std::to_string(camera.height) + ")");
+  }
+  if (camera.distorted()) fail("camera distortion must be zero: the renderer draws a pinhole image");
+  if (motion == SynthMotion::kLoop) {
+    const double duration_s = (frames - 1) / fps;
+    const double rate = 360.0 / std::max(duration_s, 1e-9);
+    if (rate > kMaxLoopRateDegS) {
+      const int min_frames = static_cast<int>(std::ceil(360.0 / kMaxLoopRateDegS * fps)) + 1;
+      std::ostringstream ss;
+      ss << "loop motion turns 360 deg over the sequence: " << frames << " frames at " << fps
+         << " fps turn " << rate << " deg/s > " << kMaxLoopRateDegS << " deg/s; use at least "
+         << min_frames << " frames";
+      fail(ss.str());
+    }
+  }
+}
+
+std::string SynthOptions::toString() const {
+  std::ostringstream ss;
+  ss << "frames=" << frames << " motion=" << synthMotionName(motion) << " people=" << people
+     << " seed=" << seed << " fps=" << fps << " camera=" << camera.width << "x" << camera.height
+     << " fx=" << camera.fx << " fy=" << camera.fy << " cx=" << camera.cx << " cy=" << camera.cy
+     << " depth_noise=" << (depth_noise ? "true" : "false") << " start_stamp_s=" << std::fixed
+     << start_stamp_s;
+  return ss.str();
+}
+
+namespace synth_detail {
+namespace {
+
+/// Camera rotation looking from `eye` at `target` with world z up (optical frame: x right,
+/// y down, z forward).
+Eigen::Matrix3d lookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = y;
+  R.col(2) = z;
+  return R;
+}
+
+Eigen::Isometry3d makePose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = t;
+  return T;
+}
+
+double wave(double amp, double freq_hz, double phase, double t) {
+  return amp * std::sin(2.0 * kPi * freq_hz * t + phase);
+}
+
+const Eigen::Vector3d kEye0(0.0, -0.6, 1.45);    // home position [m]
+const Eigen::Vector3d kTarget0(0.0, 3.0, 1.25);  // a point on the +y wall [m]
+const Eigen::Vector3d kRoomCentre(0.0, 0.0, 1.45);
+
+double loopRadius(const SynthOptions& o) {
+  const double duration_s = std::max(o.frames - 1, 1) / o.fps;
+  return std::min(1.5, kLoopSpeedMS * duration_s / (2.0 * kPi));
+}
+
+}  // namespace
+
+Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
+  switch (o.motion) {
+    case SynthMotion::kXyz: {
+      // Peak speeds 0.28, 0.15, 0.23 m/s per axis (|v| <= 0.39 m/s).
+      const Eigen::Vector3d d(wave(0.3, 0.15, 0.0, t), wave(0.2, 0.12, 0.0, t), wave(0.2, 0.18, 0.0, t));
+      return makePose(lookAt(kEye0, kTarget0), kEye0 + d);
+    }
+    case SynthMotion::kHalfsphere: {
+      // Azimuth +-0.75 rad (period 14 s), elevation +-0.45 rad (10 s) on a 1 m sphere: <= 0.44 m/s.
+      const Eigen::Vector3d centre(0.0, -1.4, 1.4);
+      const double az = wave(0.75, 1.0 / 14.0, 0.0, t);
+      const double el = wave(0.45, 1.0 / 10.0, 0.0, t);
+      const Eigen::Vector3d eye =
+          centre + Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
+      return makePose(lookAt(eye, Eigen::Vector3d(0.0, 1.6, 1.2)), eye);
+    }
+    case SynthMotion::kStatic: {
+      const Eigen::Vector3d d(wave(3e-4, 0.7, 0.0, t), wave(3e-4, 0.5, 1.0, t), wave(3e-4, 0.9, 2.0, t));
+      const Eigen::Matrix3d R =
+          lookAt(kEye0, kTarget0) * Eigen::AngleAxisd(wave(0.008 * kDeg, 0.6, 0.0, t), Eigen::Vector3d::UnitY()).toRotationMatrix();
+      return makePose(R, kEye0 + d);
+    }
+    case SynthMotion::kRpy: {
+      // +-15 deg at 0.2/0.17/0.23 Hz: peak rates 18.8/16.0/21.7 deg/s (|w| <= 33 deg/s).
+      const Eigen::Matrix3d R = lookAt(kEye0, kTarget0) *
+          (Eigen::AngleAxisd(wave(15 * kDeg, 0.23, 0.0, t), Eigen::Vector3d::UnitY()) *   // yaw
+           Eigen::AngleAxisd(wave(15 * kDeg, 0.17, 0.0, t), Eigen::Vector3d::UnitX()) *   // pitch
+           Eigen::AngleAxisd(wave(15 * kDeg, 0.20, 0.0, t), Eigen::Vector3d::UnitZ()))    // roll
+              .toRotationMatrix();
+      return makePose(R, kEye0);
+    }
+    case SynthMotion::kLoop: {
+      // alpha runs 0 -> 2pi from frame 0 to the last frame, so the last pose equals the first.
+      const double duration_s = std::max(o.frames - 1, 1) / o.fps;
+      const double alpha = 2.0 * kPi * t / duration_s;
+      const double r = loopRadius(o);
+      const Eigen::Vector3d radial(std::sin(alpha), -std::cos(alpha), 0.0);
+      const Eigen::Vector3d eye = kRoomCentre + r * radial;
+      const Eigen::Vector3d target = kRoomCentre - 2.0 * radial + Eigen::Vector3d(0, 0, -0.3);
+      return makePose(lookAt(eye, target), eye);
+    }
+  }
+  return Eigen::Isometry3d::Identity();
+}
+
+std::vector<PersonPath> makePeoplePaths(const SynthOptions& o, cv::RNG& rng) {
+  std::vector<PersonPath> paths;
+  for (int k = 0; k < o.people; ++k) {
+    PersonPath p;
+    const double speed_ms = rng.uniform(0.7, 1.1);  // walking speed [m/s]
+    if (o.motion == SynthMotion::kLoop) {
+      // A ring outside the camera circle (>= 0.5 m gap) and inside the furniture. The people
+      // walk round with the camera, on the far side of the centre (the camera looks inwards),
+      // so they stay in view; the wobble moves them across the image.
+      const double r = loopRadius(o);
+      const double duration_s = std::max(o.frames - 1, 1) / o.fps;
+      p.centre = Eigen::Vector2d(0.0, 0.0);
+      p.ax = std::min(2.55, r + 1.1 + 0.15 * k);
+      p.ay = std::min(2.2, r + 0.8 + 0.15 * k);
+      p.omega = 2.0 * kPi / duration_s;
+      p.phase = 0.5 * kPi + 0.45 * (k - 1) + rng.uniform(-0.15, 0.15);
+      p.wobble_phase = rng.uniform(0.0, 2.0 * kPi);
+      p.wobble_omega = 2.0 * kPi / rng.uniform(4.0, 7.0);
+      // Keep da/dt > 0 (always walking forwards, no heading flips).
+      p.wobble_amp = std::min(rng.uniform(0.15, 0.3), 0.8 * p.omega / p.wobble_omega);
+    } else {
+      // Lanes across the view in front of the +y wall, 0.45 m apart, mostly inside the view.
+      p.centre = Eigen::Vector2d(rng.uniform(-0.2, 0.2), 0.8 + 0.45 * k + rng.uniform(-0.05, 0.05));
+      p.ax = rng.uniform(0.9, 1.5);
+      p.ay = 0.15;
+      const double mean_radius = std::sqrt(0.5 * (p.ax * p.ax + p.ay * p.ay));
+      p.omega = (rng.uniform(0, 2) == 0 ? -1.0 : 1.0) * speed_ms / mean_radius;
+      p.phase = rng.uniform(0.0, 2.0 * kPi);
+    }
+    paths.push_back(p);
+  }
+  return paths;
+}
+
+PersonState personStateAt(const PersonPath& p, double t) {
+  const double w = p.wobble_omega * t + p.wobble_phase;
+  const double a = p.omega * t + p.phase + p.wobble_amp * (std::sin(w) - std::sin(p.wobble_phase));
+  const double a_dot = p.omega + p.wobble_amp * p.wobble_omega * std::cos(w);
+  PersonState s;
+  s.position = p.centre + Eigen::Vector2d(p.ax * std::cos(a), p.ay * std::sin(a));
+  const Eigen::Vector2d v(-p.ax * std::sin(a) * a_dot, p.ay * std::cos(a) * a_dot);
+  s.heading = std::atan2(v.y(), v.x());
+  s.cos_heading = std::cos(s.heading);
+  s.sin_heading = std::sin(s.heading);
+  return s;
+}
+
+}  // namespace synth_detail
+}  // namespace dypho::tools
