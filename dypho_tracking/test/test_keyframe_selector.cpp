@@ -15,34 +15,75 @@ Eigen::Isometry3d pose(double tx, double yaw_deg) {
   return T;
 }
 
-TEST(KeyframeSelector, DecidesOnEachCriterion) {
-  TrackingOptions o;  // 0.10 m, 8 deg, ratio 0.6, 20 frames
-  const KeyframeSelector s(o);
-  const Eigen::Isometry3d kf = pose(1.0, 30.0);  // keyframe not at the origin: relative motion counts
+/// A well-tracked, slowly moving frame 5 frames after the keyframe, which is not at the origin
+/// (so that only the motion relative to the keyframe can matter).
+KeyframeQuery calmQuery() {
+  KeyframeQuery q;
+  q.T_world_keyframe = pose(1.0, 30.0);
+  q.T_world_camera = q.T_world_keyframe * pose(0.05, 3.0);
+  q.num_inliers = 400;
+  q.num_reference_inliers = 500;
+  q.frames_since_keyframe = 5;
+  q.frame_rotation_deg = 0.5;  // below keyframe_max_frame_rotation_deg = 1.5
+  return q;
+}
 
-  // Small motion, well tracked, few frames: no keyframe.
-  EXPECT_FALSE(s.decide(kf, kf * pose(0.05, 3.0), 400, 500, 5).is_keyframe);
-  // Translation above 0.10 m.
-  auto d = s.decide(kf, kf * pose(0.11, 0.0), 400, 500, 5);
+TEST(KeyframeSelector, SoftTriggers) {
+  const KeyframeSelector s{TrackingOptions()};  // 0.10 m, 8 deg, ratio 0.6, 20 frames, 1.5 deg/frame
+  EXPECT_FALSE(s.decide(calmQuery()).is_keyframe);
+
+  KeyframeQuery q = calmQuery();
+  q.T_world_camera = q.T_world_keyframe * pose(0.11, 0.0);
+  KeyframeDecision d = s.decide(q);
   EXPECT_TRUE(d.is_keyframe);
   EXPECT_NE(d.reason.find("translation"), std::string::npos) << d.reason;
-  // Rotation above 8 deg.
-  d = s.decide(kf, kf * pose(0.0, 8.5), 400, 500, 5);
+
+  q = calmQuery();
+  q.T_world_camera = q.T_world_keyframe * pose(0.0, 8.5);
+  d = s.decide(q);
   EXPECT_TRUE(d.is_keyframe);
   EXPECT_NE(d.reason.find("rotation"), std::string::npos) << d.reason;
-  // Just under both thresholds.
-  EXPECT_FALSE(s.decide(kf, kf * pose(0.099, 7.9), 400, 500, 5).is_keyframe);
-  // Tracked ratio 250 / 500 = 0.5 < 0.6.
-  d = s.decide(kf, kf, 250, 500, 5);
+
+  q = calmQuery();
+  q.T_world_camera = q.T_world_keyframe * pose(0.099, 7.9);  // just under both
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+
+  q = calmQuery();
+  q.num_inliers = 250;  // 250 / 500 = 0.5 < 0.6
+  d = s.decide(q);
   EXPECT_TRUE(d.is_keyframe);
   EXPECT_NE(d.reason.find("ratio"), std::string::npos) << d.reason;
-  // Frame gap.
-  EXPECT_FALSE(s.decide(kf, kf, 400, 500, 19).is_keyframe);
-  d = s.decide(kf, kf, 400, 500, 20);
+
+  q = calmQuery();
+  q.frames_since_keyframe = 19;
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.frames_since_keyframe = 20;
+  d = s.decide(q);
   EXPECT_TRUE(d.is_keyframe);
   EXPECT_NE(d.reason.find("frames"), std::string::npos) << d.reason;
-  // Keyframe without points: ratio 0 -> keyframe.
-  EXPECT_TRUE(s.decide(kf, kf, 0, 0, 1).is_keyframe);
+}
+
+TEST(KeyframeSelector, FastRotationPostponesSoftButNotHardTriggers) {
+  const KeyframeSelector s{TrackingOptions()};
+  KeyframeQuery q = calmQuery();
+  q.T_world_camera = q.T_world_keyframe * pose(0.0, 12.0);  // soft trigger: rotation
+  q.frame_rotation_deg = 2.5;                                  // camera turning fast
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.frame_rotation_deg = 1.4;
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+
+  q = calmQuery();
+  q.frame_rotation_deg = 4.0;
+  q.num_inliers = 140;  // 140 / 500 = 0.28 < 0.3: hard
+  KeyframeDecision d = s.decide(q);
+  EXPECT_TRUE(d.is_keyframe);
+  EXPECT_NE(d.reason.find("hard"), std::string::npos) << d.reason;
+  q.num_inliers = 40;
+  q.num_reference_inliers = 50;  // ratio fine but 40 < 3 * 15: hard
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+  q.num_reference_inliers = 0;  // no reference: ratio 0 -> hard
+  q.num_inliers = 400;
+  EXPECT_TRUE(s.decide(q).is_keyframe);
 }
 
 }  // namespace

@@ -88,6 +88,56 @@ TEST(ReprojectionError, AnalyticJacobianMatchesCentralDifferences) {
   }
 }
 
+/// Same check for the 3-row RGB-D residual (u, v, u - b fx / z); same tolerance and reasoning.
+TEST(RgbdReprojectionError, AnalyticJacobianMatchesCentralDifferences) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(
+        0.5 * uni(rng), Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized()));
+    const Eigen::Vector3d t(0.3 * uni(rng), 0.3 * uni(rng), 0.3 * uni(rng));
+    const Eigen::Vector3d p_c(uni(rng), uni(rng), 2.5 + uni(rng));
+    const Eigen::Vector3d p_w = q.inverse() * (p_c - t);
+    const RgbdReprojectionError cost(p_w, Eigen::Vector2d(310, 240), 2.4 + 0.3 * uni(rng), 0.075,
+                                     1.2, kPinhole);
+    double qd[4] = {q.x(), q.y(), q.z(), q.w()};
+    double td[3] = {t.x(), t.y(), t.z()};
+    const double* params[2] = {qd, td};
+    Eigen::Matrix<double, 3, 4, Eigen::RowMajor> J_q, N_q;
+    Eigen::Matrix<double, 3, 3, Eigen::RowMajor> J_t, N_t;
+    double* jac[2] = {J_q.data(), J_t.data()};
+    Eigen::Vector3d r;
+    ASSERT_TRUE(cost.Evaluate(params, r.data(), jac));
+    const double h = 1e-6;
+    for (int k = 0; k < 7; ++k) {
+      double* x = k < 4 ? &qd[k] : &td[k - 4];
+      const double x0 = *x;
+      Eigen::Vector3d rp, rm;
+      *x = x0 + h;
+      ASSERT_TRUE(cost.Evaluate(params, rp.data(), nullptr));
+      *x = x0 - h;
+      ASSERT_TRUE(cost.Evaluate(params, rm.data(), nullptr));
+      *x = x0;
+      const Eigen::Vector3d d = (rp - rm) / (2 * h);
+      if (k < 4) {
+        N_q.col(k) = d;
+      } else {
+        N_t.col(k - 4) = d;
+      }
+    }
+    EXPECT_LT((J_q - N_q).norm() / J_q.norm(), 1e-6) << "trial " << trial;
+    EXPECT_LT((J_t - N_t).norm() / J_t.norm(), 1e-6) << "trial " << trial;
+  }
+  // The third residual is zero exactly when the predicted depth equals the measured one.
+  const Eigen::Vector3d p_w(0.1, 0.2, 2.0);
+  const RgbdReprojectionError exact(p_w, kPinhole.project(p_w), 2.0, 0.075, 1.0, kPinhole);
+  double qi[4] = {0, 0, 0, 1}, ti[3] = {0, 0, 0};
+  const double* params[2] = {qi, ti};
+  Eigen::Vector3d r;
+  ASSERT_TRUE(exact.Evaluate(params, r.data(), nullptr));
+  EXPECT_LT(r.norm(), 1e-9);
+}
+
 TEST(ReprojectionError, ResidualIsWhitenedPixelError) {
   const Eigen::Vector3d p_w(0.2, -0.1, 2.0);
   const ReprojectionError cost(p_w, Eigen::Vector2d(300, 250), 2.0, kPinhole);

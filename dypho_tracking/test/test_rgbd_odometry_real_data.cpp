@@ -202,8 +202,15 @@ TEST(RgbdOdometryRealData, TumFr1RpyAccuracy) {
   cam.distortion = {{0.262383, -0.953104, -0.005358, 0.002628, 1.163314}};
   const RunStats s = runSequence(dir, cam, readGroundTruth(dir + "/groundtruth.txt"), "tum_fr1_rpy");
   EXPECT_EQ(s.frames, 150);
-  EXPECT_GE(s.evaluated, 145);  // at most a few frames lost on this static sequence
-  EXPECT_LT(s.ate_m, 0.05);  // see the report in the test output for the measured value
+  // Static scene: every frame must be tracked (measured: 150 of 150).
+  EXPECT_EQ(s.evaluated, 150);
+  // Measured 2.53 cm (OpenCV 4.6, Ceres 2.1, Debian bookworm x86-64). The result depends on which
+  // frames become keyframes: neighbouring settings (keyframe_rotation_deg 6..15,
+  // keyframe_max_frame_rotation_deg 1.25..1.75) gave 2.2-4.5 cm, so a different floating-point
+  // path (CPU, library build) may move it inside that band. The bound is therefore the 5 cm
+  // ceiling of the task, about 2x the measured value; a broken Jacobian, undistortion or outlier
+  // rejection gives 8-60 cm here.
+  EXPECT_LT(s.ate_m, 0.05);
 }
 
 TEST(RgbdOdometryRealData, BonnCrowdRough) {
@@ -233,8 +240,13 @@ TEST(RgbdOdometryRealData, BonnCrowdRough) {
     g.p = (T_ros * T_gt * T_ros * T_m).topRightCorner<3, 1>();
   }
   const RunStats corrected = runSequence(dir, cam, gt, "bonn_crowd_correctedgt");
-  EXPECT_GE(raw.evaluated, 150);
-  EXPECT_LT(corrected.ate_m, 1.0);  // placeholder bound, refined below after measurement
+  // No dynamic mask is given here, so people walking through the view (from frame ~35 on) pull
+  // the pose: this is a robustness check, not an accuracy target. Measured: 200/200 frames tracked,
+  // ATE ~30 cm against both the raw and the corrected ground truth. Bounds: no lost frames
+  // allowed beyond 5 %, and ATE < 60 cm (2x measured) catches a collapse of the outlier handling.
+  EXPECT_GE(corrected.evaluated, 190);
+  EXPECT_LT(corrected.ate_m, 0.60);
+  EXPECT_LT(raw.ate_m, 0.60);
 }
 
 }  // namespace

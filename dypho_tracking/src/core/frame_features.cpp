@@ -1,8 +1,6 @@
 #include "dypho/tracking/frame_features.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
 #include <opencv2/calib3d.hpp>
 
@@ -44,17 +42,6 @@ FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m,
     if (u < 0 || v < 0 || u >= depth_m.cols || v >= depth_m.rows) continue;
     const float d = depth_m.at<float>(v, u);
     if (!std::isfinite(d) || d < min_depth_m || d > max_depth_m) continue;
-    static const int R = getenv("DR") ? atoi(getenv("DR")) : 0;
-    static const double REL = getenv("DREL") ? atof(getenv("DREL")) : 0.05;
-    if (R > 0) {
-      bool bad = false;
-      for (int dv = -R; dv <= R && !bad; ++dv) for (int du = -R; du <= R && !bad; ++du) {
-        const int uu = std::clamp(u + du, 0, depth_m.cols - 1), vv = std::clamp(v + dv, 0, depth_m.rows - 1);
-        const float dd = depth_m.at<float>(vv, uu);
-        if (!std::isfinite(dd) || dd <= 0 || std::abs(dd - d) > REL * d) bad = true;
-      }
-      if (bad) continue;
-    }
     keep.push_back(static_cast<int>(i));
     depths.push_back(d);
   }

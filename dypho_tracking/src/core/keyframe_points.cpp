@@ -32,7 +32,6 @@ KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& fra
     if (previous != nullptr && i < previous_match.size() && previous_match[i] >= 0 &&
         static_cast<size_t>(previous_match[i]) < previous->size()) {
       id = previous->map_point_ids[static_cast<size_t>(previous_match[i])];
-      if (getenv("KEEP")) p_world = previous->p_world_m[static_cast<size_t>(previous_match[i])];
     } else {
       id = (*next_map_point_id)++;
     }

@@ -10,29 +10,39 @@ KeyframeSelector::KeyframeSelector(const TrackingOptions& options) : options_(op
   options_.validate();
 }
 
-KeyframeDecision KeyframeSelector::decide(const Eigen::Isometry3d& T_world_keyframe,
-                                          const Eigen::Isometry3d& T_world_camera,
-                                          int num_inliers, int num_reference_inliers,
-                                          int frames_since_keyframe) const {
+KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
   KeyframeDecision decision;
-  const Eigen::Isometry3d T_keyframe_camera = T_world_keyframe.inverse() * T_world_camera;
-  const double translation_m = T_keyframe_camera.translation().norm();
-  const double rotation_deg =
-      Eigen::AngleAxisd(T_keyframe_camera.rotation()).angle() * 180.0 / M_PI;
   const double tracked_ratio =
-      num_reference_inliers > 0 ? static_cast<double>(num_inliers) / num_reference_inliers : 0.0;
+      q.num_reference_inliers > 0
+          ? static_cast<double>(q.num_inliers) / static_cast<double>(q.num_reference_inliers)
+          : 0.0;
   std::ostringstream reason;
-  if (translation_m > options_.keyframe_translation_m) {
-    reason << "translation " << translation_m << " m > " << options_.keyframe_translation_m << " m";
-  } else if (rotation_deg > options_.keyframe_rotation_deg) {
-    reason << "rotation " << rotation_deg << " deg > " << options_.keyframe_rotation_deg << " deg";
-  } else if (tracked_ratio < options_.keyframe_min_tracked_ratio) {
-    reason << "tracked ratio " << tracked_ratio << " < " << options_.keyframe_min_tracked_ratio;
-  } else if (frames_since_keyframe >= options_.keyframe_max_frames) {
-    reason << frames_since_keyframe << " frames since the keyframe >= "
-           << options_.keyframe_max_frames;
+  if (tracked_ratio < options_.keyframe_hard_tracked_ratio) {
+    reason << "tracked ratio " << tracked_ratio << " < " << options_.keyframe_hard_tracked_ratio
+           << " (hard)";
+  } else if (q.num_inliers < 3 * options_.min_inliers) {
+    reason << q.num_inliers << " inliers < 3 * min_inliers (hard)";
+  } else if (q.frame_rotation_deg > options_.keyframe_max_frame_rotation_deg) {
+    return decision;  // soft triggers wait for a calmer frame
   } else {
-    return decision;
+    const Eigen::Isometry3d T_keyframe_camera = q.T_world_keyframe.inverse() * q.T_world_camera;
+    const double translation_m = T_keyframe_camera.translation().norm();
+    const double rotation_deg =
+        Eigen::AngleAxisd(T_keyframe_camera.rotation()).angle() * 180.0 / M_PI;
+    if (translation_m > options_.keyframe_translation_m) {
+      reason << "translation " << translation_m << " m > " << options_.keyframe_translation_m
+             << " m";
+    } else if (rotation_deg > options_.keyframe_rotation_deg) {
+      reason << "rotation " << rotation_deg << " deg > " << options_.keyframe_rotation_deg
+             << " deg";
+    } else if (tracked_ratio < options_.keyframe_min_tracked_ratio) {
+      reason << "tracked ratio " << tracked_ratio << " < " << options_.keyframe_min_tracked_ratio;
+    } else if (q.frames_since_keyframe >= options_.keyframe_max_frames) {
+      reason << q.frames_since_keyframe << " frames since the keyframe >= "
+             << options_.keyframe_max_frames;
+    } else {
+      return decision;
+    }
   }
   decision.is_keyframe = true;
   decision.reason = reason.str();

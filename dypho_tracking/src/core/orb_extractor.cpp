@@ -149,35 +149,37 @@ OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
       return dist_to_dynamic.at<float>(v, u) >= min_mask_distance;
     };
 
+    // One FAST pass per level at the low threshold; cells then take the corners scoring
+    // >= `threshold` and fall back to the weaker ones (>= min_fast_threshold) only when they have
+    // none (FAST's response is the largest threshold at which the pixel is still a corner).
+    const cv::Rect region(x_lo - kFastBorder, y_lo - kFastBorder, x_hi - x_lo + 2 * kFastBorder,
+                          y_hi - y_lo + 2 * kFastBorder);
+    std::vector<cv::KeyPoint> found;
+    cv::FAST(level_image(region), found, options_.min_fast_threshold, true);
     const int cell = options_.grid_cell_px;
     const int ncols = std::max(1, (x_hi - x_lo + cell / 2) / cell);
     const int nrows = std::max(1, (y_hi - y_lo + cell / 2) / cell);
-    const int cell_w = (x_hi - x_lo + ncols - 1) / ncols;
-    const int cell_h = (y_hi - y_lo + nrows - 1) / nrows;
+    const double cell_w = static_cast<double>(x_hi - x_lo) / ncols;
+    const double cell_h = static_cast<double>(y_hi - y_lo) / nrows;
+    std::vector<std::vector<cv::KeyPoint>> strong(static_cast<size_t>(ncols * nrows));
+    std::vector<std::vector<cv::KeyPoint>> weak(strong.size());
+    for (cv::KeyPoint kp : found) {
+      kp.pt.x += static_cast<float>(region.x);
+      kp.pt.y += static_cast<float>(region.y);
+      if (kp.pt.x < x_lo || kp.pt.x >= x_hi || kp.pt.y < y_lo || kp.pt.y >= y_hi) continue;
+      if (!is_allowed(kp.pt.x, kp.pt.y)) continue;
+      const int c = std::min(ncols - 1, static_cast<int>((kp.pt.x - x_lo) / cell_w));
+      const int r = std::min(nrows - 1, static_cast<int>((kp.pt.y - y_lo) / cell_h));
+      const size_t index = static_cast<size_t>(r * ncols + c);
+      (kp.response >= threshold ? strong : weak)[index].push_back(kp);
+    }
     std::vector<std::vector<cv::KeyPoint>> cells;
-    cells.reserve(static_cast<size_t>(ncols * nrows));
-    std::vector<cv::KeyPoint> found;
-    for (int r = 0; r < nrows; ++r) {
-      for (int c = 0; c < ncols; ++c) {
-        const int x0 = x_lo + c * cell_w, y0 = y_lo + r * cell_h;
-        const int x1 = std::min(x0 + cell_w, x_hi), y1 = std::min(y0 + cell_h, y_hi);
-        if (x1 <= x0 || y1 <= y0) continue;
-        const cv::Rect roi(x0 - kFastBorder, y0 - kFastBorder, x1 - x0 + 2 * kFastBorder,
-                           y1 - y0 + 2 * kFastBorder);
-        std::vector<cv::KeyPoint> kept;
-        for (int attempt = 0; attempt < 2 && kept.empty(); ++attempt) {
-          const int th = attempt == 0 ? threshold : options_.min_fast_threshold;
-          if (attempt == 1 && th >= threshold) break;
-          cv::FAST(level_image(roi), found, th, true);
-          for (cv::KeyPoint kp : found) {
-            kp.pt.x += static_cast<float>(roi.x);
-            kp.pt.y += static_cast<float>(roi.y);
-            if (kp.pt.x < x0 || kp.pt.x >= x1 || kp.pt.y < y0 || kp.pt.y >= y1) continue;
-            if (!is_allowed(kp.pt.x, kp.pt.y)) continue;
-            kept.push_back(kp);
-          }
-        }
-        if (!kept.empty()) cells.push_back(std::move(kept));
+    cells.reserve(strong.size());
+    for (size_t i = 0; i < strong.size(); ++i) {
+      if (!strong[i].empty()) {
+        cells.push_back(std::move(strong[i]));
+      } else if (!weak[i].empty()) {
+        cells.push_back(std::move(weak[i]));
       }
     }
     std::vector<cv::KeyPoint> chosen =

@@ -20,7 +20,10 @@ double msSince(Clock::time_point t0) {
 }  // namespace
 
 RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
-    : options_(options), extractor_(options), aligner_(options), selector_(options) {}
+    : options_(options),
+      extractor_(options),
+      aligner_(options),
+      selector_(options) {}
 
 void RgbdOdometry::reset() {
   reference_.reset();
@@ -84,10 +87,9 @@ void RgbdOdometry::startKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
                                  const FrameFeatures& features,
                                  const Eigen::Isometry3d& T_world_camera,
                                  const std::vector<int>& previous_match, TrackingResult* result) {
-  const KeyframePoints* previous = reference_ ? &*reference_ : nullptr;
-  KeyframePoints next = makeKeyframePoints(next_keyframe_id_++, frame, mask, T_world_camera,
-                                           features, previous, previous_match, &next_map_point_id_);
-  reference_ = std::move(next);
+  reference_ = std::make_shared<const KeyframePoints>(
+      makeKeyframePoints(next_keyframe_id_++, frame, mask, T_world_camera, features,
+                         reference_.get(), previous_match, &next_map_point_id_));
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   result->is_keyframe = true;
@@ -145,6 +147,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   result.num_features = static_cast<int>(features.size());
   result.masked_fraction = orb.masked_fraction;
   const bool enough_to_start = result.num_features >= options_.min_init_features;
+  const Pinhole pinhole = Pinhole::fromIntrinsics(frame.camera);
 
   if (!reference_) {
     if (!enough_to_start) {
@@ -160,8 +163,8 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   if (result.num_features >= options_.min_inliers) {
     const Eigen::Isometry3d T_world_predicted =
         has_velocity_ ? T_world_last_ * velocity_ : T_world_last_;
-    aligned = aligner_.align(*reference_, features, Pinhole::fromIntrinsics(frame.camera),
-                             T_world_predicted.inverse(), &result.times);
+    aligned = aligner_.align(*reference_, features, pinhole, T_world_predicted.inverse(),
+                             &result.times);
   } else {
     aligned.message = explainFewFeatures(frame, orb, features);
   }
@@ -178,17 +181,17 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     result.T_world_camera = T_world_camera;
     result.num_matches = static_cast<int>(aligned.matches.size());
     result.num_inliers = aligned.num_inliers;
-    const KeyframeDecision decision = selector_.decide(
-        reference_->keyframe->T_world_camera, T_world_camera, aligned.num_inliers,
-        reference_inliers_, frames_since_keyframe_);
-    static const double kspd = getenv("KSPD") ? atof(getenv("KSPD")) : 1e9;
-    static const double khard = getenv("KHARD") ? atof(getenv("KHARD")) : 0.3;
-    const double speed_deg = Eigen::AngleAxisd(velocity_.rotation()).angle() * 180.0 / M_PI;
-    const double ratio = reference_inliers_ > 0 ? double(aligned.num_inliers) / reference_inliers_ : 0;
-    const bool hard = ratio < khard || aligned.num_inliers < 3 * options_.min_inliers;
-    if (decision.is_keyframe && !hard && speed_deg > kspd) {
-      if (getenv("KDBG")) fprintf(stderr, "delay kf at speed %.2f ratio %.2f\n", speed_deg, ratio);
-    } else if (decision.is_keyframe) {
+    KeyframeQuery query;
+    query.T_world_keyframe = reference_->keyframe->T_world_camera;
+    query.T_world_camera = T_world_camera;
+    query.num_inliers = aligned.num_inliers;
+    query.num_reference_inliers = reference_inliers_;
+    query.frames_since_keyframe = frames_since_keyframe_;
+    // Inter-frame rotation; unknown (0) right after lost frames.
+    query.frame_rotation_deg =
+        has_velocity_ ? Eigen::AngleAxisd(velocity_.rotation()).angle() * 180.0 / M_PI : 0.0;
+    const KeyframeDecision decision = selector_.decide(query);
+    if (decision.is_keyframe) {
       std::vector<int> previous_match(features.size(), -1);
       for (size_t m = 0; m < aligned.matches.size(); ++m) {
         if (!aligned.inliers[m]) continue;

@@ -53,6 +53,9 @@ void TrackingOptions::validate() const {
   requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);
   requireRange("keyframe_max_frames", keyframe_max_frames, 1, 100000);
+  requireRange("keyframe_max_frame_rotation_deg", keyframe_max_frame_rotation_deg, 0.0, 180.0, true);
+  requireRange("keyframe_hard_tracked_ratio", keyframe_hard_tracked_ratio, 0.0,
+               keyframe_min_tracked_ratio);
   requireRange("min_init_features", min_init_features, min_inliers, 20000);
   requireRange("max_lost_frames", max_lost_frames, 1, 100000);
 }
@@ -87,6 +90,8 @@ std::string TrackingOptions::toString() const {
      << "keyframe_rotation_deg: " << keyframe_rotation_deg << "\n"
      << "keyframe_min_tracked_ratio: " << keyframe_min_tracked_ratio << "\n"
      << "keyframe_max_frames: " << keyframe_max_frames << "\n"
+     << "keyframe_max_frame_rotation_deg: " << keyframe_max_frame_rotation_deg << "\n"
+     << "keyframe_hard_tracked_ratio: " << keyframe_hard_tracked_ratio << "\n"
      << "min_init_features: " << min_init_features << "\n"
      << "max_lost_frames: " << max_lost_frames << "\n";
   return os.str();

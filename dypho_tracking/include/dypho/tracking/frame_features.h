@@ -6,7 +6,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/StdVector>
 #include <opencv2/core.hpp>
 
 #include "dypho/common/camera.h"

@@ -11,33 +11,44 @@
 namespace dypho {
 namespace tracking {
 
+/// What the selector looks at for one tracked frame.
+struct KeyframeQuery {
+  Eigen::Isometry3d T_world_keyframe = Eigen::Isometry3d::Identity();  ///< last keyframe pose
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();    ///< current frame pose
+  int num_inliers = 0;  ///< pose inliers of the current frame against the keyframe [count]
+  /// Inliers of the first frame tracked against this keyframe: the points that are trackable at
+  /// all [count]; <= 0 -> tracked ratio 0.
+  int num_reference_inliers = 0;
+  int frames_since_keyframe = 0;  ///< 1 for the frame right after the keyframe [frames]
+  double frame_rotation_deg = 0;  ///< rotation between the previous and this frame [deg]
+};
+
 /// Outcome of KeyframeSelector::decide.
 struct KeyframeDecision {
   bool is_keyframe = false;  ///< make this frame a keyframe
   std::string reason;        ///< which criterion fired ("translation 0.12 m > 0.10 m"), else empty
 };
 
-/// A frame becomes a keyframe when any of these holds (checked in this order):
+/// Keyframe policy.
+///
+/// Hard triggers (always honoured): tracked ratio = num_inliers / num_reference_inliers below
+/// keyframe_hard_tracked_ratio, or fewer than 3 * min_inliers inliers.
+///
+/// Soft triggers, checked in this order and postponed while frame_rotation_deg >
+/// keyframe_max_frame_rotation_deg (fast-moving frames make poor keyframes):
 ///  1. translation since the keyframe > keyframe_translation_m;
 ///  2. rotation angle since the keyframe > keyframe_rotation_deg;
-///  3. tracked ratio = num_inliers / num_reference_inliers < keyframe_min_tracked_ratio, where
-///     num_reference_inliers is the inlier count of the first frame tracked against this keyframe
-///     (the points that are trackable at all; ORB-SLAM similarly compares with the keyframe's
-///     tracked map points, not with all its keypoints, since typically only 30-50 % of the ORB
-///     keypoints of a frame are re-detected and matched in the next one);
+///  3. tracked ratio < keyframe_min_tracked_ratio (the reference is the first tracked frame, like
+///     ORB-SLAM compares with the keyframe's tracked map points, because typically only 30-50 % of
+///     a frame's ORB keypoints are re-detected and matched in the next one);
 ///  4. frames_since_keyframe >= keyframe_max_frames.
 class KeyframeSelector {
  public:
-  /// Uses the keyframe_* fields.
+  /// Uses the keyframe_* fields and min_inliers.
   explicit KeyframeSelector(const TrackingOptions& options);
 
-  /// T_world_keyframe / T_world_camera: poses of the last keyframe and of the current frame;
-  /// num_inliers: pose inliers of the current frame against that keyframe; num_reference_inliers:
-  /// see criterion 3 (<= 0 -> ratio treated as 0); frames_since_keyframe: 1 for the frame right
-  /// after the keyframe.
-  KeyframeDecision decide(const Eigen::Isometry3d& T_world_keyframe,
-                          const Eigen::Isometry3d& T_world_camera, int num_inliers,
-                          int num_reference_inliers, int frames_since_keyframe) const;
+  /// See the class comment.
+  KeyframeDecision decide(const KeyframeQuery& query) const;
 
  private:
   TrackingOptions options_;

@@ -22,10 +22,11 @@ struct OrbFeatures {
   int fast_threshold_used = 0;  ///< FAST threshold after the mask relaxation [grey levels]
 };
 
-/// ORB extractor in the style of ORB-SLAM: per pyramid level a FAST budget that falls
-/// geometrically with the level, FAST run per grid cell (threshold lowered to
-/// `min_fast_threshold` in cells where nothing was found), cells served round-robin by response so
-/// the keypoints spread over the image. Orientation by intensity centroid; descriptors by
+/// ORB extractor in the style of ORB-SLAM: per pyramid level a keypoint budget that falls
+/// geometrically with the level; one FAST pass per level at `min_fast_threshold`, then per grid
+/// cell (`grid_cell_px`) the corners scoring >= `fast_threshold` are used, and the weaker ones
+/// only in cells that have no strong corner; cells are served round-robin (best response first) so
+/// that the keypoints spread over the image. Orientation by intensity centroid; descriptors by
 /// cv::ORB::compute on the same pyramid (same scale factor and level sizes).
 ///
 /// Mask handling: keypoints are only kept where the distance to the nearest dynamic pixel is at

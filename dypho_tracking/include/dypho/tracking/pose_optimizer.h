@@ -39,10 +39,10 @@ struct PoseOptimizerResult {
 /// depth component u - b fx / z when the observation has a depth, see RgbdReprojectionError), over
 /// the pose only, with Levenberg-Marquardt (Ceres, dense normal Cholesky, analytic Jacobians).
 /// Outliers use chi2_threshold (2 dof) or chi2_threshold_depth (3 dof). Parameterisation: unit quaternion (ceres::EigenQuaternionManifold) +
-/// translation. Outliers are handled as in ORB-SLAM: `outlier_rounds` times (optimise
-/// `refine_iterations` LM steps, then classify every observation by chi2 >= chi2_threshold at the
-/// current pose); outliers are left out of the next round but may come back; a final round
-/// optimises the inliers once more.
+/// translation. Outliers are handled as in ORB-SLAM: round 0 starts with every observation in
+/// front of the camera; each of the `outlier_rounds` rounds runs up to `refine_iterations` LM steps
+/// (Huber loss) on the current inliers and then re-classifies EVERY observation by chi2 at the new
+/// pose, so an outlier can come back. The returned inliers are the last classification.
 class PoseOptimizer {
  public:
   /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.

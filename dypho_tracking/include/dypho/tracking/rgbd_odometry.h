@@ -4,7 +4,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -16,6 +15,7 @@
 #include "dypho/tracking/keyframe_points.h"
 #include "dypho/tracking/keyframe_selector.h"
 #include "dypho/tracking/orb_extractor.h"
+#include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/tracking_options.h"
 #include "dypho/tracking/tracking_result.h"
 
@@ -77,7 +77,8 @@ class RgbdOdometry {
   KeyframeAligner aligner_;
   KeyframeSelector selector_;
 
-  std::optional<KeyframePoints> reference_;
+  /// Keyframe tracked against; null before initialisation.
+  std::shared_ptr<const KeyframePoints> reference_;
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
   Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity();  ///< T_previous_last (camera motion)
   bool has_velocity_ = false;
