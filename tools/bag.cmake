@@ -10,7 +10,7 @@ add_library(dypho_bag
   ${CMAKE_CURRENT_SOURCE_DIR}/src/bag_reader.cpp)
 target_include_directories(dypho_bag PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
 target_include_directories(dypho_bag SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(dypho_bag PUBLIC dypho_common ${OpenCV_LIBS} PRIVATE ${catkin_LIBRARIES})
+target_link_libraries(dypho_bag PUBLIC dypho_common ${OpenCV_LIBS} PRIVATE dypho_ros_common ${catkin_LIBRARIES})
 target_compile_features(dypho_bag PUBLIC cxx_std_17)
 dypho_set_warnings(dypho_bag)
 install(TARGETS dypho_bag ARCHIVE DESTINATION ${DYPHO_LIB_DEST} LIBRARY DESTINATION ${DYPHO_LIB_DEST})
