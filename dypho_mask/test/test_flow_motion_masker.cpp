@@ -80,13 +80,13 @@ double iou(const cv::Mat& a, const cv::Mat& b) {
 TEST(FlowMotionMasker, FirstFrameAndIdenticalFramesGiveEmptyMask) {
   FlowMotionMasker masker{FlowMaskOptions()};
   const cv::Mat img = makeTexture(kSize, 1);
-  const MaskResult first = masker.compute(frameOf(img));
+  const FlowMaskResult first = masker.compute(frameOf(img));
   EXPECT_FALSE(first.degraded);
   EXPECT_NE(first.message.find("first frame"), std::string::npos) << first.message;
   ASSERT_EQ(first.mask.size(), kSize);
   EXPECT_EQ(cv::countNonZero(first.mask), 0);
   for (int i = 0; i < 3; ++i) {
-    const MaskResult r = masker.compute(frameOf(img.clone()));
+    const FlowMaskResult r = masker.compute(frameOf(img.clone()));
     EXPECT_FALSE(r.degraded) << r.message;
     ASSERT_EQ(r.mask.size(), kSize);
     ASSERT_EQ(r.mask.type(), CV_8UC1);
@@ -103,7 +103,7 @@ TEST(FlowMotionMasker, PureCameraTranslationIsNotMasked) {
     const cv::Matx23d shift(1, 0, 5.0 * k, 0, 1, -3.0 * k);
     cv::Mat frame;
     cv::warpAffine(bg, frame, cv::Mat(shift), kSize, cv::INTER_LINEAR, cv::BORDER_REFLECT);
-    const MaskResult r = masker.compute(frameOf(frame));
+    const FlowMaskResult r = masker.compute(frameOf(frame));
     if (k == 0) continue;
     EXPECT_FALSE(r.degraded) << r.message;
     // Tolerance 2 %: the whole image follows one translation, so only flow errors at the
@@ -122,7 +122,7 @@ TEST(FlowMotionMasker, PureCameraRotationIsNotMasked) {
   for (int k = 0; k < 6; ++k) {
     // 0.4 deg pitch, 0.8 deg yaw, 0.5 deg roll per frame: up to ~10 px of image motion per frame.
     const cv::Mat frame = rotatedView(texture, rotation(0.4 * k, 0.8 * k, 0.5 * k));
-    const MaskResult r = masker.compute(frameOf(frame));
+    const FlowMaskResult r = masker.compute(frameOf(frame));
     if (k == 0) continue;
     EXPECT_FALSE(r.degraded) << r.message;
     max_fraction = std::max(max_fraction, r.masked_fraction);
@@ -178,9 +178,9 @@ TEST(FlowMotionMasker, RotationThroughDistortedLensIsNotMaskedWhenIntrinsicsAreG
   for (int k = 0; k < 6; ++k) {
     RgbdFrame f = frameOf(
         distortedRotatedView(texture, rotation(1.0 * k, 2.5 * k, 1.0 * k), ideal, K));
-    const MaskResult raw = without_camera.compute(f);
+    const FlowMaskResult raw = without_camera.compute(f);
     f.camera = camera;
-    const MaskResult r = with_camera.compute(f);
+    const FlowMaskResult r = with_camera.compute(f);
     if (k == 0) continue;
     EXPECT_FALSE(r.degraded) << r.message;
     // 2 %: in undistorted coordinates the motion is exactly a homography again.
@@ -208,8 +208,8 @@ TEST(FlowMotionMasker, MovingSquareOverShiftedBackgroundIsMasked) {
     // i.e. 6.4 px/frame relative to the background, well above the 2 px threshold.
     const cv::Rect square(200 + 8 * k, 150 + 5 * k, 120, 120);
     const cv::Mat frame = squareScene(bg, cv::Point2d(3.0 * k, 1.0 * k), sq, square);
-    const MaskResult r = masker.compute(frameOf(frame));
-    const MaskResult rd = masker_default.compute(frameOf(frame));
+    const FlowMaskResult r = masker.compute(frameOf(frame));
+    const FlowMaskResult rd = masker_default.compute(frameOf(frame));
     if (k == 0) continue;
     ASSERT_FALSE(r.degraded) << r.message;
     ASSERT_FALSE(rd.degraded) << rd.message;
@@ -244,7 +244,7 @@ TEST(FlowMotionMasker, TooMuchMaskedIsDegradedAndEmptied) {
   const cv::Mat bg = makeTexture(kSize, 6);
   const cv::Mat sq = makeTexture(cv::Size(160, 160), 7);
   masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(200, 150, 120, 120))));
-  const MaskResult r =
+  const FlowMaskResult r =
       masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(210, 156, 120, 120))));
   EXPECT_TRUE(r.degraded);
   EXPECT_NE(r.message.find("max_masked_fraction"), std::string::npos) << r.message;
@@ -257,13 +257,13 @@ TEST(FlowMotionMasker, BadInputIsDegradedNotACrash) {
   const cv::Mat img = makeTexture(kSize, 8);
   masker.compute(frameOf(img));
 
-  const MaskResult empty = masker.compute(RgbdFrame());
+  const FlowMaskResult empty = masker.compute(RgbdFrame());
   EXPECT_TRUE(empty.degraded);
   EXPECT_NE(empty.message.find("empty colour image"), std::string::npos) << empty.message;
 
   RgbdFrame mismatched = frameOf(img);
   mismatched.depth_m = cv::Mat::ones(240, 320, CV_32FC1);
-  const MaskResult mm = masker.compute(mismatched);
+  const FlowMaskResult mm = masker.compute(mismatched);
   EXPECT_TRUE(mm.degraded);
   EXPECT_NE(mm.message.find("does not match"), std::string::npos) << mm.message;
   ASSERT_EQ(mm.mask.size(), kSize);
@@ -275,14 +275,14 @@ TEST(FlowMotionMasker, BadInputIsDegradedNotACrash) {
   wrong_camera.camera.height = 240;
   EXPECT_TRUE(masker.compute(wrong_camera).degraded);
 
-  const MaskResult wrong_type = masker.compute(frameOf(cv::Mat::zeros(kSize, CV_16UC1)));
+  const FlowMaskResult wrong_type = masker.compute(frameOf(cv::Mat::zeros(kSize, CV_16UC1)));
   EXPECT_TRUE(wrong_type.degraded);
   EXPECT_NE(wrong_type.message.find("CV_8UC3"), std::string::npos) << wrong_type.message;
 
   EXPECT_TRUE(masker.compute(frameOf(cv::Mat::zeros(10, 10, CV_8UC3))).degraded);
 
   // The bad frames did not disturb the history: the same image again is a clean, empty mask.
-  const MaskResult same = masker.compute(frameOf(img));
+  const FlowMaskResult same = masker.compute(frameOf(img));
   EXPECT_FALSE(same.degraded) << same.message;
   EXPECT_EQ(cv::countNonZero(same.mask), 0);
 }
@@ -291,16 +291,16 @@ TEST(FlowMotionMasker, SizeChangeResetsAndRecovers) {
   FlowMotionMasker masker{FlowMaskOptions()};
   masker.compute(frameOf(makeTexture(kSize, 9)));
   const cv::Mat small = makeTexture(cv::Size(320, 240), 10);
-  const MaskResult changed = masker.compute(frameOf(small));
+  const FlowMaskResult changed = masker.compute(frameOf(small));
   EXPECT_TRUE(changed.degraded);
   EXPECT_NE(changed.message.find("size changed"), std::string::npos) << changed.message;
   ASSERT_EQ(changed.mask.size(), small.size());
   EXPECT_EQ(cv::countNonZero(changed.mask), 0);
-  const MaskResult next = masker.compute(frameOf(small));
+  const FlowMaskResult next = masker.compute(frameOf(small));
   EXPECT_FALSE(next.degraded) << next.message;
 
   masker.reset();
-  const MaskResult after_reset = masker.compute(frameOf(small));
+  const FlowMaskResult after_reset = masker.compute(frameOf(small));
   EXPECT_FALSE(after_reset.degraded);
   EXPECT_NE(after_reset.message.find("first frame"), std::string::npos) << after_reset.message;
 }
@@ -311,7 +311,7 @@ TEST(FlowMotionMasker, GreyInputIsAcceptedAndNotModified) {
   cv::cvtColor(makeTexture(kSize, 11), grey, cv::COLOR_BGR2GRAY);
   const cv::Mat copy = grey.clone();
   masker.compute(frameOf(grey));
-  const MaskResult r = masker.compute(frameOf(grey));
+  const FlowMaskResult r = masker.compute(frameOf(grey));
   EXPECT_FALSE(r.degraded) << r.message;
   EXPECT_EQ(cv::norm(grey, copy, cv::NORM_INF), 0.0);
 }
@@ -325,7 +325,7 @@ TEST(FlowMotionMasker, ReportTimingAt640x480) {
   for (int k = 0; k <= n; ++k) {
     cv::Mat frame = rotatedView(texture, rotation(0.1 * k, 0.3 * k, 0.1 * k));
     sq(cv::Rect(0, 0, 100, 100)).copyTo(frame(cv::Rect(100 + 6 * k, 200, 100, 100)));
-    const MaskResult r = masker.compute(frameOf(frame));
+    const FlowMaskResult r = masker.compute(frameOf(frame));
     if (k == 0) continue;
     flow_ms += r.flow_ms;
     total_ms += r.total_ms;

@@ -48,7 +48,7 @@ RangeStats runRange(const std::vector<std::string>& paths, int first, int last) 
     RgbdFrame f;
     f.bgr = cv::imread(paths[static_cast<std::size_t>(i)], cv::IMREAD_COLOR);
     EXPECT_FALSE(f.bgr.empty()) << "cannot read " << paths[static_cast<std::size_t>(i)];
-    const MaskResult r = masker.compute(f);
+    const FlowMaskResult r = masker.compute(f);
     if (i == first) continue;
     ++st.frames;
     st.degraded += r.degraded ? 1 : 0;

@@ -54,6 +54,7 @@ void usage(std::ostream& os) {
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
         "              /camera/rgb/image_color, /camera/depth/image, /camera/rgb/camera_info\n"
         "  --out       output folder (created): trajectory.txt, keyframes.txt, timing.csv, map.pcd,\n"
+        "              map.ply (3D Gaussian map), map_render/kf_<id>.png (input | rendered),\n"
         "              and with ground truth: evaluation.txt, trajectory.png\n"
         "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
         "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
@@ -187,6 +188,11 @@ int run(const Args& args) {
   writeTumTrajectory(args.out + "/keyframes.txt", keyframes);
   writeTiming(args.out + "/timing.csv", rows);
   pipeline.map().savePcd(args.out + "/map.pcd");
+  pipeline.finishMapping();  // the Gaussian map's worker finishes the queued keyframes
+  pipeline.gaussianMap().savePly(args.out + "/map.ply");
+  makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
+  const mapping::KeyframeEvaluation map_eval = pipeline.gaussianMap().evaluateKeyframes(args.out + "/map_render");
+  const mapping::GaussianMapperStats map_stats = pipeline.gaussianMap().stats();
   std::cout << "frames:       " << n << " (" << lost << " not tracked), " << keyframes.size()
             << " keyframes\n"
             << "time:         " << std::fixed << std::setprecision(1) << median(totals)
@@ -195,7 +201,11 @@ int run(const Args& args) {
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n"
             << "map:          " << args.out << "/map.pcd (" << pipeline.map().numPoints()
-            << " points before voxel filter)\n";
+            << " points before voxel filter)\n"
+            << "gaussians:    " << args.out << "/map.ply (" << map_stats.num_gaussians << " Gaussians, "
+            << map_stats.iterations << " iterations)\n"
+            << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
+            << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
 
   if (args.eval && !source->groundtruth().empty()) {
     std::vector<StampedPose> gt = source->groundtruth();

@@ -1,6 +1,7 @@
 #include "dypho/tools/slam_pipeline.h"
 
 #include <chrono>
+#include <iostream>
 #include <fstream>
 #include <stdexcept>
 
@@ -11,6 +12,14 @@
 
 namespace dypho::tools {
 namespace {
+
+/// The Gaussian mapper with its worker running (queue of 4 keyframes; process() blocks beyond).
+std::unique_ptr<mapping::GaussianMapper> startGaussianMapper(const mapping::GaussianMapperOptions& options) {
+  auto mapper = std::make_unique<mapping::GaussianMapper>(options);
+  mapper->setMessageSink([](const std::string& m) { std::cerr << "mapping: " << m << "\n"; });
+  mapper->start(4);
+  return mapper;
+}
 
 double msSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -88,14 +97,34 @@ SlamPipeline::SlamPipeline(const PipelineOptions& options)
     : options_(options),
       masker_(options.mask),
       odometry_(options.tracking),
-      map_(options.mapping) {}
+      map_(options.mapping.cloud),
+      gaussian_map_(startGaussianMapper(options.mapping.gaussian)) {
+  if (!options.mask.yolo.model_path.empty() && !masker_.segmentReady()) {
+    std::cerr << "warning: " << masker_.segmentStatus() << "\n";  // once, at start-up
+  }
+}
+
+mask::MaskPrior SlamPipeline::predictMaskPrior(const RgbdFrame& frame) const {
+  mask::MaskPrior prior;
+  if (T_world_prev_ && T_world_prevprev_) {
+    // Constant velocity: the coming step repeats the last one, T_prev_cur = T_pp_p.
+    prior.T_prev_cur = T_world_prevprev_->inverse() * *T_world_prev_;
+    prior.rendered_depth_m = renderPredictedDepth(frame, *T_world_prev_ * *prior.T_prev_cur);
+  }
+  return prior;
+}
+
+cv::Mat SlamPipeline::renderPredictedDepth(const RgbdFrame& /*frame*/,
+                                           const Eigen::Isometry3d& /*T_world_camera_pred*/) const {
+  return cv::Mat();  // mapping: render the map's depth here when the renderer exists
+}
 
 FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& external_mask) {
   FrameReport report;
   cv::Mat mask;
   const auto t_mask = std::chrono::steady_clock::now();
   if (options_.mask_source == MaskSource::kFlow) {
-    mask::MaskResult result = masker_.compute(frame);
+    mask::MaskResult result = masker_.compute(frame, predictMaskPrior(frame));
     mask = result.mask;
     report.masked_fraction = result.degraded ? 0.0 : result.masked_fraction;
     report.mask_degraded = result.degraded;
@@ -106,12 +135,26 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
   report.mask_ms = msSince(t_mask);
 
   report.tracking = odometry_.track(frame, mask);
+  if (report.tracking.state == tracking::TrackingState::kOk) {
+    T_world_prevprev_ = T_world_prev_;
+    T_world_prev_ = report.tracking.T_world_camera;
+  } else {
+    T_world_prev_.reset();  // no trusted motion: the mask falls back to its homography
+    T_world_prevprev_.reset();
+  }
 
   if (report.tracking.keyframe) {
     const auto t_map = std::chrono::steady_clock::now();
     map_.addKeyframe(*report.tracking.keyframe);
+    gaussian_map_->enqueueKeyframe(report.tracking.keyframe, /*block_when_full=*/true);
     report.mapping_ms = msSince(t_map);
   }
+  // Loop closure moved earlier keyframes: re-anchor them in the maps; the motion prior restarts.
+  for (const auto& [keyframe_id, T_world_keyframe] : report.tracking.corrected_keyframes) {
+    map_.updateKeyframePose(keyframe_id, T_world_keyframe);
+    gaussian_map_->updateKeyframePose(keyframe_id, T_world_keyframe);
+  }
+  if (report.tracking.loop_closed) T_world_prevprev_.reset();
   return report;
 }
 

@@ -45,7 +45,7 @@ std::string FlowMaskOptions::toString() const {
     << " sample_step_px=" << sample_step_px << " ransac_threshold_px=" << ransac_threshold_px
     << " ransac_max_iterations=" << ransac_max_iterations
     << " min_inlier_ratio=" << min_inlier_ratio
-    << " min_texture_gradient=" << min_texture_gradient << " ultrafast=" << (ultrafast ? "true" : "false");
+    << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false") << " ultrafast=" << (ultrafast ? "true" : "false");
   return s.str();
 }
 

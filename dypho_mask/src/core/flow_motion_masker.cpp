@@ -1,5 +1,7 @@
 #include "dypho/mask/flow_motion_masker.h"
 
+#include "dypho/mask/ego_motion.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -66,9 +68,12 @@ FlowMotionMasker::FlowMotionMasker(const FlowMaskOptions& options)
 
 FlowMotionMasker::~FlowMotionMasker() = default;
 
-void FlowMotionMasker::reset() { input_size_ = cv::Size(); }
+void FlowMotionMasker::reset() {
+  input_size_ = cv::Size();
+  last_flow_valid_ = false;
+}
 
-bool FlowMotionMasker::checkInput(const RgbdFrame& frame, MaskResult& result) const {
+bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result) const {
   std::string problem;
   const cv::Size size = frame.bgr.size();
   if (frame.bgr.empty()) {
@@ -96,9 +101,11 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, MaskResult& result) co
   return false;
 }
 
-MaskResult FlowMotionMasker::compute(const RgbdFrame& frame) {
+FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
+                                         const std::optional<Eigen::Isometry3d>& T_prev_cur) {
   const auto t0 = Clock::now();
-  MaskResult result;
+  last_flow_valid_ = false;
+  FlowMaskResult result;
   if (!checkInput(frame, result)) {
     result.total_ms = msSince(t0);
     return result;
@@ -137,6 +144,7 @@ MaskResult FlowMotionMasker::compute(const RgbdFrame& frame) {
   const auto t_flow = Clock::now();
   dis_->calc(cur_small_, prev_small_, flow_);
   result.flow_ms = msSince(t_flow);
+  last_flow_valid_ = true;
   computeTexture(cur_small_);
   std::swap(prev_small_, cur_small_);
 
@@ -153,17 +161,38 @@ MaskResult FlowMotionMasker::compute(const RgbdFrame& frame) {
   cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR,
             cv::BORDER_CONSTANT, cv::Scalar(nan, nan));
 
-  const GlobalMotionFit fit = global_motion_.fit(grid_px_, prev_px_, textured_);
-  result.inlier_ratio = fit.inlierRatio();
-  if (!fit.ok) {
-    result.degraded = true;
-    result.message = "global motion not found: " + fit.message;
-    result.total_ms = msSince(t0);
-    return result;
+  bool residual_done = false;
+  if (T_prev_cur && frame.camera.valid() && !frame.depth_m.empty()) {
+    // Ego-motion from depth + predicted pose; a homography between predicted and measured
+    // previous positions absorbs the prediction's rotation error (exact for a pure rotation).
+    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
+    predictRigidPrevious(grid_px_, depth_small_, frame.camera, *T_prev_cur, predicted_px_);
+    cv::Mat channels[2];
+    cv::split(predicted_px_, channels);
+    cv::compare(channels[0], channels[0], usable_, cv::CMP_EQ);  // NaN != NaN
+    if (!textured_.empty()) usable_ &= textured_;
+    const GlobalMotionFit fit = global_motion_.fit(predicted_px_, prev_px_, usable_);
+    if (fit.ok) {
+      result.inlier_ratio = fit.inlierRatio();
+      result.H_prev_cur = fit.H_prev_cur;
+      result.ego_motion_from_pose = true;
+      computeResidualMagnitude(predicted_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
+      residual_done = true;
+    }
   }
-  result.H_prev_cur = fit.H_prev_cur;
-
-  computeResidualMagnitude(grid_px_, prev_px_, fit.H_prev_cur, residual_);
+  if (!residual_done) {
+    const GlobalMotionFit fit = global_motion_.fit(grid_px_, prev_px_, textured_);
+    result.inlier_ratio = fit.inlierRatio();
+    if (!fit.ok) {
+      result.degraded = true;
+      result.message = "global motion not found: " + fit.message;
+      result.total_ms = msSince(t0);
+      return result;
+    }
+    result.H_prev_cur = fit.H_prev_cur;
+    computeResidualMagnitude(grid_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
+  }
+  if (options_.aperture_aware && !txx_.empty()) applyAperture(residual_vec_, residual_);
   cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
   residual_.convertTo(small_mask_, CV_8U);
   if (!textured_.empty()) small_mask_ &= textured_;
@@ -210,18 +239,43 @@ void FlowMotionMasker::computeTexture(const cv::Mat& grey_small) {
     textured_.release();
     return;
   }
-  // Sobel 3x3 scaled by 1/8 gives the gradient in grey levels per pixel.
+  // Sobel 3x3 scaled by 1/8 gives the gradient in grey levels per pixel. The structure tensor
+  // [txx txy; txy tyy] over 5x5 is kept for the aperture-aware residual.
   cv::Sobel(grey_small, grad_x_, CV_32F, 1, 0, 3, 1.0 / 8.0);
   cv::Sobel(grey_small, grad_y_, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::multiply(grad_x_, grad_x_, grad_x_);
-  cv::multiply(grad_y_, grad_y_, grad_y_);
-  cv::add(grad_x_, grad_y_, texture_energy_);
-  cv::boxFilter(texture_energy_, texture_energy_, -1, cv::Size(5, 5));
+  cv::multiply(grad_x_, grad_y_, txy_);
+  cv::multiply(grad_x_, grad_x_, txx_);
+  cv::multiply(grad_y_, grad_y_, tyy_);
+  cv::boxFilter(txx_, txx_, -1, cv::Size(5, 5));
+  cv::boxFilter(tyy_, tyy_, -1, cv::Size(5, 5));
+  cv::boxFilter(txy_, txy_, -1, cv::Size(5, 5));
+  cv::add(txx_, tyy_, texture_energy_);
   const double threshold = options_.min_texture_gradient * options_.min_texture_gradient;
   cv::compare(texture_energy_, threshold, textured_, cv::CMP_GE);
 }
 
-void FlowMotionMasker::finishMask(const cv::Size& size, MaskResult& result) {
+void FlowMotionMasker::applyAperture(const cv::Mat& residual_vec, cv::Mat& residual) const {
+  // Along an edge only the normal flow is measured; the flow along it is interpolated and its
+  // error is no evidence of motion. The residual r is weighted by the structure tensor S:
+  // |r|_eff = sqrt(r^T S r / lambda_max(S)) = |r| on corners, |r . n| (normal part) on edges.
+  for (int y = 0; y < residual.rows; ++y) {
+    const cv::Vec2f* r = residual_vec.ptr<cv::Vec2f>(y);
+    const float* a = txx_.ptr<float>(y);
+    const float* b = txy_.ptr<float>(y);
+    const float* c = tyy_.ptr<float>(y);
+    float* out = residual.ptr<float>(y);
+    for (int x = 0; x < residual.cols; ++x) {
+      const float h = 0.5f * (a[x] - c[x]);
+      const float l_max = 0.5f * (a[x] + c[x]) + std::sqrt(h * h + b[x] * b[x]);
+      if (!(l_max > 1e-6f)) continue;  // flat: left as is (the texture mask drops it)
+      const float dx = r[x][0], dy = r[x][1];
+      const float q = (a[x] * dx * dx + 2.f * b[x] * dx * dy + c[x] * dy * dy) / l_max;
+      out[x] = std::sqrt(std::max(0.f, q));
+    }
+  }
+}
+
+void FlowMotionMasker::finishMask(const cv::Size& size, FlowMaskResult& result) {
   cleaner_.apply(small_mask_);
   // Linear upsampling then a mid-level threshold gives boundaries without blocky steps.
   cv::resize(small_mask_, result.mask, size, 0, 0, cv::INTER_LINEAR);

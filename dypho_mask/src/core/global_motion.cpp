@@ -69,14 +69,17 @@ GlobalMotionFit GlobalMotionEstimator::fit(const cv::Mat& cur, const cv::Mat& pr
 }
 
 void computeResidualMagnitude(const cv::Mat& cur, const cv::Mat& prev, const cv::Matx33d& H,
-                              cv::Mat& residual_px) {
+                              cv::Mat& residual_px, cv::Mat* residual_vec_px) {
   CV_Assert(cur.type() == CV_32FC2 && prev.type() == CV_32FC2 && cur.size() == prev.size());
   residual_px.create(cur.size(), CV_32FC1);
+  if (residual_vec_px) residual_vec_px->create(cur.size(), CV_32FC2);
   for (int y = 0; y < cur.rows; ++y) {
     const cv::Vec2f* c = cur.ptr<cv::Vec2f>(y);
     const cv::Vec2f* p = prev.ptr<cv::Vec2f>(y);
     float* r = residual_px.ptr<float>(y);
+    cv::Vec2f* rv = residual_vec_px ? residual_vec_px->ptr<cv::Vec2f>(y) : nullptr;
     for (int x = 0; x < cur.cols; ++x) {
+      if (rv) rv[x] = cv::Vec2f(0.f, 0.f);
       if (!finite(c[x]) || !finite(p[x])) {
         r[x] = 0.f;
         continue;
@@ -90,6 +93,7 @@ void computeResidualMagnitude(const cv::Mat& cur, const cv::Mat& prev, const cv:
       const double dx = p[x][0] - (H(0, 0) * u + H(0, 1) * v + H(0, 2)) / w;
       const double dy = p[x][1] - (H(1, 0) * u + H(1, 1) * v + H(1, 2)) / w;
       r[x] = static_cast<float>(std::sqrt(dx * dx + dy * dy));
+      if (rv) rv[x] = cv::Vec2f(static_cast<float>(dx), static_cast<float>(dy));
     }
   }
 }

@@ -138,7 +138,15 @@ std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints
     const Eigen::Vector3d p_c = T_camera_world * reference.p_world_m[i];
     if (p_c.z() < 1e-3) continue;
     const Eigen::Vector2d uv = pinhole.project(p_c);
-    const int level = reference.keypoints[i].octave;
+    int level = reference.keypoints[i].octave;
+    if (!reference.reference_distance_m.empty()) {
+      // Scale invariance: the level the point should appear at from the current distance,
+      // skipped when outside the pyramid's range (ORB-SLAM's min/max distance test).
+      const double predicted = level + std::log(reference.reference_distance_m[i] / p_c.norm()) /
+                                           std::log(options_.scale_factor);
+      if (predicted < -1.0 || predicted > options_.num_levels) continue;
+      level = std::clamp(static_cast<int>(std::lround(predicted)), 0, options_.num_levels - 1);
+    }
     const double r = radius_px * std::pow(options_.scale_factor, level);
     const uchar* d_ref = reference.descriptors.ptr<uchar>(static_cast<int>(i));
     int best = INT_MAX, second = INT_MAX, best_index = -1;

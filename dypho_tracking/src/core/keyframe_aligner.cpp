@@ -96,7 +96,10 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole,
                                        const Eigen::Isometry3d& T_camera_world_predicted,
-                                       TrackingTimesMs* times) const {
+                                       TrackingTimesMs* times,
+                                       const KeyframePoints* brute_force_reference) const {
+  const KeyframePoints& global_ref =
+      brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
   AlignmentResult result;
@@ -117,7 +120,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   // 2. Global search + PnP RANSAC when the prediction did not work out.
   if (!ok) {
     t0 = Clock::now();
-    const std::vector<FeatureMatch> global = matcher_.matchBruteForce(reference, frame);
+    const std::vector<FeatureMatch> global = matcher_.matchBruteForce(global_ref, frame);
     t.matching += msSince(t0);
     if (static_cast<int>(global.size()) < options_.min_inliers) {
       result.message = "only " + std::to_string(guided.size()) + " guided and " +
@@ -129,7 +132,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     Eigen::Isometry3d T_pnp = Eigen::Isometry3d::Identity();
     int pnp_inliers = 0;
     const bool pnp_ok =
-        solvePnp(reference, frame, pinhole, global, options_, &T_pnp, &pnp_inliers);
+        solvePnp(global_ref, frame, pinhole, global, options_, &T_pnp, &pnp_inliers);
     t.pnp += msSince(t0);
     if (!pnp_ok || pnp_inliers < options_.min_inliers) {
       result.message = "PnP RANSAC found " + std::to_string(pnp_inliers) + " inliers among " +
@@ -138,8 +141,9 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
       return result;
     }
     result.used_pnp = true;
+    result.matches_refer_to_fallback = brute_force_reference != nullptr;
     t0 = Clock::now();
-    ok = refine(reference, frame, pinhole, global, T_pnp, &result);
+    ok = refine(global_ref, frame, pinhole, global, T_pnp, &result);
     t.refine += msSince(t0);
     if (!ok) return result;
   }
@@ -155,6 +159,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     if (refine(reference, frame, pinhole, tight, result.T_camera_world, &second) &&
         second.num_inliers >= result.num_inliers / 2) {
       second.used_pnp = result.used_pnp;
+      second.matches_refer_to_fallback = false;
       result = std::move(second);
     }
     t.refine += msSince(t0);

@@ -48,5 +48,29 @@ KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& fra
   return out;
 }
 
+KeyframeConstPtr makeKeyframe(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
+                              const Eigen::Isometry3d& T_world_camera,
+                              const FrameFeatures& features,
+                              const std::vector<std::int64_t>& map_point_ids) {
+  auto keyframe = std::make_shared<Keyframe>();
+  keyframe->id = keyframe_id;
+  keyframe->frame.stamp_ns = frame.stamp_ns;
+  keyframe->frame.camera = frame.camera;
+  keyframe->frame.bgr = frame.bgr.clone();
+  keyframe->frame.depth_m = frame.depth_m.clone();
+  keyframe->mask = mask.clone();
+  keyframe->T_world_camera = T_world_camera;
+  keyframe->keypoints.reserve(features.size());
+  for (size_t i = 0; i < features.size(); ++i) {
+    KeyframeKeypoint kp;
+    kp.u_px = features.keypoints[i].pt.x;
+    kp.v_px = features.keypoints[i].pt.y;
+    kp.depth_m = features.depth_m[i];
+    kp.map_point_id = i < map_point_ids.size() ? map_point_ids[i] : -1;
+    keyframe->keypoints.push_back(kp);
+  }
+  return keyframe;
+}
+
 }  // namespace tracking
 }  // namespace dypho

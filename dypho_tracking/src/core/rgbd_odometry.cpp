@@ -23,11 +23,21 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
     : options_(options),
       extractor_(options),
       aligner_(options),
-      selector_(options) {}
+      selector_(options),
+      map_(options),
+      local_ba_(options),
+      relocalizer_(options),
+      loop_detector_(options),
+      loop_closer_(options) {}
 
 void RgbdOdometry::reset() {
-  reference_.reset();
+  map_.clear();
+  reference_id_ = -1;
+  local_view_ = KeyframePoints();
+  own_view_ = KeyframePoints();
   T_world_last_.setIdentity();
+  T_world_odom_.setIdentity();
+  last_loop_keyframe_id_ = -1;
   velocity_.setIdentity();
   has_velocity_ = false;
   has_stamp_ = false;
@@ -83,17 +93,90 @@ std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFe
   return os.str();
 }
 
-void RgbdOdometry::startKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
-                                 const FrameFeatures& features,
-                                 const Eigen::Isometry3d& T_world_camera,
-                                 const std::vector<int>& previous_match, TrackingResult* result) {
-  reference_ = std::make_shared<const KeyframePoints>(
-      makeKeyframePoints(next_keyframe_id_++, frame, mask, T_world_camera, features,
-                         reference_.get(), previous_match, &next_map_point_id_));
+void RgbdOdometry::setReference(std::int64_t keyframe_id) {
+  reference_id_ = keyframe_id;
+  local_view_ = map_.localPoints(keyframe_id);
+  own_view_ = map_.keyframePoints(keyframe_id);
+}
+
+void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
+                               const FrameFeatures& features,
+                               const Eigen::Isometry3d& T_world_camera,
+                               const std::vector<std::int64_t>& map_point_ids,
+                               const Pinhole& pinhole, TrackingResult* result) {
+  MapKeyframe kf;
+  kf.id = next_keyframe_id_++;
+  kf.stamp_ns = frame.stamp_ns;
+  kf.T_world_camera = T_world_camera;
+  kf.features = features;
+  kf.map_point_ids = map_point_ids;
+  const std::int64_t id = kf.id;
+  map_.addKeyframe(std::move(kf));
+
+  auto t0 = Clock::now();
+  local_ba_.adjust(&map_, id, pinhole);
+  if (options_.cull_min_found_ratio > 0) map_.cullPoints();
+  result->times.local_ba = msSince(t0);
+  t0 = Clock::now();
+  closeLoops(id, pinhole, result);
+  result->times.loop = msSince(t0);
+
+  MapKeyframe* stored = map_.mutableKeyframe(id);
+  T_world_last_ = stored->T_world_camera;  // after BA / loop correction
+  stored->keyframe =
+      makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
+  setReference(id);
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
+  result->T_world_camera = T_world_last_;
   result->is_keyframe = true;
-  result->keyframe = reference_->keyframe;
+  result->keyframe = stored->keyframe;
+}
+
+void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
+                              TrackingResult* result) {
+  if (!options_.loop_closure) return;
+  if (last_loop_keyframe_id_ >= 0 &&
+      keyframe_id - last_loop_keyframe_id_ < options_.loop_min_keyframe_gap) {
+    return;
+  }
+  const LoopResult loop = loop_detector_.detect(map_, keyframe_id, pinhole);
+  if (!loop.found) return;
+  const LoopCorrection correction = loop_closer_.close(&map_, loop);
+  if (!correction.applied) {
+    result->message = "loop with keyframe " + std::to_string(loop.loop_keyframe_id) +
+                      " verified but not applied: " + correction.message;
+    return;
+  }
+  last_loop_keyframe_id_ = keyframe_id;
+  T_world_odom_ = correction.T_correction * T_world_odom_;
+  result->loop_closed = true;
+  result->corrected_keyframes = correction.corrected_keyframes;
+  result->message = "loop closed: keyframe " + std::to_string(keyframe_id) + " -> " +
+                    std::to_string(loop.loop_keyframe_id) + " (" +
+                    std::to_string(loop.num_inliers) + " inliers, " +
+                    std::to_string(correction.corrected_keyframes.size()) +
+                    " keyframes corrected, " + std::to_string(correction.fused_points) +
+                    " points fused)";
+}
+
+void RgbdOdometry::updateVisibility(const AlignmentResult& aligned, const Pinhole& pinhole,
+                                    int width, int height) {
+  std::vector<std::int64_t> visible, found;
+  for (size_t i = 0; i < local_view_.size(); ++i) {
+    const Eigen::Vector3d p_c = aligned.T_camera_world * local_view_.p_world_m[i];
+    if (p_c.z() < 1e-3) continue;
+    const Eigen::Vector2d uv = pinhole.project(p_c);
+    if (uv.x() < 0 || uv.y() < 0 || uv.x() >= width || uv.y() >= height) continue;
+    visible.push_back(local_view_.map_point_ids[i]);
+  }
+  const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+  for (size_t m = 0; m < aligned.matches.size(); ++m) {
+    if (aligned.inliers[m]) {
+      found.push_back(ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)]);
+    }
+  }
+  map_.updateVisibility(visible, found);
 }
 
 TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) {
@@ -101,8 +184,11 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   TrackingResult result;
   result.stamp_ns = frame.stamp_ns;
   result.T_world_camera = T_world_last_;
-  result.state = reference_ ? TrackingState::kLost : TrackingState::kNotInitialized;
+  result.state = reference_id_ >= 0 ? TrackingState::kLost : TrackingState::kNotInitialized;
   const auto finish = [&]() -> TrackingResult {
+    result.T_world_odom = T_world_odom_;
+    result.num_map_points = static_cast<int>(map_.points().size());
+    result.num_keyframes = static_cast<int>(map_.keyframes().size());
     result.times.total = msSince(t_start);
     return result;
   };
@@ -110,7 +196,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   const std::string problem = checkInput(frame, mask);
   if (!problem.empty()) {
     result.message = "bad input: " + problem;
-    if (reference_) {
+    if (reference_id_ >= 0) {
       ++lost_frames_;
       has_velocity_ = false;
     }
@@ -149,12 +235,12 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   const bool enough_to_start = result.num_features >= options_.min_init_features;
   const Pinhole pinhole = Pinhole::fromIntrinsics(frame.camera);
 
-  if (!reference_) {
+  if (reference_id_ < 0) {
     if (!enough_to_start) {
       result.message = explainFewFeatures(frame, orb, features);
       return finish();
     }
-    startKeyframe(frame, mask, features, T_world_last_, {}, &result);
+    addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
     result.state = TrackingState::kOk;
     return finish();
   }
@@ -163,8 +249,8 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   if (result.num_features >= options_.min_inliers) {
     const Eigen::Isometry3d T_world_predicted =
         has_velocity_ ? T_world_last_ * velocity_ : T_world_last_;
-    aligned = aligner_.align(*reference_, features, pinhole, T_world_predicted.inverse(),
-                             &result.times);
+    aligned = aligner_.align(local_view_, features, pinhole, T_world_predicted.inverse(),
+                             &result.times, &own_view_);
   } else {
     aligned.message = explainFewFeatures(frame, orb, features);
   }
@@ -181,8 +267,9 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     result.T_world_camera = T_world_camera;
     result.num_matches = static_cast<int>(aligned.matches.size());
     result.num_inliers = aligned.num_inliers;
+    updateVisibility(aligned, pinhole, frame.bgr.cols, frame.bgr.rows);
     KeyframeQuery query;
-    query.T_world_keyframe = reference_->keyframe->T_world_camera;
+    query.T_world_keyframe = map_.keyframe(reference_id_)->T_world_camera;
     query.T_world_camera = T_world_camera;
     query.num_inliers = aligned.num_inliers;
     query.num_reference_inliers = reference_inliers_;
@@ -192,24 +279,49 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
         has_velocity_ ? Eigen::AngleAxisd(velocity_.rotation()).angle() * 180.0 / M_PI : 0.0;
     const KeyframeDecision decision = selector_.decide(query);
     if (decision.is_keyframe) {
-      std::vector<int> previous_match(features.size(), -1);
+      const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+      std::vector<std::int64_t> ids(features.size(), -1);
       for (size_t m = 0; m < aligned.matches.size(); ++m) {
         if (!aligned.inliers[m]) continue;
-        previous_match[static_cast<size_t>(aligned.matches[m].frame_index)] =
-            aligned.matches[m].reference_index;
+        ids[static_cast<size_t>(aligned.matches[m].frame_index)] =
+            ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
       }
-      startKeyframe(frame, mask, features, T_world_camera, previous_match, &result);
+      addKeyframe(frame, mask, features, T_world_camera, ids, pinhole, &result);
     }
     return finish();
+  }
+
+  // Lost: relocalise against the map's keyframes.
+  if (result.num_features >= options_.relocalization_min_inliers) {
+    const auto t_reloc = Clock::now();
+    const RelocalizationResult reloc =
+        relocalizer_.relocalize(map_, features, pinhole, &result.times);
+    result.times.relocalization = msSince(t_reloc);
+    if (reloc.success) {
+      T_world_last_ = reloc.T_world_camera;
+      has_velocity_ = false;
+      lost_frames_ = 0;
+      setReference(reloc.keyframe_id);
+      frames_since_keyframe_ = 1;
+      reference_inliers_ = reloc.num_inliers;
+      result.state = TrackingState::kOk;
+      result.relocalized = true;
+      result.T_world_camera = T_world_last_;
+      result.num_inliers = reloc.num_inliers;
+      result.message = "relocalised against keyframe " + std::to_string(reloc.keyframe_id) +
+                       " after: " + aligned.message;
+      return finish();
+    }
+    aligned.message += "; " + reloc.message;
   }
 
   ++lost_frames_;
   has_velocity_ = false;
   result.state = TrackingState::kLost;
-  result.message = "lost against keyframe " + std::to_string(reference_->keyframe->id) + ": " +
+  result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
                    aligned.message;
   if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
-    startKeyframe(frame, mask, features, T_world_last_, {}, &result);
+    addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
     result.state = TrackingState::kOk;
     result.message += "; re-initialised after " + std::to_string(lost_frames_) +
                       " lost frames: new keyframe at the last good pose (motion while lost is "

@@ -4,6 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_result.h"
 
 namespace dypho {
@@ -58,42 +59,34 @@ void TrackingOptions::validate() const {
                keyframe_min_tracked_ratio);
   requireRange("min_init_features", min_init_features, min_inliers, 20000);
   requireRange("max_lost_frames", max_lost_frames, 1, 100000);
+  requireRange("local_map_keyframes", local_map_keyframes, 0, 100);
+  requireRange("covisibility_min_shared", covisibility_min_shared, 1, 10000);
+  requireRange("cull_min_found_ratio", cull_min_found_ratio, 0.0, 1.0);
+  requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
+  requireRange("local_ba_iterations", local_ba_iterations, 1, 100);
+  requireRange("local_ba_depth_baseline_m", local_ba_depth_baseline_m, 0.0, 1.0);
+  requireRange("local_ba_max_fixed_keyframes", local_ba_max_fixed_keyframes, 1, 100);
+  requireRange("relocalization_max_keyframes", relocalization_max_keyframes, 1, 10000);
+  requireRange("relocalization_min_inliers", relocalization_min_inliers, min_inliers, 10000);
+  requireRange("loop_min_keyframe_gap", loop_min_keyframe_gap, 2, 100000);
+  requireRange("loop_search_radius_m", loop_search_radius_m, 0.0, 100.0, true);
+  requireRange("loop_max_angle_deg", loop_max_angle_deg, 0.0, 180.0, true);
+  requireRange("loop_max_candidates", loop_max_candidates, 1, 100);
+  requireRange("loop_min_inliers", loop_min_inliers, min_inliers, 10000);
+  requireRange("loop_edge_weight", loop_edge_weight, 0.0, 1000.0, true);
+  requireRange("pose_graph_min_shared", pose_graph_min_shared, 1, 100000);
+  requireRange("pose_graph_sigma_rot_deg", pose_graph_sigma_rot_deg, 0.0, 90.0, true);
+  requireRange("pose_graph_sigma_trans_m", pose_graph_sigma_trans_m, 0.0, 10.0, true);
+  requireRange("pose_graph_iterations", pose_graph_iterations, 1, 1000);
 }
 
 std::string TrackingOptions::toString() const {
   std::ostringstream os;
-  os << "num_features: " << num_features << "\n"
-     << "scale_factor: " << scale_factor << "\n"
-     << "num_levels: " << num_levels << "\n"
-     << "fast_threshold: " << fast_threshold << "\n"
-     << "min_fast_threshold: " << min_fast_threshold << "\n"
-     << "grid_cell_px: " << grid_cell_px << "\n"
-     << "mask_border_px: " << mask_border_px << "\n"
-     << "mask_threshold_relaxation: " << mask_threshold_relaxation << "\n"
-     << "min_depth_m: " << min_depth_m << "\n"
-     << "max_depth_m: " << max_depth_m << "\n"
-     << "max_hamming_distance: " << max_hamming_distance << "\n"
-     << "ratio_test: " << ratio_test << "\n"
-     << "search_radius_px: " << search_radius_px << "\n"
-     << "refine_search_radius_px: " << refine_search_radius_px << "\n"
-     << "max_level_difference: " << max_level_difference << "\n"
-     << "ransac_iterations: " << ransac_iterations << "\n"
-     << "ransac_reprojection_px: " << ransac_reprojection_px << "\n"
-     << "min_inliers: " << min_inliers << "\n"
-     << "huber_px: " << huber_px << "\n"
-     << "refine_iterations: " << refine_iterations << "\n"
-     << "outlier_rounds: " << outlier_rounds << "\n"
-     << "chi2_threshold: " << chi2_threshold << "\n"
-     << "depth_baseline_m: " << depth_baseline_m << "\n"
-     << "chi2_threshold_depth: " << chi2_threshold_depth << "\n"
-     << "keyframe_translation_m: " << keyframe_translation_m << "\n"
-     << "keyframe_rotation_deg: " << keyframe_rotation_deg << "\n"
-     << "keyframe_min_tracked_ratio: " << keyframe_min_tracked_ratio << "\n"
-     << "keyframe_max_frames: " << keyframe_max_frames << "\n"
-     << "keyframe_max_frame_rotation_deg: " << keyframe_max_frame_rotation_deg << "\n"
-     << "keyframe_hard_tracked_ratio: " << keyframe_hard_tracked_ratio << "\n"
-     << "min_init_features: " << min_init_features << "\n"
-     << "max_lost_frames: " << max_lost_frames << "\n";
+  os << std::boolalpha;
+  TrackingOptions copy = *this;  // the visitor takes non-const references
+  visitOptions(copy, [&os](const char* key, const auto& value, const char* /*doc*/) {
+    os << key << ": " << value << "\n";
+  });
   return os.str();
 }
 

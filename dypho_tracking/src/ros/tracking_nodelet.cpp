@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include <dypho_slam/Keyframe.h>
+#include <dypho_slam/KeyframePose.h>
 #include <dypho_slam/Reset.h>
 #include <dypho_slam/SaveMap.h>
 #include <dypho_slam/StageTiming.h>
@@ -90,6 +91,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     path_pub_ = nh.advertise<nav_msgs::Path>("path", 2, true);
     status_pub_ = nh.advertise<dypho_slam::TrackingStatus>("tracking_status", 10);
     keyframe_pub_ = nh.advertise<dypho_slam::Keyframe>("keyframe", 10);
+    keyframe_pose_pub_ = nh.advertise<dypho_slam::KeyframePose>("keyframe_pose", 100);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("tracking/timing", 10);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
@@ -165,8 +167,11 @@ class TrackingNodelet : public nodelet::Nodelet {
     if (result.state != tracking::TrackingState::kOk) {
       NODELET_WARN_STREAM_THROTTLE(2.0, "tracking " << tracking::toString(result.state) << ": "
                                                      << result.message);
+    } else if (result.relocalized || result.loop_closed) {
+      NODELET_INFO_STREAM("tracking: " << result.message);
     }
     publishTiming(result, header);
+    publishCorrections(result, header.stamp);
     if (result.state != tracking::TrackingState::kOk || !result.T_world_camera.matrix().allFinite()) {
       return;  // never publish a pose we do not trust
     }
@@ -180,36 +185,56 @@ class TrackingNodelet : public nodelet::Nodelet {
     if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
     path_pub_.publish(path_);
     trajectory_.push_back({timestampToSeconds(result.stamp_ns), result.T_world_camera});
-    if (params_.publish_tf) publishTf(result.T_world_camera, header.stamp, camera_frame);
+    if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
     if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
   }
 
-  void publishTf(const Eigen::Isometry3d& T_odom_camera, const ros::Time& stamp,
+  /// Corrected keyframe poses after a loop closure, for mapping to re-anchor its keyframes.
+  void publishCorrections(const tracking::TrackingResult& result, const ros::Time& stamp) {
+    for (const auto& kf : result.corrected_keyframes) {
+      if (!kf.second.matrix().allFinite()) continue;
+      dypho_slam::KeyframePose msg;
+      msg.header.stamp = stamp;
+      msg.header.frame_id = params_.map_frame;
+      msg.id = kf.first;
+      msg.T_world_camera = rc::toPoseMsg(kf.second);
+      keyframe_pose_pub_.publish(msg);
+    }
+  }
+
+  static geometry_msgs::TransformStamped toTransform(const Eigen::Isometry3d& T, const ros::Time& stamp,
+                                                     const std::string& parent, const std::string& child) {
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = stamp;
+    t.header.frame_id = parent;
+    t.child_frame_id = child;
+    const geometry_msgs::Pose p = rc::toPoseMsg(T);
+    t.transform.translation.x = p.position.x;
+    t.transform.translation.y = p.position.y;
+    t.transform.translation.z = p.position.z;
+    t.transform.rotation = p.orientation;
+    return t;
+  }
+
+  /// REP-105: map -> odom is the accumulated loop correction, odom -> camera the odometry.
+  void publishTf(const tracking::TrackingResult& result, const ros::Time& stamp,
                  const std::string& camera_frame) {
-    geometry_msgs::TransformStamped map_odom;
-    map_odom.header.stamp = stamp;
-    map_odom.header.frame_id = params_.map_frame;
-    map_odom.child_frame_id = params_.odom_frame;
-    map_odom.transform.rotation.w = 1.0;  // corrected by loop closure in later versions
-    geometry_msgs::TransformStamped odom_camera;
-    odom_camera.header.stamp = stamp;
-    odom_camera.header.frame_id = params_.odom_frame;
-    odom_camera.child_frame_id = camera_frame;
-    const geometry_msgs::Pose p = rc::toPoseMsg(T_odom_camera);
-    odom_camera.transform.translation.x = p.position.x;
-    odom_camera.transform.translation.y = p.position.y;
-    odom_camera.transform.translation.z = p.position.z;
-    odom_camera.transform.rotation = p.orientation;
-    tf_broadcaster_->sendTransform({map_odom, odom_camera});
+    const Eigen::Isometry3d T_odom_camera = result.T_world_odom.inverse() * result.T_world_camera;
+    if (!T_odom_camera.matrix().allFinite() || !result.T_world_odom.matrix().allFinite()) return;
+    tf_broadcaster_->sendTransform(
+        {toTransform(result.T_world_odom, stamp, params_.map_frame, params_.odom_frame),
+         toTransform(T_odom_camera, stamp, params_.odom_frame, camera_frame)});
   }
 
   void publishTiming(const tracking::TrackingResult& result, const std_msgs::Header& header) {
     dypho_slam::StageTiming timing;
     timing.header = header;
     timing.node = "tracking";
-    timing.stages = {"features", "matching", "pnp", "refine"};
+    timing.stages = {"features", "matching", "pnp", "refine", "local_ba", "loop", "relocalization"};
     timing.ms = {static_cast<float>(result.times.features), static_cast<float>(result.times.matching),
-                 static_cast<float>(result.times.pnp), static_cast<float>(result.times.refine)};
+                 static_cast<float>(result.times.pnp), static_cast<float>(result.times.refine),
+                 static_cast<float>(result.times.local_ba), static_cast<float>(result.times.loop),
+                 static_cast<float>(result.times.relocalization)};
     timing.total_ms = static_cast<float>(result.times.total);
     timing_pub_.publish(timing);
   }
@@ -256,7 +281,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   nav_msgs::Path path_;
   std::vector<tools::StampedPose> trajectory_;
   Timestamp last_stamp_ns_ = 0;
-  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, timing_pub_;
+  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, keyframe_pose_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;

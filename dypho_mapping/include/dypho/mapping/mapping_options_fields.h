@@ -1,9 +1,10 @@
 #pragma once
 /// \file mapping_options_fields.h
-/// The list of CloudMapOptions keys, written once: parameter readers (ROS private params, YAML
-/// files) and printers visit the fields through `visitOptions`. Keep it in the order of the struct.
+/// The lists of mapping option keys, written once: parameter readers (ROS private params, YAML
+/// files) and printers visit the fields through `visitOptions`. Keep them in the order of the structs.
 
 #include "dypho/mapping/cloud_map_options.h"
+#include "dypho/mapping/gaussian_mapper_options.h"
 
 namespace dypho::mapping {
 
@@ -15,6 +16,49 @@ void visitOptions(CloudMapOptions& options, Visitor&& visitor) {
   visitor("max_depth_m", options.max_depth_m, "Depths above this are ignored [m], > min_depth_m. Default 4.0.");
   visitor("voxel_size_m", options.voxel_size_m, "Leaf size of the voxel-grid filter applied by `buildCloud()` [m], >= 0 (0 = no filter). Default 0.02.");
   visitor("max_points", options.max_points, "Hard cap on the points stored over all keyframes (before voxel filtering), >= 1. When a new keyframe would exceed it, that keyframe is skipped (oldest data kept). Default 2 000 000.");
+}
+
+/// Calls `visitor(key, field, doc)` for every field of `options`.
+template <typename Visitor>
+void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
+  visitor("sh_degree", options.sh_degree, "Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.");
+  visitor("max_gaussians", options.max_gaussians, "Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.");
+  visitor("num_threads", options.num_threads, "Threads of the rasterizer and optimiser (including the mapping worker), >= 1. Default 2.");
+  visitor("train_downsample", options.train_downsample, "Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.");
+  visitor("iterations_per_keyframe", options.iterations_per_keyframe, "Optimisation iterations run after each new keyframe, >= 0. Default 30.");
+  visitor("window_size", options.window_size, "Newest keyframes sampled for training (sliding window), >= 1. Default 8.");
+  visitor("max_stored_keyframes", options.max_stored_keyframes, "Keyframes whose images are kept (training and PSNR); older ones keep only their pose, >= 1. Default 200.");
+  visitor("lambda_depth", options.lambda_depth, "Weight of the depth term, lambda in (1-lambda)|Mc(Cr-C)|1 + lambda|M(Dr-D)|1, [0, 1]. Default 0.7.");
+  visitor("alpha_weight", options.alpha_weight, "Weight of the opacity term w |M (1 - A)|_1 added to the paper's loss (A: accumulated alpha, M: static pixels with valid depth); keeps measured surfaces opaque so that D_r is not biased by partial alpha (0 = the paper's loss only), >= 0. Default 0.1.");
+  visitor("global_sample_ratio", options.global_sample_ratio, "Share of training iterations that sample any stored keyframe instead of the window (keeps older parts of the map from drifting), [0, 1]. Default 0.2.");
+  visitor("valid_min_depth_m", options.valid_min_depth_m, "Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default 0.1.");
+  visitor("valid_max_depth_m", options.valid_max_depth_m, "Far depth limit of the Gaussian map [m], > valid_min_depth_m. Default 6.0.");
+  visitor("initial_opacity", options.initial_opacity, "Opacity of new Gaussians, (0, 1). Default 0.5 (the paper).");
+  visitor("feature_samples", options.feature_samples, "Extra Gaussians sampled around each keypoint (the paper's densification at features), >= 0. Default 4.");
+  visitor("feature_sample_radius_px", options.feature_sample_radius_px, "Radius of those samples around the keypoint [px] (at full resolution), > 0. Default 6.");
+  visitor("coverage_stride_px", options.coverage_stride_px, "Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.");
+  visitor("coverage_alpha_threshold", options.coverage_alpha_threshold, "A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.6.");
+  visitor("coverage_depth_error_ratio", options.coverage_depth_error_ratio, "... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.");
+  visitor("lr_position", options.lr_position, "Adam step size of positions [m]. Default 0.0005.");
+  visitor("lr_log_scale", options.lr_log_scale, "Adam step size of log-scales. Default 0.005.");
+  visitor("lr_rotation", options.lr_rotation, "Adam step size of quaternions. Default 0.001.");
+  visitor("lr_opacity", options.lr_opacity, "Adam step size of opacity logits. Default 0.05.");
+  visitor("lr_sh_dc", options.lr_sh_dc, "Adam step size of the SH DC coefficients. Default 0.0025.");
+  visitor("lr_sh_rest", options.lr_sh_rest, "Adam step size of the higher SH coefficients. Default 0.000125.");
+  visitor("densify_interval", options.densify_interval, "Densify and prune every this many iterations (0 = never), >= 0. Default 100.");
+  visitor("densify_grad_threshold", options.densify_grad_threshold, "Mean screen-space position gradient above which a Gaussian is cloned or split [1/px], > 0. Default 0.0002.");
+  visitor("densify_scale_threshold_m", options.densify_scale_threshold_m, "Gaussians larger than this (largest std dev) are split, smaller ones cloned [m], > 0. Default 0.02.");
+  visitor("prune_min_opacity", options.prune_min_opacity, "Gaussians with opacity below this are pruned, [0, 1). Default 0.005.");
+  visitor("prune_max_scale_m", options.prune_max_scale_m, "Gaussians with a std dev above this are pruned [m], > 0. Default 0.3.");
+  visitor("opacity_reset_interval", options.opacity_reset_interval, "Reset opacities to at most 0.01 every this many iterations (0 = never), >= 0. Default 0: with a sliding window, a reset would erase the parts of the map outside the window.");
+  visitor("random_seed", options.random_seed, "Seed of the keyframe sampler and of the feature samples. Default 1.");
+}
+
+/// Both option sets, flat (config/mapping.yaml): the cloud keys, then the Gaussian keys.
+template <typename Visitor>
+void visitOptions(MappingOptions& options, Visitor&& visitor) {
+  visitOptions(options.cloud, visitor);
+  visitOptions(options.gaussian, visitor);
 }
 
 }  // namespace dypho::mapping

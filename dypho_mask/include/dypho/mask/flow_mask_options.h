@@ -42,6 +42,11 @@ struct FlowMaskOptions {
   /// [grey levels / flow px], >= 0 (0 = every pixel is trusted). Untextured pixels are neither
   /// used for the global-motion fit nor marked dynamic. Default 4.0.
   double min_texture_gradient = 4.0;
+  /// Aperture-aware residual: on edges only the flow across the edge is measured, so only that
+  /// part of the residual counts (|r|_eff^2 = r^T S r / lambda_max(S), S = 5x5 structure tensor;
+  /// = |r| on corners). Removes false motion along straight texture such as floor planks.
+  /// Default true.
+  bool aperture_aware = true;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;
 

@@ -22,8 +22,10 @@
 /// is rejected (degraded, empty mask).
 
 #include <memory>
+#include <optional>
 #include <string>
 
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "dypho/common/types.h"
@@ -39,7 +41,7 @@ namespace dypho {
 namespace mask {
 
 /// Output of `FlowMotionMasker::compute`.
-struct MaskResult {
+struct FlowMaskResult {
   /// Final mask, CV_8UC1, input size, 255 = dynamic, 0 = static (all zero when degraded).
   cv::Mat mask;
   /// Thresholded residual before opening, region filtering and margin, CV_8UC1, input size,
@@ -58,6 +60,10 @@ struct MaskResult {
   cv::Matx33d H_prev_cur = cv::Matx33d::eye();
   /// Fraction of flow samples that follow the global motion, in [0, 1].
   double inlier_ratio = 0.0;
+  /// True when the camera motion was removed with depth + the given relative pose (rigid flow,
+  /// refined by a homography for rotation errors of the prediction); false when the global
+  /// homography alone was used (no pose, no depth, no valid camera, or the pose did not fit).
+  bool ego_motion_from_pose = false;
   double flow_ms = 0.0;   ///< wall time of the optical flow [ms]
   double total_ms = 0.0;  ///< wall time of the whole `compute` call [ms]
 };
@@ -78,7 +84,20 @@ class FlowMotionMasker {
   /// is valid and distorted, the global motion is fitted in undistorted pixel coordinates (where a
   /// camera rotation is exactly a homography); otherwise in raw pixel coordinates. Bad input gives
   /// a degraded all-static result (input size when known) and leaves the history untouched.
-  MaskResult compute(const RgbdFrame& frame);
+  ///
+  /// `T_prev_cur` (optional): predicted pose of the current camera in the previous camera frame.
+  /// With it, a valid camera and a depth image, the camera's own motion is predicted per pixel
+  /// from depth (rigid flow, see ego_motion.h); a homography fitted between predicted and
+  /// measured positions absorbs rotation errors of the prediction, and the residual is
+  /// thresholded. Pixels without depth carry no evidence in that mode. When the prediction does
+  /// not fit the measured flow (fewer than min_inlier_ratio agree), or without a pose, the global
+  /// homography of the plain flow is removed instead (the fallback).
+  FlowMaskResult compute(const RgbdFrame& frame,
+                         const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt);
+
+  /// Backward flow of the last compute() (current -> previous image) at flow resolution
+  /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
+  const cv::Mat& lastFlow() const { return last_flow_valid_ ? flow_ : empty_; }
 
   /// Forgets the previous image; the next frame is treated as a first frame.
   void reset();
@@ -87,9 +106,10 @@ class FlowMotionMasker {
   const FlowMaskOptions& options() const { return options_; }
 
  private:
-  bool checkInput(const RgbdFrame& frame, MaskResult& result) const;
-  void finishMask(const cv::Size& input_size, MaskResult& result);
+  bool checkInput(const RgbdFrame& frame, FlowMaskResult& result) const;
+  void finishMask(const cv::Size& input_size, FlowMaskResult& result);
   void computeTexture(const cv::Mat& grey_small);
+  void applyAperture(const cv::Mat& residual_vec, cv::Mat& residual) const;
   void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size,
                        const CameraIntrinsics& camera);
 
@@ -115,6 +135,13 @@ class FlowMotionMasker {
   cv::Mat grad_x_;
   cv::Mat grad_y_;
   cv::Mat texture_energy_;
+  cv::Mat txx_, txy_, tyy_;  ///< structure tensor (5x5 box) at flow resolution
+  cv::Mat residual_vec_;     ///< residual vectors [full-res px], CV_32FC2
+  cv::Mat depth_small_;    ///< depth at flow resolution [m] (nearest sample)
+  cv::Mat predicted_px_;   ///< rigid prediction of the previous position, CV_32FC2
+  cv::Mat usable_;         ///< textured cells with a rigid prediction
+  cv::Mat empty_;
+  bool last_flow_valid_ = false;
   cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow
 };
 

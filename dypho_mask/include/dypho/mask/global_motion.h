@@ -66,8 +66,10 @@ class GlobalMotionEstimator {
 /// Residual motion after removing `H_prev_cur`: residual_px(i) = |prev_px(i) - H cur_px(i)| in the
 /// correspondences' units. `residual_px` becomes CV_32FC1 of the fields' size (reallocated only
 /// when the size changes); cells without a finite correspondence get 0 (no evidence of motion).
+/// `residual_vec_px` (optional): the residual vectors prev - H cur, CV_32FC2 (0 where none).
 void computeResidualMagnitude(const cv::Mat& cur_px, const cv::Mat& prev_px,
-                              const cv::Matx33d& H_prev_cur, cv::Mat& residual_px);
+                              const cv::Matx33d& H_prev_cur, cv::Mat& residual_px,
+                              cv::Mat* residual_vec_px = nullptr);
 
 }  // namespace mask
 }  // namespace dypho

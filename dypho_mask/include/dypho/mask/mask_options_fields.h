@@ -1,8 +1,14 @@
 #pragma once
 /// \file mask_options_fields.h
-/// The list of FlowMaskOptions keys, written once: parameter readers (ROS private params, YAML
-/// files) and printers visit the fields through `visitOptions`. Keep it in the order of the struct.
+/// The list of mask option keys, written once: parameter readers (ROS private params, YAML
+/// files) and printers visit the fields through `visitOptions`. Keep it in the order of the
+/// structs. `DynamicMaskOptions` is flattened with the prefixes yolo_, flow_, background_ (a key
+/// that already starts with its prefix, flow_scale, keeps its name).
 
+#include <string>
+#include <utility>
+
+#include "dypho/mask/dynamic_mask_options.h"
 #include "dypho/mask/flow_mask_options.h"
 
 namespace dypho::mask {
@@ -20,8 +26,59 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
   visitor("ransac_threshold_px", options.ransac_threshold_px, "RANSAC inlier threshold of the global homography fit [full-res px], > 0. Default 1.0.");
   visitor("ransac_max_iterations", options.ransac_max_iterations, "RANSAC iterations of the global homography fit, >= 1. Default 500.");
   visitor("min_inlier_ratio", options.min_inlier_ratio, "Minimum fraction of grid samples that must agree with the global motion, in [0, 1); below it the fit is not trusted and the result is degraded. Default 0.3.");
-  visitor("min_texture_gradient", options.min_texture_gradient, "Flow in textureless regions (blank walls, saturated or black surfaces) is not measured but interpolated, so its residual is no evidence of motion. A flow pixel counts as textured when the RMS grey-lev");
+  visitor("min_texture_gradient", options.min_texture_gradient, "Flow in textureless regions is interpolated, not measured, so its residual is no evidence of motion. A flow pixel counts as textured when the RMS grey-level gradient of the reduced image over a 5x5 flow-pixel window reaches this [grey levels / flow px], >= 0 (0 = every pixel is trusted). Untextured pixels are neither used for the global-motion fit nor marked dynamic. Default 4.0.");
+  visitor("aperture_aware", options.aperture_aware, "Aperture-aware residual: on edges only the flow across the edge is measured, so only that part of the residual counts (|r|_eff^2 = r^T S r / lambda_max(S), S = 5x5 structure tensor; = |r| on corners). Removes false motion along straight texture such as floor planks. Default true.");
   visitor("ultrafast", options.ultrafast, "Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.");
+}
+
+/// Calls `visitor(key, field, doc)` for every field of `options` (keys without prefix).
+template <typename Visitor>
+void visitOptions(YoloOptions& options, Visitor&& visitor) {
+  visitor("model_path", options.model_path, "ONNX model file (YOLOv5/v8/v11-seg or YOLOX/YOLOv8 detector). Empty = no network (flow and background only). Default \"\" (none).");
+  visitor("layout", options.layout, "Output layout: auto, yolox, yolov8, yolov8_seg, yolov5_seg. Default auto (from the output shapes).");
+  visitor("input_size_px", options.input_size_px, "Network input width and height [px], multiple of 32 (the size the model was exported at: 416 for YOLOX-nano, 640 for YOLOv8-seg). Default 416.");
+  visitor("score_threshold", options.score_threshold, "Detections below this confidence are ignored, in (0, 1). Default 0.3.");
+  visitor("nms_iou", options.nms_iou, "IoU above which class-wise NMS drops the weaker box, in (0, 1]. Default 0.45.");
+  visitor("dynamic_classes", options.dynamic_classes, "COCO class ids treated as dynamic, comma separated. Default person, bicycle, car, motorbike, bus, truck, bird, cat, dog, horse, backpack, handbag, suitcase, skateboard.");
+  visitor("every_n_frames", options.every_n_frames, "Run the network on every N-th frame, >= 1; in between its mask is carried along with the optical flow. Default 1.");
+  visitor("async", options.async, "Run the network on a worker thread; its newest result is carried to the current frame with the optical flow. Default false.");
+  visitor("box_depth_range_m", options.box_depth_range_m, "Detector boxes are segmented with depth: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.");
+}
+
+/// Calls `visitor(key, field, doc)` for every field of `options` (keys without prefix).
+template <typename Visitor>
+void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
+  visitor("enabled", options.enabled, "Use the prior static-background depth model and the depth-consistency filter. Default true.");
+  visitor("scale", options.scale, "Resolution of the background model as a fraction of the input, in (0, 1]. Default 0.5.");
+  visitor("tau", options.tau, "tau: weight of the depth rendered from the map at the predicted pose, in [0, 1). Default 0.1.");
+  visitor("rho", options.rho, "rho: weight of the current depth on pixels the raw masks call static, in (0, 1). Default 0.3.");
+  visitor("sigma_m", options.sigma_m, "sigma_m: a neighbour's depth agrees with the background when it is not nearer than this [m], > 0. Default 0.2 (paper).");
+  visitor("min_agreeing", options.min_agreeing, "n_m: a pixel is static when more than this many neighbours agree, >= 0. Default 9 (paper).");
+  visitor("window_px", options.window_px, "Side of the square neighbourhood [background px], odd >= 3. Default 5 (25 neighbours).");
+  visitor("grow_in_depth", options.grow_in_depth, "Grow the dynamic regions over their depth-connected surface where the background has no value or lies behind (fills the textureless inside of a person the flow outlined; grown pixels are not learnt into the background). Default true.");
+}
+
+namespace detail {
+/// Forwards to `visitor` with `prefix` prepended to each key (unless the key already has it).
+template <typename Visitor>
+struct PrefixedVisitor {
+  Visitor& visitor;
+  std::string prefix;
+  template <typename T>
+  void operator()(const std::string& key, T& value, const char* doc) {
+    visitor(key.compare(0, prefix.size(), prefix) == 0 ? key : prefix + key, value, doc);
+  }
+};
+}  // namespace detail
+
+/// Calls `visitor(key, field, doc)` for every field of `options`, flattened with prefixes.
+template <typename Visitor>
+void visitOptions(DynamicMaskOptions& options, Visitor&& visitor) {
+  visitOptions(options.yolo, detail::PrefixedVisitor<Visitor>{visitor, "yolo_"});
+  visitOptions(options.flow, detail::PrefixedVisitor<Visitor>{visitor, "flow_"});
+  visitOptions(options.background, detail::PrefixedVisitor<Visitor>{visitor, "background_"});
+  visitor("margin_px", options.margin_px, "Safety margin grown around the final mask [full-res px], >= 0. Default 4.");
+  visitor("min_region_area_px", options.min_region_area_px, "Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.");
 }
 
 }  // namespace dypho::mask

@@ -26,6 +26,9 @@ struct AlignmentResult {
   std::vector<bool> inliers;          ///< per match: pose inlier
   int num_inliers = 0;                ///< count of inliers
   bool used_pnp = false;              ///< the PnP RANSAC fallback produced the initial pose
+  /// `matches[].reference_index` index the `brute_force_reference` passed to align (the tight
+  /// pass over the main reference did not replace the PnP result); else the main reference.
+  bool matches_refer_to_fallback = false;
   std::string message;                ///< why it failed; empty on success
 };
 
@@ -43,10 +46,13 @@ class KeyframeAligner {
   explicit KeyframeAligner(const TrackingOptions& options);
 
   /// T_camera_world_predicted: prediction (constant velocity or last pose). Adds stage times to
-  /// `times` (matching, pnp, refine) when not null. Never throws on data.
+  /// `times` (matching, pnp, refine) when not null. `brute_force_reference` (may be null = use
+  /// `reference`): the smaller point set used for the global search + PnP of step 2 (e.g. the
+  /// last keyframe's own points while `reference` is the whole local map). Never throws on data.
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame,
                         const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
-                        TrackingTimesMs* times) const;
+                        TrackingTimesMs* times,
+                        const KeyframePoints* brute_force_reference = nullptr) const;
 
  private:
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.

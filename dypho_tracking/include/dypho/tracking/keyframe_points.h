@@ -24,6 +24,9 @@ struct KeyframePoints {
   std::vector<cv::KeyPoint> keypoints;         ///< keypoint in the keyframe image (level-0 px)
   cv::Mat descriptors;                         ///< row i = ORB descriptor of point i, CV_8UC1
   std::vector<std::int64_t> map_point_ids;     ///< unique id of point i
+  /// Distance camera -> point when the keypoint was detected [m]; empty = unknown. When filled,
+  /// projection matching predicts the pyramid level from the current distance (scale invariance).
+  std::vector<double> reference_distance_m;
 
   /// Number of points.
   std::size_t size() const { return p_world_m.size(); }
@@ -41,6 +44,13 @@ KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& fra
                                   const FrameFeatures& features, const KeyframePoints* previous,
                                   const std::vector<int>& previous_match,
                                   std::int64_t* next_map_point_id);
+
+/// The published keyframe (deep copies of `frame` and `mask`) with one KeyframeKeypoint per
+/// feature carrying `map_point_ids[i]` (same length as the features; -1 = none).
+KeyframeConstPtr makeKeyframe(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
+                              const Eigen::Isometry3d& T_world_camera,
+                              const FrameFeatures& features,
+                              const std::vector<std::int64_t>& map_point_ids);
 
 }  // namespace tracking
 }  // namespace dypho

@@ -71,5 +71,48 @@ class RgbdReprojectionError final : public ceres::SizedCostFunction<3, 4, 3> {
   Pinhole pinhole_;
 };
 
+/// Bundle-adjustment variant of ReprojectionError: the 3D point is a parameter too.
+/// Parameters: block 0 quaternion of T_camera_world [x, y, z, w], block 1 translation of
+/// T_camera_world [m], block 2 point in the world [m]. Residual and conventions as
+/// ReprojectionError; d r / d P = d r / d p_c * M(q), M(q) = I + 2 w [v]x + 2 [v]x^2 (the exact
+/// linear map of the rotation formula, also for non-unit q).
+class BaReprojectionError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
+ public:
+  /// uv_px: observed undistorted pixel [px]; sigma_px: keypoint standard deviation [px] (> 0).
+  BaReprojectionError(const Eigen::Vector2d& uv_px, double sigma_px, const Pinhole& pinhole)
+      : uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector2d uv_px_;
+  double inv_sigma_;
+  Pinhole pinhole_;
+};
+
+/// Depth term of bundle adjustment for RGB-D keyframes (ORB-SLAM's virtual stereo column in
+/// disparity units): r = b f_x (1 / z_pred - 1 / z_measured) / sigma, z_pred = (R(q) P + t)_z.
+/// Fixes the metric scale that reprojection alone leaves free when few keyframes are fixed.
+/// Same parameter blocks as BaReprojectionError.
+class BaDepthError final : public ceres::SizedCostFunction<1, 4, 3, 3> {
+ public:
+  /// depth_m: measured depth (> 0) [m]; bf_px_m: baseline [m] times f_x [px]; sigma_px (> 0).
+  BaDepthError(double depth_m, double bf_px_m, double sigma_px)
+      : inv_depth_(1.0 / depth_m), bf_(bf_px_m), inv_sigma_(1.0 / sigma_px) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  double inv_depth_;
+  double bf_;
+  double inv_sigma_;
+};
+
+/// d (R(q) P) / d q for the 4 ambient quaternion coordinates [x, y, z, w] of the rotation formula
+/// of ReprojectionError::rotate (3 x 4).
+Eigen::Matrix<double, 3, 4> quaternionRotationJacobian(const double* q, const Eigen::Vector3d& P);
+
 }  // namespace tracking
 }  // namespace dypho

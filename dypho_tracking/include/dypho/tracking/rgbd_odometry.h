@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -14,31 +15,39 @@
 #include "dypho/tracking/keyframe_aligner.h"
 #include "dypho/tracking/keyframe_points.h"
 #include "dypho/tracking/keyframe_selector.h"
+#include "dypho/tracking/local_bundle_adjuster.h"
+#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/loop_closer.h"
+#include "dypho/tracking/loop_detector.h"
 #include "dypho/tracking/orb_extractor.h"
 #include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/relocalizer.h"
 #include "dypho/tracking/tracking_options.h"
 #include "dypho/tracking/tracking_result.h"
 
 namespace dypho {
 namespace tracking {
 
-/// RGB-D visual odometry against the last keyframe.
+/// RGB-D visual odometry against a local map, with local BA, relocalisation and loop closure.
 ///
 /// Per frame: ORB features outside the dynamic mask (OrbExtractor) -> undistort + depth
-/// (makeFrameFeatures) -> pose against the last keyframe's 3D world points (KeyframeAligner:
-/// constant-velocity prediction, guided matching, PnP RANSAC fallback, Ceres refinement) ->
-/// KeyframeSelector. Tracking against the keyframe (not the previous frame) avoids accumulating
-/// the error of every frame; only keyframe-to-keyframe errors add up.
+/// (makeFrameFeatures) -> pose against the LOCAL MAP, i.e. the map points of the last keyframe
+/// and its local_map_keyframes most covisible keyframes (KeyframeAligner: constant-velocity
+/// prediction, projection matching with scale prediction, PnP RANSAC fallback on the last
+/// keyframe's own points, Ceres motion-only BA with chi2 rounds) -> visibility bookkeeping ->
+/// KeyframeSelector. On a new keyframe (synchronously): LocalMap::addKeyframe (RGB-D points,
+/// matched points get a new observation), LocalBundleAdjuster, map-point culling, LoopDetector +
+/// LoopCloser (pose graph; corrected keyframes in the result).
 ///
 /// State machine:
 ///  - NOT_INITIALIZED: the first frame with >= min_init_features keypoints with depth becomes
 ///    keyframe 0 at T_world_camera = identity (this frame returns OK, is_keyframe).
 ///  - OK: frame registered; may become a keyframe.
-///  - LOST: registration failed; the last good pose is returned, the velocity is dropped and the
-///    next frame is again aligned to the same keyframe (prediction = last good pose, with the PnP
-///    fallback). After max_lost_frames consecutive failures, the next frame with enough features
-///    becomes a new keyframe at the last good pose (re-initialisation; the trajectory continues
-///    from there but the jump during the lost frames is not recovered).
+///  - LOST: registration failed; Relocalizer tries the map's keyframes (result.relocalized and OK
+///    when it succeeds; the velocity is dropped). Otherwise the last good pose is returned. After
+///    max_lost_frames consecutive failures, the next frame with enough features becomes a new
+///    keyframe at the last good pose (re-initialisation; not connected to the old map points, so
+///    the jump while lost is not recovered unless a loop closes later).
 ///  - A stamp not after the previous one (time going backwards or repeated) resets everything:
 ///    NOT_INITIALIZED, identity pose, message; the following frame starts a new world.
 ///
@@ -54,12 +63,15 @@ class RgbdOdometry {
   /// message). Never returns a NaN pose.
   TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask);
 
-  /// Forgets keyframe, pose and velocity; the next usable frame starts a new world at identity.
+  /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).
   void reset();
 
   /// The options in use.
   const TrackingOptions& options() const { return options_; }
+
+  /// The tracker's map (keyframes with their current poses, map points).
+  const LocalMap& map() const { return map_; }
 
  private:
   /// Empty when the inputs are usable, otherwise what is wrong and how to fix it.
@@ -67,20 +79,36 @@ class RgbdOdometry {
   /// Explains why a frame has too few keypoints with depth.
   std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
                                  const FrameFeatures& features) const;
-  /// Makes `features` the new reference keyframe at T_world_camera and fills the result fields.
-  void startKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
-                     const Eigen::Isometry3d& T_world_camera,
-                     const std::vector<int>& previous_match, TrackingResult* result);
+  /// Adds `features` as a new keyframe at T_world_camera (map_point_ids per feature: the matched
+  /// map point or -1), runs local BA, culling and loop closure, fills the result fields.
+  void addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
+                   const Eigen::Isometry3d& T_world_camera,
+                   const std::vector<std::int64_t>& map_point_ids, const Pinhole& pinhole,
+                   TrackingResult* result);
+  /// Loop detection and correction for the newest keyframe.
+  void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
+  /// Makes `keyframe_id` the reference and rebuilds the local-map views.
+  void setReference(std::int64_t keyframe_id);
+  /// Counts visible / found map points of the local map for culling.
+  void updateVisibility(const AlignmentResult& aligned, const Pinhole& pinhole, int width,
+                        int height);
 
   TrackingOptions options_;
   OrbExtractor extractor_;
   KeyframeAligner aligner_;
   KeyframeSelector selector_;
+  LocalMap map_;
+  LocalBundleAdjuster local_ba_;
+  Relocalizer relocalizer_;
+  LoopDetector loop_detector_;
+  LoopCloser loop_closer_;
 
-  /// Keyframe tracked against; null before initialisation.
-  std::shared_ptr<const KeyframePoints> reference_;
+  std::int64_t reference_id_ = -1;  ///< keyframe tracked against; -1 before initialisation
+  KeyframePoints local_view_;       ///< map points of the reference's local map
+  KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
   Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity();  ///< T_previous_last (camera motion)
+  Eigen::Isometry3d T_world_odom_ = Eigen::Isometry3d::Identity();  ///< loop corrections so far
   bool has_velocity_ = false;
   bool has_stamp_ = false;
   Timestamp last_stamp_ns_ = 0;
@@ -88,7 +116,7 @@ class RgbdOdometry {
   int reference_inliers_ = 0;  ///< inliers of the first frame tracked against the keyframe
   int lost_frames_ = 0;
   std::int64_t next_keyframe_id_ = 0;
-  std::int64_t next_map_point_id_ = 0;
+  std::int64_t last_loop_keyframe_id_ = -1;  ///< keyframe where the last loop closed
 };
 
 }  // namespace tracking

@@ -114,6 +114,68 @@ struct TrackingOptions {
   /// [frames]; default 5, range [1, 100000].
   int max_lost_frames = 5;
 
+  // --- local map (LocalMap) ---
+  /// Frames are tracked against the map points of the last keyframe and of its this many most
+  /// covisible keyframes [count]; default 10, range [0, 100]; 0 = the last keyframe only.
+  int local_map_keyframes = 10;
+  /// Fewest shared map points for two keyframes to count as covisible [count]; default 15,
+  /// range [1, 10000].
+  int covisibility_min_shared = 15;
+  /// A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction
+  /// of them is removed [-]; default 0.25, range [0, 1]; 0 disables culling.
+  double cull_min_found_ratio = 0.25;
+
+  // --- local bundle adjustment (LocalBundleAdjuster), synchronous after each keyframe ---
+  /// Keyframes whose poses local BA optimises: the new one and its most covisible ones [count];
+  /// default 5, range [0, 50]; 0 disables local BA.
+  int local_ba_keyframes = 5;
+  /// Levenberg-Marquardt iterations of each of the two local BA rounds [count]; default 5,
+  /// range [1, 100].
+  int local_ba_iterations = 5;
+  /// Virtual stereo baseline of the depth term of local BA (BaDepthError: b f_x (1/z - 1/z_meas),
+  /// same sigma as the pixels); it fixes the metric scale [m]; default 0.08 (Kinect-like),
+  /// range [0, 1]; 0 = reprojection only (then the scale is held only by the fixed keyframes).
+  double local_ba_depth_baseline_m = 0.08;
+  /// Most keyframes held fixed in local BA (those seeing the window's points most) [count];
+  /// default 10, range [1, 100].
+  int local_ba_max_fixed_keyframes = 10;
+
+  // --- relocalisation (Relocalizer) ---
+  /// Keyframes tried per lost frame, newest first then spread over the map [count]; default 20,
+  /// range [1, 10000].
+  int relocalization_max_keyframes = 20;
+  /// Fewest pose inliers to accept a relocalisation [count]; default 30, range [min_inliers, 10000].
+  int relocalization_min_inliers = 30;
+
+  // --- loop closure (LoopDetector, LoopCloser, PoseGraphOptimizer) ---
+  /// Detect and close loops at each new keyframe; default true.
+  bool loop_closure = true;
+  /// Candidates are at least this many keyframes older than the new one; also the pause after a
+  /// closed loop [keyframes]; default 20, range [2, 100000].
+  int loop_min_keyframe_gap = 20;
+  /// Candidates' camera centre within this distance of the new keyframe's (drift must stay below
+  /// it) [m]; default 1.0, range (0, 100].
+  double loop_search_radius_m = 1.0;
+  /// Candidates' optical axis within this angle of the new keyframe's [deg]; default 45,
+  /// range (0, 180].
+  double loop_max_angle_deg = 45.0;
+  /// Candidates verified per keyframe, nearest first [count]; default 3, range [1, 100].
+  int loop_max_candidates = 3;
+  /// Fewest pose inliers to accept a loop [count]; default 50, range [min_inliers, 10000].
+  int loop_min_inliers = 50;
+  /// Weight of the loop edge relative to the odometry/covisibility edges [-]; default 1,
+  /// range (0, 1000].
+  double loop_edge_weight = 1.0;
+  /// Covisibility edges of the pose graph need this many shared points [count]; default 100,
+  /// range [1, 100000].
+  int pose_graph_min_shared = 100;
+  /// Rotation standard deviation of a pose-graph edge [deg]; default 0.5, range (0, 90].
+  double pose_graph_sigma_rot_deg = 0.5;
+  /// Translation standard deviation of a pose-graph edge [m]; default 0.01, range (0, 10].
+  double pose_graph_sigma_trans_m = 0.01;
+  /// Levenberg-Marquardt iterations of the pose graph [count]; default 20, range [1, 1000].
+  int pose_graph_iterations = 20;
+
   /// Throws std::invalid_argument naming the first field out of range and its allowed range.
   void validate() const;
   /// One "name: value" line per field, in declaration order.

@@ -17,7 +17,7 @@ void visitOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("min_fast_threshold", options.min_fast_threshold, "FAST threshold retried in grid cells where `fast_threshold` found nothing [grey levels]; default 7, range [1, fast_threshold].");
   visitor("grid_cell_px", options.grid_cell_px, "Grid cell size on each pyramid level for spreading keypoints [px of that level]; default 30, range [8, 200].");
   visitor("mask_border_px", options.mask_border_px, "Keypoints keep this distance from every dynamic (masked) pixel, scaled by the level scale, so that descriptors do not straddle the mask border [px at level 0]; default 4, range [0, 50].");
-  visitor("mask_threshold_relaxation", options.mask_threshold_relaxation, "Paper's relaxed features (sigma_dy = sigma_0 (1 - k * masked fraction)): the FAST threshold is multiplied by (1 - k * masked_fraction), never below `min_fast_threshold` [-]; default 0.5, range [0, 1]; 0 disables.");
+  visitor("mask_threshold_relaxation", options.mask_threshold_relaxation, "Paper's relaxed features (sigma_dy = sigma_0 (1 - k * masked fraction)): the FAST threshold is multiplied by (1 - k * masked_fraction), never below `min_fast_threshold` [-]; default 0.5, range [0, 1];");
   visitor("min_depth_m", options.min_depth_m, "Keypoints with a depth below this are dropped [m]; default 0.1, range (0, max_depth_m).");
   visitor("max_depth_m", options.max_depth_m, "Keypoints with a depth above this are dropped [m]; default 6.0, range (min_depth_m, 100].");
   visitor("max_hamming_distance", options.max_hamming_distance, "Largest accepted Hamming distance between two 256-bit ORB descriptors [bits]; default 64, range [1, 256].");
@@ -32,16 +32,36 @@ void visitOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("refine_iterations", options.refine_iterations, "Levenberg-Marquardt iterations per optimisation round [count]; default 10, range [1, 1000].");
   visitor("outlier_rounds", options.outlier_rounds, "Rounds of optimise-then-reclassify outliers by chi2 (ORB-SLAM style) [count]; default 3, range [1, 20].");
   visitor("chi2_threshold", options.chi2_threshold, "chi2 threshold (2 dof) separating inliers from outliers on the whitened residual [-]; default 5.991 (95 %), range (0, 100].");
-  visitor("depth_baseline_m", options.depth_baseline_m, "Virtual stereo baseline b that turns the depth measured in the current frame into a third residual u - b fx / z (ORB-SLAM RGB-D style; Kinect ~0.075 m) [m]; default 0 = reprojection only, range [0, 1]. Off by default: on TUM fr1/rpy the colour and depth images are not exposed at the same instant, and under fast rotation the depth residual raised the ATE from 2.7 cm to 8-10 cm; the keyframe depth (3D points) is used either way.");
+  visitor("depth_baseline_m", options.depth_baseline_m, "Virtual stereo baseline b that turns the depth measured in the current frame into a third residual u - b fx / z (ORB-SLAM RGB-D style; Kinect ~0.075 m) [m]; default 0 = reprojection only, range [0, 1]");
   visitor("chi2_threshold_depth", options.chi2_threshold_depth, "chi2 threshold (3 dof) for observations with the depth residual [-]; default 7.815 (95 %), range (0, 100].");
   visitor("keyframe_translation_m", options.keyframe_translation_m, "New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10, range (0, 10].");
   visitor("keyframe_rotation_deg", options.keyframe_rotation_deg, "New keyframe when the camera rotated more than this since the last keyframe [deg]; default 8, range (0, 180].");
   visitor("keyframe_min_tracked_ratio", options.keyframe_min_tracked_ratio, "New keyframe when fewer than this fraction of the keyframe's points are pose inliers [-]; default 0.6, range [0, 1].");
   visitor("keyframe_max_frames", options.keyframe_max_frames, "New keyframe at the latest after this many frames since the last keyframe [frames]; default 20, range [1, 100000].");
-  visitor("keyframe_max_frame_rotation_deg", options.keyframe_max_frame_rotation_deg, "The four triggers above are postponed while the camera rotated more than this between the last two frames: such frames suffer from motion blur, rolling shutter and colour/depth time offset, and a keyframe anchors every following frame [deg/frame]; default 1.5, range (0, 180]. On fr1/rpy (keyframe_rotation_deg 6..15) this gave 2.2-2.5 cm ATE against 3.0-5.4 cm without it; the result is sensitive to which frames become keyframes (1.25: ~4.4 cm, 1.75: 2.3-3.9).");
+  visitor("keyframe_max_frame_rotation_deg", options.keyframe_max_frame_rotation_deg, "The four triggers above are postponed while the camera rotated more than this between the last two frames: such frames suffer from motion blur, rolling shutter and colour/depth time offset, and a keyf");
   visitor("keyframe_hard_tracked_ratio", options.keyframe_hard_tracked_ratio, "A keyframe is made regardless of the rotation speed when the tracked ratio falls below this or fewer than 3 * min_inliers inliers remain [-]; default 0.3, range [0, keyframe_min_tracked_ratio].");
   visitor("min_init_features", options.min_init_features, "Fewest keypoints with valid depth needed to start (or restart) on a frame [count]; default 100, range [min_inliers, 20000].");
   visitor("max_lost_frames", options.max_lost_frames, "After this many consecutive lost frames a new keyframe is started at the last good pose [frames]; default 5, range [1, 100000].");
+  visitor("local_map_keyframes", options.local_map_keyframes, "Frames are tracked against the map points of the last keyframe and of its this many most covisible keyframes [count]; default 10, range [0, 100]; 0 = the last keyframe only.");
+  visitor("covisibility_min_shared", options.covisibility_min_shared, "Fewest shared map points for two keyframes to count as covisible [count]; default 15, range [1, 10000].");
+  visitor("cull_min_found_ratio", options.cull_min_found_ratio, "A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction of them is removed [-]; default 0.25, range [0, 1]; 0 disables culling.");
+  visitor("local_ba_keyframes", options.local_ba_keyframes, "Keyframes whose poses local BA optimises: the new one and its most covisible ones [count]; default 5, range [0, 50]; 0 disables local BA.");
+  visitor("local_ba_iterations", options.local_ba_iterations, "Levenberg-Marquardt iterations of each of the two local BA rounds [count]; default 5, range [1, 100].");
+  visitor("local_ba_depth_baseline_m", options.local_ba_depth_baseline_m, "Virtual stereo baseline of the depth term of local BA (BaDepthError: b f_x (1/z - 1/z_meas), same sigma as the pixels); it fixes the metric scale [m]; default 0.08 (Kinect-like), range [0, 1]; 0 = rep");
+  visitor("local_ba_max_fixed_keyframes", options.local_ba_max_fixed_keyframes, "Most keyframes held fixed in local BA (those seeing the window's points most) [count]; default 10, range [1, 100].");
+  visitor("relocalization_max_keyframes", options.relocalization_max_keyframes, "Keyframes tried per lost frame, newest first then spread over the map [count]; default 20, range [1, 10000].");
+  visitor("relocalization_min_inliers", options.relocalization_min_inliers, "Fewest pose inliers to accept a relocalisation [count]; default 30, range [min_inliers, 10000].");
+  visitor("loop_closure", options.loop_closure, "Detect and close loops at each new keyframe; default true.");
+  visitor("loop_min_keyframe_gap", options.loop_min_keyframe_gap, "Candidates are at least this many keyframes older than the new one; also the pause after a closed loop [keyframes]; default 20, range [2, 100000].");
+  visitor("loop_search_radius_m", options.loop_search_radius_m, "Candidates' camera centre within this distance of the new keyframe's (drift must stay below it) [m]; default 1.0, range (0, 100].");
+  visitor("loop_max_angle_deg", options.loop_max_angle_deg, "Candidates' optical axis within this angle of the new keyframe's [deg]; default 45, range (0, 180].");
+  visitor("loop_max_candidates", options.loop_max_candidates, "Candidates verified per keyframe, nearest first [count]; default 3, range [1, 100].");
+  visitor("loop_min_inliers", options.loop_min_inliers, "Fewest pose inliers to accept a loop [count]; default 50, range [min_inliers, 10000].");
+  visitor("loop_edge_weight", options.loop_edge_weight, "Weight of the loop edge relative to the odometry/covisibility edges [-]; default 1, range (0, 1000].");
+  visitor("pose_graph_min_shared", options.pose_graph_min_shared, "Covisibility edges of the pose graph need this many shared points [count]; default 100, range [1, 100000].");
+  visitor("pose_graph_sigma_rot_deg", options.pose_graph_sigma_rot_deg, "Rotation standard deviation of a pose-graph edge [deg]; default 0.5, range (0, 90].");
+  visitor("pose_graph_sigma_trans_m", options.pose_graph_sigma_trans_m, "Translation standard deviation of a pose-graph edge [m]; default 0.01, range (0, 10].");
+  visitor("pose_graph_iterations", options.pose_graph_iterations, "Levenberg-Marquardt iterations of the pose graph [count]; default 20, range [1, 1000].");
 }
 
 }  // namespace dypho::tracking

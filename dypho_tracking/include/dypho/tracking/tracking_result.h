@@ -2,7 +2,10 @@
 /// \file tracking_result.h
 /// What `RgbdOdometry::track` returns for one frame.
 
+#include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -27,6 +30,9 @@ struct TrackingTimesMs {
   double matching = 0;  ///< descriptor matching, guided and brute force [ms]
   double pnp = 0;       ///< PnP RANSAC (0 when the motion prediction was good enough) [ms]
   double refine = 0;    ///< Ceres motion-only refinement, all passes [ms]
+  double local_ba = 0;  ///< local bundle adjustment and map-point culling (keyframes only) [ms]
+  double loop = 0;      ///< loop detection, pose graph and map correction (keyframes only) [ms]
+  double relocalization = 0;  ///< relocalisation against the map's keyframes (lost frames) [ms]
   double total = 0;     ///< whole `track` call [ms]
 };
 
@@ -44,6 +50,16 @@ struct TrackingResult {
   double masked_fraction = 0;  ///< fraction of pixels marked dynamic in the mask [0, 1]
   KeyframeConstPtr keyframe;   ///< the new keyframe; non-null exactly when is_keyframe
   std::string message;         ///< why LOST / NOT_INITIALIZED / reset; empty when all went well
+  bool relocalized = false;    ///< this frame was found again against the map after being lost
+  bool loop_closed = false;    ///< a loop was closed at this (key)frame; see corrected_keyframes
+  /// Keyframes moved by loop closure at this frame: (keyframe id, new T_world_camera). Consumers
+  /// (mapping) re-anchor those keyframes. Empty on most frames.
+  std::vector<std::pair<std::int64_t, Eigen::Isometry3d>> corrected_keyframes;
+  /// Accumulated loop-closure correction: T_world_camera = T_world_odom * T_odom_camera, where
+  /// odom is the uncorrected odometry frame (REP-105 map -> odom). Identity until a loop closes.
+  Eigen::Isometry3d T_world_odom = Eigen::Isometry3d::Identity();
+  int num_map_points = 0;      ///< map points in the tracker's map [count]
+  int num_keyframes = 0;       ///< keyframes in the tracker's map [count]
   TrackingTimesMs times;       ///< stage timings [ms]
 };
 

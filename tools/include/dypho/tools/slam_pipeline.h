@@ -3,10 +3,12 @@
 /// The three cores (mask, tracking, mapping) chained in one process, without ROS: what the
 /// nodelets do over topics, done in a loop. Used by `dypho_run_dataset` and the dataset tests.
 
+#include <optional>
 #include <string>
 
+#include "dypho/mapping/gaussian_mapper.h"
 #include "dypho/mapping/keyframe_cloud_map.h"
-#include "dypho/mask/flow_motion_masker.h"
+#include "dypho/mask/dynamic_masker.h"
 #include "dypho/tracking/rgbd_odometry.h"
 
 namespace dypho::tools {
@@ -23,9 +25,9 @@ MaskSource parseMaskSource(const std::string& name);
 
 /// All settings of the in-process pipeline.
 struct PipelineOptions {
-  mask::FlowMaskOptions mask;            ///< mask core (config/mask.yaml)
+  mask::DynamicMaskOptions mask;         ///< mask core (config/mask.yaml)
   tracking::TrackingOptions tracking;    ///< tracking core (config/tracking.yaml)
-  mapping::CloudMapOptions mapping;      ///< mapping core (config/mapping.yaml)
+  mapping::MappingOptions mapping;       ///< mapping cores: point cloud + Gaussian map (config/mapping.yaml)
   MaskSource mask_source = MaskSource::kFlow;  ///< where masks come from
 };
 
@@ -59,11 +61,29 @@ class SlamPipeline {
   /// The map built so far.
   const mapping::KeyframeCloudMap& map() const { return map_; }
 
+  /// The 3D Gaussian map. Keyframes are optimised on its worker thread (iterations_per_keyframe
+  /// each, in order; process() waits only when 4 keyframes are already queued), so results do not
+  /// depend on timing. Every call is thread-safe, e.g. `gaussianMap().renderDepth(T, camera)`.
+  mapping::GaussianMapper& gaussianMap() const { return *gaussian_map_; }
+  /// Waits until the Gaussian map has integrated and optimised every keyframe handed to it.
+  void finishMapping() { gaussian_map_->waitUntilIdle(); }
+
  private:
   PipelineOptions options_;
-  mask::FlowMotionMasker masker_;
+  /// Mask prior of the next frame: constant-velocity T_prev_cur from the last two tracked poses,
+  /// rendered depth from `renderPredictedDepth`.
+  mask::MaskPrior predictMaskPrior(const RgbdFrame& frame) const;
+  /// MASK HOOK for mapping: depth rendered from the map at `T_world_camera_pred` (CV_32FC1 [m],
+  /// the frame's size). Returns empty (no render yet) until the mapping core offers a renderer.
+  cv::Mat renderPredictedDepth(const RgbdFrame& frame, const Eigen::Isometry3d& T_world_camera_pred) const;
+
+  mask::DynamicMasker masker_;
+  /// Last two trusted camera poses (world), newest last, for the constant-velocity prediction.
+  std::optional<Eigen::Isometry3d> T_world_prev_;
+  std::optional<Eigen::Isometry3d> T_world_prevprev_;
   tracking::RgbdOdometry odometry_;
   mapping::KeyframeCloudMap map_;
+  std::unique_ptr<mapping::GaussianMapper> gaussian_map_;  ///< started in the constructor
 };
 
 }  // namespace dypho::tools

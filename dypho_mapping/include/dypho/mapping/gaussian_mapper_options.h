@@ -1,0 +1,99 @@
+#pragma once
+/// \file gaussian_mapper_options.h
+/// Settings of the 3D Gaussian Splatting map (`GaussianMapper`) and of all mapping options.
+
+#include <cstddef>
+#include <string>
+
+#include "dypho/mapping/cloud_map_options.h"
+
+namespace dypho::mapping {
+
+/// Settings of `GaussianMapper`. Learning rates are Adam step sizes per parameter block.
+struct GaussianMapperOptions {
+  /// Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.
+  int sh_degree = 0;
+  /// Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.
+  std::size_t max_gaussians = 300000;
+  /// Threads of the rasterizer and optimiser (including the mapping worker), >= 1. Default 2.
+  int num_threads = 2;
+  /// Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.
+  int train_downsample = 2;
+  /// Optimisation iterations run after each new keyframe, >= 0. Default 30.
+  int iterations_per_keyframe = 30;
+  /// Newest keyframes sampled for training (sliding window), >= 1. Default 8.
+  int window_size = 8;
+  /// Keyframes whose images are kept (training and PSNR); older ones keep only their pose, >= 1. Default 200.
+  int max_stored_keyframes = 200;
+  /// Weight of the depth term, lambda in (1-lambda)|Mc(Cr-C)|1 + lambda|M(Dr-D)|1, [0, 1]. Default 0.7.
+  double lambda_depth = 0.7;
+  /// Weight of the opacity term w |M (1 - A)|_1 added to the paper's loss (A: accumulated alpha,
+  /// M: static pixels with valid depth); keeps measured surfaces opaque so that D_r is not biased
+  /// by partial alpha (0 = the paper's loss only), >= 0. Default 0.1.
+  double alpha_weight = 0.1;
+  /// Share of training iterations that sample any stored keyframe instead of the window
+  /// (keeps older parts of the map from drifting), [0, 1]. Default 0.2.
+  double global_sample_ratio = 0.2;
+  /// Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default 0.1.
+  double valid_min_depth_m = 0.1;
+  /// Far depth limit of the Gaussian map [m], > valid_min_depth_m. Default 6.0.
+  double valid_max_depth_m = 6.0;
+  /// Opacity of new Gaussians, (0, 1). Default 0.5 (the paper).
+  double initial_opacity = 0.5;
+  /// Extra Gaussians sampled around each keypoint (the paper's densification at features), >= 0. Default 4.
+  int feature_samples = 4;
+  /// Radius of those samples around the keypoint [px] (at full resolution), > 0. Default 6.
+  double feature_sample_radius_px = 6.0;
+  /// Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.
+  int coverage_stride_px = 8;
+  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.6.
+  double coverage_alpha_threshold = 0.6;
+  /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.
+  double coverage_depth_error_ratio = 0.1;
+  /// Adam step size of positions [m]. Default 0.0005.
+  double lr_position = 0.0005;
+  /// Adam step size of log-scales. Default 0.005.
+  double lr_log_scale = 0.005;
+  /// Adam step size of quaternions. Default 0.001.
+  double lr_rotation = 0.001;
+  /// Adam step size of opacity logits. Default 0.05.
+  double lr_opacity = 0.05;
+  /// Adam step size of the SH DC coefficients. Default 0.0025.
+  double lr_sh_dc = 0.0025;
+  /// Adam step size of the higher SH coefficients. Default 0.000125.
+  double lr_sh_rest = 0.000125;
+  /// Densify and prune every this many iterations (0 = never), >= 0. Default 100.
+  int densify_interval = 100;
+  /// Mean screen-space position gradient above which a Gaussian is cloned or split [1/px], > 0. Default 0.0002.
+  double densify_grad_threshold = 0.0002;
+  /// Gaussians larger than this (largest std dev) are split, smaller ones cloned [m], > 0. Default 0.02.
+  double densify_scale_threshold_m = 0.02;
+  /// Gaussians with opacity below this are pruned, [0, 1). Default 0.005.
+  double prune_min_opacity = 0.005;
+  /// Gaussians with a std dev above this are pruned [m], > 0. Default 0.3.
+  double prune_max_scale_m = 0.3;
+  /// Reset opacities to at most 0.01 every this many iterations (0 = never), >= 0. Default 0:
+  /// with a sliding window, a reset would erase the parts of the map outside the window.
+  int opacity_reset_interval = 0;
+  /// Seed of the keyframe sampler and of the feature samples. Default 1.
+  int random_seed = 1;
+
+  /// Throws std::invalid_argument naming the first field out of range and its range.
+  void validate() const;
+  /// One line "key=value ..." with every field.
+  std::string toString() const;
+};
+
+/// Everything in config/mapping.yaml: the point-cloud map and the Gaussian map.
+struct MappingOptions {
+  CloudMapOptions cloud;            ///< coloured point cloud (map.pcd)
+  GaussianMapperOptions gaussian;   ///< 3D Gaussian map (map.ply, rendering)
+
+  void validate() const {
+    cloud.validate();
+    gaussian.validate();
+  }
+  std::string toString() const { return cloud.toString() + " " + gaussian.toString(); }
+};
+
+}  // namespace dypho::mapping

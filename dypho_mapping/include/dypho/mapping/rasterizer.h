@@ -1,0 +1,130 @@
+#pragma once
+/// \file rasterizer.h
+/// CPU tile rasterizer of 3D Gaussians: forward (colour, depth D = sum d_i alpha_i T_i, accumulated
+/// alpha) and backward (gradients of every Gaussian parameter and of the camera pose). Templated on
+/// the scalar: float is the production path, double is used by the gradient checks.
+///
+/// Stages (each over preallocated buffers that only grow): project every Gaussian (parallel over
+/// Gaussians, gs::projectGaussian) -> depth radix sort + binning into 16x16 tiles (lists come out
+/// sorted front to back) -> per tile, Gaussian-outer / pixel-inner compositing over the Gaussian's
+/// 3-sigma box inside the tile, with per-pixel early stop (parallel over tiles). The backward pass
+/// walks each tile's list back to front and recovers the transmittance by division, as 3DGS does.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "dypho/common/camera.h"
+#include "dypho/mapping/gaussian_math.h"
+#include "dypho/mapping/thread_pool.h"
+
+namespace dypho::mapping {
+
+/// Numerical settings of the rasterizer (defaults = 3DGS).
+struct RasterSettings {
+  /// Footprint radius in standard deviations of the largest screen axis, > 0. Default 3.
+  double radius_sigma = 3.0;
+  /// Per-Gaussian alpha below which a pixel skips the Gaussian, >= 0. Default 1/255.
+  double min_alpha = 1.0 / 255.0;
+  /// Transmittance below which a pixel stops compositing, >= 0. Default 1e-4.
+  double min_transmittance = 1e-4;
+};
+
+/// Read-only view of Gaussian parameters in the SoA layout of GaussianMap (rows of 3, 3, 4, 1, 3K).
+template <typename T>
+struct GaussianParamsView {
+  const T* position = nullptr;       ///< [N, 3] world [m]
+  const T* log_scale = nullptr;      ///< [N, 3] log std dev [log m]
+  const T* rotation = nullptr;       ///< [N, 4] quaternion w x y z
+  const T* opacity_logit = nullptr;  ///< [N]
+  const T* sh = nullptr;             ///< [N, K, 3] coefficient-major RGB
+  int count = 0;                     ///< N
+  int sh_degree = 0;                 ///< 0..3 (K = (degree+1)^2)
+};
+
+/// Rendered images, planar, row-major, width x height.
+template <typename T>
+struct RenderResult {
+  int width = 0, height = 0;
+  std::vector<T> color;  ///< [3, H, W] RGB in [0, ~1], black background
+  std::vector<T> depth;  ///< [H, W] D = sum d_i alpha_i T_i [m] (not normalised by alpha)
+  std::vector<T> alpha;  ///< [H, W] accumulated alpha = 1 - final transmittance
+};
+
+/// Per-pixel loss gradients fed to the backward pass; null pointers mean zero.
+template <typename T>
+struct PixelGrads {
+  const T* color = nullptr;  ///< [3, H, W] dL/dcolor
+  const T* depth = nullptr;  ///< [H, W] dL/ddepth
+  const T* alpha = nullptr;  ///< [H, W] dL/dalpha
+};
+
+/// Gradients of the loss w.r.t. the Gaussian parameters (same layout as GaussianParamsView).
+template <typename T>
+struct GaussianGrads {
+  std::vector<T> position, log_scale, rotation, opacity_logit, sh;
+  /// [N] |dL/d(mean_u, mean_v)| [1/px], the screen-space gradient used for densification.
+  std::vector<T> mean2d_norm;
+  /// d/d(rho, phi) for a left perturbation of T_camera_world (translation rho [m], rotation phi
+  /// [rad]): T_cw <- exp([rho, phi]) * T_cw.
+  T pose[6] = {0, 0, 0, 0, 0, 0};
+};
+
+/// Builds the projection view from a pose and undistorted pinhole intrinsics (distortion ignored).
+template <typename T>
+gs::PinholeView<T> makePinholeView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
+
+/// The rasterizer. Holds its scratch buffers; reuse one object per thread of use. Not thread-safe.
+template <typename T>
+class Rasterizer {
+ public:
+  /// `pool` (not owned, may be shared with other users that do not run concurrently) runs the
+  /// parallel stages.
+  Rasterizer(ThreadPool* pool, const RasterSettings& settings = RasterSettings());
+
+  /// Renders `params` seen from `view` into `out` (resized; allocation only when it grows).
+  /// Remembers `params` and `view` for the next backward(); the arrays must stay unchanged until then.
+  void forward(const GaussianParamsView<T>& params, const gs::PinholeView<T>& view, RenderResult<T>& out);
+
+  /// Gradients of a loss whose per-pixel gradients are `grads`, for the last forward().
+  void backward(const PixelGrads<T>& grads, GaussianGrads<T>& out);
+
+  /// (Gaussian, tile) pairs of the last forward.
+  std::size_t numTileEntries() const { return entries_.size(); }
+  /// Gaussians in front of the camera with a non-empty footprint in the last forward.
+  std::size_t numVisible() const { return num_visible_; }
+  const RasterSettings& settings() const { return settings_; }
+
+ private:
+  struct Packed {
+    T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth, radius;
+    int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
+  };
+  void preprocess();
+  void binTiles();
+  void forwardTile(int tile, RenderResult<T>& out);
+  void backwardTile(int tile, int thread, const PixelGrads<T>& grads);
+
+  ThreadPool* pool_;
+  RasterSettings settings_;
+  GaussianParamsView<T> params_;
+  gs::PinholeView<T> view_{};
+  int tiles_x_ = 0, tiles_y_ = 0;
+  std::size_t num_visible_ = 0;
+  std::vector<Packed> packed_;   ///< [N] per Gaussian
+  std::vector<Packed> sorted_;   ///< [visible] visible Gaussians in depth order (tile lists index it)
+  std::vector<std::uint32_t> keys_, order_, sort_tmp_keys_, sort_tmp_order_;
+  std::vector<std::uint32_t> tile_ranges_;  ///< [tiles + 1] offsets into entries_
+  std::vector<std::uint32_t> tile_fill_;
+  std::vector<std::uint32_t> entries_;      ///< index into sorted_ per (tile, depth-sorted) slot
+  std::vector<T> final_T_;                  ///< [H, W]
+  std::vector<std::uint32_t> last_entry_;   ///< [H, W] one past the last contributing entry
+  std::vector<std::vector<gs::ScreenGrad<T>>> thread_grads_;  ///< [threads][visible]
+  std::vector<std::vector<T>> thread_pose_;
+};
+
+extern template class Rasterizer<float>;
+extern template class Rasterizer<double>;
+
+}  // namespace dypho::mapping

@@ -1,0 +1,76 @@
+#pragma once
+/// Private state of GaussianMapper (guarded by GaussianMapper::mutex_).
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/mapping/adam.h"
+#include "dypho/mapping/gaussian_map.h"
+#include "dypho/mapping/gaussian_mapper.h"
+#include "dypho/mapping/rasterizer.h"
+#include "dypho/mapping/ray_cache.h"
+
+namespace dypho::mapping {
+
+/// A keyframe as the optimiser sees it: undistorted, at training resolution.
+struct TrainingKeyframe {
+  std::int64_t id = -1;
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  CameraIntrinsics camera;  ///< pinhole at training resolution
+  cv::Mat bgr;              ///< CV_8UC3 (empty once the images were dropped)
+  cv::Mat depth_m;          ///< CV_32FC1, 0 = invalid (range-checked)
+  cv::Mat static_mask;      ///< CV_8UC1, 255 = static (colour term), 0 = dynamic
+  bool hasImages() const { return !bgr.empty(); }
+};
+
+/// Undistortion maps of one camera onto the pinhole with the same fx fy cx cy.
+struct Undistorter {
+  CameraIntrinsics camera;
+  cv::Mat map1, map2;
+};
+
+struct GaussianMapper::Impl {
+  explicit Impl(const GaussianMapperOptions& o);
+
+  GaussianParamsView<float> params() const;
+  /// Seeds a validated keyframe (see GaussianMapper::addKeyframe).
+  AddKeyframeResult integrate(const Keyframe& keyframe);
+  /// One optimisation iteration; returns the loss (or -1 when there is nothing to train on).
+  double iterate();
+  void densifyAndPrune();
+  void resetOpacity();
+  const Undistorter& undistorter(const CameraIntrinsics& camera);
+  /// Renders the map into `out` with `raster` (pinhole camera, distortion ignored).
+  void renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
+                     Rasterizer<float>& raster, RenderResult<float>& out);
+  /// Per-pixel loss and its gradient (writes pix_gc, pix_gd, pix_ga); returns the loss.
+  double lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r);
+
+  GaussianMapperOptions options;
+  GaussianMap map;
+  ThreadPool pool;
+  Rasterizer<float> raster;         ///< training (forward + backward)
+  Rasterizer<float> render_raster;  ///< renders for callers and seeding
+  Adam adam;
+  std::mt19937 rng;
+  std::vector<TrainingKeyframe> keyframes;  ///< insertion order
+  std::vector<Undistorter> undistorters;
+  UndistortedRayCache rays;                 ///< distorted-pixel rays for mapping renders back
+  std::int64_t iterations = 0;
+  double last_loss = 0.0;
+  std::size_t skipped = 0, capacity_hits = 0;
+  std::vector<float> grad_accum;  ///< [N] summed screen-space gradient norms since last densify
+  std::vector<int> grad_count;    ///< [N] iterations in which the Gaussian was visible
+  RenderResult<float> train_out, seed_out, view_out;
+  GaussianGrads<float> grads;
+  std::vector<float> pix_gc, pix_gd, pix_ga;
+};
+
+/// Throws nothing; returns an empty string when the keyframe is usable, else why not.
+std::string checkKeyframe(const Keyframe& keyframe);
+
+}  // namespace dypho::mapping

@@ -1,0 +1,160 @@
+#include "dypho/mapping/gaussian_ply.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace dypho::mapping {
+namespace {
+
+std::vector<std::string> propertyNames(int K) {
+  std::vector<std::string> names = {"x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"};
+  for (int i = 0; i < 3 * (K - 1); ++i) names.push_back("f_rest_" + std::to_string(i));
+  names.push_back("opacity");
+  for (int i = 0; i < 3; ++i) names.push_back("scale_" + std::to_string(i));
+  for (int i = 0; i < 4; ++i) names.push_back("rot_" + std::to_string(i));
+  return names;
+}
+
+}  // namespace
+
+void writeGaussianPly(std::ostream& out, const GaussianMap& map) {
+  const int K = map.shCoeffs();
+  const std::vector<std::string> names = propertyNames(K);
+  out << "ply\nformat binary_little_endian 1.0\n"
+      << "comment dypho_slam 3D Gaussian map (3DGS layout)\n"
+      << "element vertex " << map.size() << "\n";
+  for (const auto& n : names) out << "property float " << n << "\n";
+  out << "end_header\n";
+  std::vector<float> row(names.size());
+  const float* pos = map.data(kParamPosition);
+  const float* sc = map.data(kParamLogScale);
+  const float* rot = map.data(kParamRotation);
+  const float* op = map.data(kParamOpacity);
+  const float* sh = map.data(kParamSh);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    std::size_t c = 0;
+    for (int j = 0; j < 3; ++j) row[c++] = pos[3 * i + j];
+    for (int j = 0; j < 3; ++j) row[c++] = 0.f;
+    const float* s = sh + static_cast<std::size_t>(3 * K) * i;  // coefficient-major
+    for (int ch = 0; ch < 3; ++ch) row[c++] = s[ch];
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 1; k < K; ++k) row[c++] = s[3 * k + ch];
+    row[c++] = op[i];
+    for (int j = 0; j < 3; ++j) row[c++] = sc[3 * i + j];
+    for (int j = 0; j < 4; ++j) row[c++] = rot[4 * i + j];
+    out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size() * sizeof(float)));
+  }
+}
+
+std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::string* note) {
+  auto fail = [&](const std::string& what) { return std::runtime_error("cannot load '" + path + "': " + what); };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw fail("cannot open the file (does it exist?)");
+  std::string line;
+  if (!std::getline(in, line) || line != "ply") throw fail("not a PLY file (first line is not 'ply')");
+  std::size_t count = 0;
+  bool in_vertex = false, have_vertex = false, binary_le = false;
+  std::vector<std::string> props;
+  for (;;) {
+    if (!std::getline(in, line)) throw fail("header ends before 'end_header' (truncated file?)");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string word;
+    ls >> word;
+    if (word == "end_header") break;
+    if (word == "format") {
+      std::string fmt;
+      ls >> fmt;
+      binary_le = fmt == "binary_little_endian";
+    } else if (word == "element") {
+      std::string name;
+      long long n = -1;
+      ls >> name >> n;
+      in_vertex = name == "vertex";
+      if (in_vertex) {
+        if (n < 0) throw fail("bad vertex count");
+        count = static_cast<std::size_t>(n);
+        have_vertex = true;
+      } else if (n != 0) {
+        throw fail("element '" + name + "' before/after the vertices is not supported (3DGS files have only vertices)");
+      }
+    } else if (word == "property" && in_vertex) {
+      std::string type, name;
+      ls >> type >> name;
+      if (type != "float" && type != "float32") throw fail("property '" + name + "' is '" + type + "', expected float");
+      props.push_back(name);
+    }
+  }
+  if (!binary_le) throw fail("only 'format binary_little_endian 1.0' is supported (convert ASCII PLYs first)");
+  if (!have_vertex) throw fail("no 'element vertex'");
+  std::map<std::string, int> index;
+  for (std::size_t i = 0; i < props.size(); ++i) index[props[i]] = static_cast<int>(i);
+  int rest = 0;
+  while (index.count("f_rest_" + std::to_string(rest))) ++rest;
+  if (rest % 3 != 0) throw fail("number of f_rest_* properties (" + std::to_string(rest) + ") is not a multiple of 3");
+  const int file_K = rest / 3 + 1;
+  if (file_K != 1 && file_K != 4 && file_K != 9 && file_K != 16) {
+    throw fail(std::to_string(rest) + " f_rest_* properties do not match an SH degree 0-3 (0, 9, 24, 45)");
+  }
+  std::vector<std::string> needed = {"x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
+                                     "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"};
+  for (const auto& n : needed)
+    if (!index.count(n)) throw fail("missing property '" + n + "'");
+  const std::size_t stride = props.size();
+  // Size check before touching the map: the payload must be complete.
+  const std::streampos data_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff available = in.tellg() - data_start;
+  in.seekg(data_start);
+  const std::streamoff expected = static_cast<std::streamoff>(count * stride * sizeof(float));
+  if (available < expected) {
+    throw fail("truncated: " + std::to_string(count) + " Gaussians need " + std::to_string(expected) +
+               " bytes of data, the file has " + std::to_string(available));
+  }
+  std::vector<float> data(count * stride);
+  in.read(reinterpret_cast<char*>(data.data()), expected);
+  if (!in) throw fail("read error");
+  const int K = map.shCoeffs();
+  map.clear();
+  std::size_t loaded = 0, non_finite = 0;
+  GaussianInit g;
+  g.sh.assign(3 * K, 0.f);
+  auto at = [&](const float* row, const std::string& n) { return row[index[n]]; };
+  const int ix = index["x"], iop = index["opacity"], is0 = index["scale_0"], ir0 = index["rot_0"], idc = index["f_dc_0"];
+  for (std::size_t i = 0; i < count; ++i) {
+    const float* row = data.data() + i * stride;
+    bool finite = true;
+    for (std::size_t j = 0; j < stride; ++j) finite = finite && std::isfinite(row[j]);
+    if (!finite) {
+      ++non_finite;
+      continue;
+    }
+    g.position_w = {row[ix], row[ix + 1], row[ix + 2]};
+    g.opacity_logit = row[iop];
+    g.log_scale = {row[is0], row[is0 + 1], row[is0 + 2]};
+    g.rotation_wxyz = {row[ir0], row[ir0 + 1], row[ir0 + 2], row[ir0 + 3]};
+    std::fill(g.sh.begin(), g.sh.end(), 0.f);
+    for (int ch = 0; ch < 3; ++ch) g.sh[ch] = row[idc + ch];
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 1; k < std::min(K, file_K); ++k) g.sh[3 * k + ch] = at(row, "f_rest_" + std::to_string(ch * (file_K - 1) + k - 1));
+    g.anchor_keyframe_id = -1;
+    if (map.add(g) < 0) break;
+    ++loaded;
+  }
+  if (note) {
+    std::ostringstream os;
+    if (file_K != K) os << "SH degree adapted from " << (file_K == 1 ? 0 : file_K == 4 ? 1 : file_K == 9 ? 2 : 3) << " to " << map.shDegree() << "; ";
+    if (loaded + non_finite < count) os << (count - loaded - non_finite) << " Gaussians beyond the capacity dropped; ";
+    if (non_finite) os << non_finite << " Gaussians with non-finite values skipped; ";
+    *note = os.str();
+  }
+  return loaded;
+}
+
+}  // namespace dypho::mapping

@@ -1,0 +1,185 @@
+/// GaussianMapper: loss, one optimisation iteration, densification, pruning, opacity reset.
+#include <algorithm>
+#include <cmath>
+
+#include "gaussian_mapper_impl.h"
+
+namespace dypho::mapping {
+namespace {
+
+AdamLearningRates ratesFrom(const GaussianMapperOptions& o) {
+  AdamLearningRates r;
+  r.position = o.lr_position;
+  r.log_scale = o.lr_log_scale;
+  r.rotation = o.lr_rotation;
+  r.opacity = o.lr_opacity;
+  r.sh_dc = o.lr_sh_dc;
+  r.sh_rest = o.lr_sh_rest;
+  return r;
+}
+
+}  // namespace
+
+GaussianMapper::Impl::Impl(const GaussianMapperOptions& o)
+    : options(o),
+      map(o.sh_degree, o.max_gaussians),
+      pool(o.num_threads),
+      raster(&pool),
+      render_raster(&pool),
+      adam(ratesFrom(o)),
+      rng(static_cast<unsigned>(o.random_seed)) {}
+
+GaussianParamsView<float> GaussianMapper::Impl::params() const {
+  GaussianParamsView<float> p;
+  p.position = map.data(kParamPosition);
+  p.log_scale = map.data(kParamLogScale);
+  p.rotation = map.data(kParamRotation);
+  p.opacity_logit = map.data(kParamOpacity);
+  p.sh = map.data(kParamSh);
+  p.count = static_cast<int>(map.size());
+  p.sh_degree = map.shDegree();
+  return p;
+}
+
+void GaussianMapper::Impl::renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
+                                         Rasterizer<float>& r, RenderResult<float>& out) {
+  r.forward(params(), makePinholeView<float>(T_world_camera, pinhole), out);
+}
+
+double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r) {
+  const int W = r.width, H = r.height;
+  const std::size_t npix = static_cast<std::size_t>(W) * H;
+  pix_gc.assign(3 * npix, 0.f);
+  pix_gd.assign(npix, 0.f);
+  pix_ga.assign(npix, 0.f);
+  std::size_t nc = 0, nd = 0;
+  for (int v = 0; v < H; ++v) {
+    const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
+    const float* d = kf.depth_m.ptr<float>(v);
+    for (int u = 0; u < W; ++u) {
+      if (!m[u]) continue;
+      ++nc;
+      if (d[u] > 0.f) ++nd;
+    }
+  }
+  if (nc == 0) return 0.0;
+  const double lambda = options.lambda_depth;
+  const float wc = static_cast<float>((1.0 - lambda) / (3.0 * nc));
+  const float wd = nd > 0 ? static_cast<float>(lambda / nd) : 0.f;
+  const float wa = nd > 0 ? static_cast<float>(options.alpha_weight / nd) : 0.f;
+  double l1c = 0.0, l1d = 0.0, l1a = 0.0;
+  for (int v = 0; v < H; ++v) {
+    const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
+    const float* d = kf.depth_m.ptr<float>(v);
+    const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < W; ++u) {
+      if (!m[u]) continue;
+      const std::size_t i = static_cast<std::size_t>(v) * W + u;
+      for (int ch = 0; ch < 3; ++ch) {
+        const float diff = r.color[ch * npix + i] - c[u][2 - ch] * (1.f / 255.f);
+        l1c += std::abs(diff);
+        pix_gc[ch * npix + i] = diff > 0.f ? wc : (diff < 0.f ? -wc : 0.f);
+      }
+      if (d[u] > 0.f) {
+        const float diff = r.depth[i] - d[u];
+        l1d += std::abs(diff);
+        pix_gd[i] = diff > 0.f ? wd : (diff < 0.f ? -wd : 0.f);
+        l1a += 1.f - r.alpha[i];  // alpha <= 1: |1 - A| = 1 - A
+        pix_ga[i] = -wa;
+      }
+    }
+  }
+  return (1.0 - lambda) * l1c / (3.0 * nc) + (nd > 0 ? (lambda * l1d + options.alpha_weight * l1a) / nd : 0.0);
+}
+
+double GaussianMapper::Impl::iterate() {
+  std::vector<std::size_t> window, all;
+  for (std::size_t i = 0; i < keyframes.size(); ++i)
+    if (keyframes[i].hasImages()) all.push_back(i);
+  if (all.empty() || map.size() == 0) return -1.0;
+  const std::size_t w = std::min<std::size_t>(all.size(), static_cast<std::size_t>(options.window_size));
+  window.assign(all.end() - static_cast<long>(w), all.end());
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const bool global = unit(rng) < options.global_sample_ratio;
+  const std::vector<std::size_t>& pool_kf = global ? all : window;
+  const TrainingKeyframe& kf = keyframes[pool_kf[std::uniform_int_distribution<std::size_t>(0, pool_kf.size() - 1)(rng)]];
+
+  renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
+  const double loss = lossAndGradient(kf, train_out);
+  raster.backward(PixelGrads<float>{pix_gc.data(), pix_gd.data(), pix_ga.data()}, grads);
+  adam.step(map, grads);
+  grad_accum.resize(map.size(), 0.f);
+  grad_count.resize(map.size(), 0);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    if (grads.mean2d_norm[i] > 0.f) {
+      grad_accum[i] += grads.mean2d_norm[i];
+      ++grad_count[i];
+    }
+  }
+  ++iterations;
+  last_loss = loss;
+  if (options.densify_interval > 0 && iterations % options.densify_interval == 0) densifyAndPrune();
+  if (options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0) resetOpacity();
+  return loss;
+}
+
+void GaussianMapper::Impl::densifyAndPrune() {
+  const std::size_t n0 = map.size();
+  const float thr = static_cast<float>(options.densify_grad_threshold);
+  const float log_split = std::log(static_cast<float>(options.densify_scale_threshold_m));
+  std::vector<std::uint8_t> remove(n0, 0);
+  std::normal_distribution<float> normal(0.f, 1.f);
+  bool full = false;
+  for (std::size_t i = 0; i < n0 && !full; ++i) {
+    if (grad_count[i] == 0 || grad_accum[i] / grad_count[i] < thr) continue;
+    const float* ls = map.data(kParamLogScale) + 3 * i;
+    const float max_ls = std::max({ls[0], ls[1], ls[2]});
+    if (max_ls <= log_split) {  // small: clone in place (the copy separates under optimisation)
+      if (map.duplicate(i) < 0) full = true;
+      continue;
+    }
+    // Large: split into two samples of the Gaussian with 1/1.6 of the scale.
+    for (int c = 0; c < 2 && !full; ++c) {
+      const long j = map.duplicate(i);
+      if (j < 0) {
+        full = true;
+        break;
+      }
+      const float* q = map.data(kParamRotation) + 4 * i;
+      const Eigen::Quaternionf rot(q[0], q[1], q[2], q[3]);
+      const Eigen::Vector3f s(std::exp(ls[0]), std::exp(ls[1]), std::exp(ls[2]));
+      const Eigen::Vector3f offset = rot.normalized() * Eigen::Vector3f(s.x() * normal(rng), s.y() * normal(rng), s.z() * normal(rng));
+      float* pj = map.data(kParamPosition) + 3 * j;
+      for (int k = 0; k < 3; ++k) pj[k] += offset[k];
+      float* lj = map.data(kParamLogScale) + 3 * j;
+      for (int k = 0; k < 3; ++k) lj[k] -= std::log(1.6f);
+    }
+    if (!full) remove[i] = 1;
+  }
+  if (full) ++capacity_hits;
+  // Prune: transparent or too large (new Gaussians are kept).
+  remove.resize(map.size(), 0);
+  const float min_logit = std::log(static_cast<float>(options.prune_min_opacity) / (1.f - static_cast<float>(options.prune_min_opacity)));
+  const float max_ls = std::log(static_cast<float>(options.prune_max_scale_m));
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    const float* ls = map.data(kParamLogScale) + 3 * i;
+    if (map.data(kParamOpacity)[i] < min_logit || std::max({ls[0], ls[1], ls[2]}) > max_ls ||
+        !std::isfinite(map.data(kParamPosition)[3 * i])) {
+      remove[i] = 1;
+    }
+  }
+  adam.resize(map);
+  adam.compact(map, remove);
+  map.removeIf(remove);
+  grad_accum.assign(map.size(), 0.f);
+  grad_count.assign(map.size(), 0);
+}
+
+void GaussianMapper::Impl::resetOpacity() {
+  const float cap = std::log(0.01f / 0.99f);
+  float* o = map.data(kParamOpacity);
+  for (std::size_t i = 0; i < map.size(); ++i) o[i] = std::min(o[i], cap);
+  adam.resetBlock(kParamOpacity);
+}
+
+}  // namespace dypho::mapping

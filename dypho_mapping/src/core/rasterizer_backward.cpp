@@ -1,0 +1,175 @@
+/// Rasterizer: the backward pass (per-tile back-to-front, then per-Gaussian chain rule).
+#include <algorithm>
+#include <cmath>
+
+#include "dypho/mapping/rasterizer.h"
+
+namespace dypho::mapping {
+
+template <typename T>
+void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grads) {
+  constexpr int S = gs::kTileSize;
+  const int tx0 = (tile % tiles_x_) * S, ty0 = (tile / tiles_x_) * S;
+  const int tx1 = std::min(tx0 + S, view_.width), ty1 = std::min(ty0 + S, view_.height);
+  const std::size_t npix = static_cast<std::size_t>(view_.width) * view_.height;
+  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels],
+      BD[gs::kTilePixels], BA[gs::kTilePixels];
+  alignas(64) T gR[gs::kTilePixels], gG[gs::kTilePixels], gB[gs::kTilePixels], gD[gs::kTilePixels], gA[gs::kTilePixels];
+  alignas(64) std::uint32_t last[gs::kTilePixels];
+  const std::uint32_t begin = tile_ranges_[tile];
+  std::uint32_t max_last = begin;
+  for (int i = 0; i < gs::kTilePixels; ++i) {
+    Tc[i] = T(1);
+    Br[i] = Bg[i] = Bb[i] = BD[i] = BA[i] = T(0);
+    gR[i] = gG[i] = gB[i] = gD[i] = gA[i] = T(0);
+    last[i] = begin;
+  }
+  for (int py = ty0; py < ty1; ++py) {
+    for (int px = tx0; px < tx1; ++px) {
+      const int i = (py - ty0) * S + (px - tx0);
+      const std::size_t o = static_cast<std::size_t>(py) * view_.width + px;
+      Tc[i] = final_T_[o];
+      last[i] = last_entry_[o];
+      max_last = std::max(max_last, last[i]);
+      if (grads.color) {
+        gR[i] = grads.color[o];
+        gG[i] = grads.color[npix + o];
+        gB[i] = grads.color[2 * npix + o];
+      }
+      if (grads.depth) gD[i] = grads.depth[o];
+      if (grads.alpha) gA[i] = grads.alpha[o];
+    }
+  }
+  const T min_alpha = T(settings_.min_alpha), max_alpha = T(gs::kMaxAlpha);
+  auto& acc = thread_grads_[thread];
+  for (std::uint32_t k = max_last; k-- > begin;) {
+    const std::uint32_t g = entries_[k];
+    const Packed& p = sorted_[g];
+    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.radius)));
+    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.radius)) + 1);
+    const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
+    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
+    const T mu0 = p.mean_u - T(tx0);
+    // Columns in blocks of 8 (one AVX2 vector): only the blocks the footprint box touches.
+    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.radius)));
+    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.radius)) + 1);
+    const int xb0 = (cx0 / 8) * 8, xb1 = cx1 <= cx0 ? xb0 : ((cx1 + 7) / 8) * 8;
+    T s_mu = 0, s_mv = 0, s_a = 0, s_b = 0, s_c = 0, s_o = 0, s_c0 = 0, s_c1 = 0, s_c2 = 0, s_d = 0;
+    for (int py = py0; py < py1; ++py) {
+      const T dy = p.mean_v - T(py);
+      const T row_term = T(-0.5) * c * dy * dy;
+      const T bdy = b * dy;
+      const int row = (py - ty0) * S;
+      // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
+      // transmittance and its accumulators unchanged and contributes nothing.
+      for (int xb = xb0; xb < xb1; xb += 8)
+#pragma omp simd reduction(+ : s_mu, s_mv, s_a, s_b, s_c, s_o, s_c0, s_c1, s_c2, s_d)
+      for (int x = xb; x < xb + 8; ++x) {
+        const int i = row + x;
+        const T dx = mu0 - T(x);
+        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
+        const T G = gs::blendExp(power);
+        const T raw = o * G;
+        const T clamped = raw < max_alpha ? raw : max_alpha;
+        const T use = (k < last[i] ? T(1) : T(0)) * (power <= T(0) ? T(1) : T(0)) * (clamped >= min_alpha ? T(1) : T(0));
+        const T alpha = use * clamped;
+        const T Ti = Tc[i] / (T(1) - alpha);
+        Tc[i] = Ti;
+        const T w = alpha * Ti;
+        s_c0 += w * gR[i];
+        s_c1 += w * gG[i];
+        s_c2 += w * gB[i];
+        s_d += w * gD[i];
+        const T dL_dalpha = use * Ti * ((c0 - Br[i]) * gR[i] + (c1 - Bg[i]) * gG[i] + (c2 - Bb[i]) * gB[i] +
+                                         (dep - BD[i]) * gD[i] + (T(1) - BA[i]) * gA[i]);
+        Br[i] = alpha * c0 + (T(1) - alpha) * Br[i];
+        Bg[i] = alpha * c1 + (T(1) - alpha) * Bg[i];
+        Bb[i] = alpha * c2 + (T(1) - alpha) * Bb[i];
+        BD[i] = alpha * dep + (T(1) - alpha) * BD[i];
+        BA[i] = alpha + (T(1) - alpha) * BA[i];
+        const T dG = (raw < max_alpha ? T(1) : T(0)) * dL_dalpha;  // clamped alpha: no gradient through G, o
+        s_o += G * dG;
+        const T dpow = o * G * dG;
+        s_mu += dpow * (-a * dx - b * dy);
+        s_mv += dpow * (-b * dx - c * dy);
+        s_a += T(-0.5) * dx * dx * dpow;
+        s_b += -dx * dy * dpow;
+        s_c += T(-0.5) * dy * dy * dpow;
+      }
+    }
+    gs::ScreenGrad<T>& sg = acc[g];
+    sg.mean_u += s_mu;
+    sg.mean_v += s_mv;
+    sg.conic_a += s_a;
+    sg.conic_b += s_b;
+    sg.conic_c += s_c;
+    sg.opacity += s_o;
+    sg.color[0] += s_c0;
+    sg.color[1] += s_c1;
+    sg.color[2] += s_c2;
+    sg.depth += s_d;
+  }
+}
+
+template <typename T>
+void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) {
+  const int n = params_.count;
+  const int threads = pool_->numThreads();
+  thread_grads_.resize(threads);
+  thread_pose_.resize(threads);
+  const gs::ScreenGrad<T> zero{};
+  for (int t = 0; t < threads; ++t) {
+    thread_grads_[t].assign(num_visible_, zero);
+    thread_pose_[t].assign(6, T(0));
+  }
+  pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int thread) { backwardTile(tile, thread, grads); });
+
+  const int K3 = 3 * gs::shCoeffCount(params_.sh_degree);
+  out.position.assign(3 * n, T(0));
+  out.log_scale.assign(3 * n, T(0));
+  out.rotation.assign(4 * n, T(0));
+  out.opacity_logit.assign(n, T(0));
+  out.sh.assign(static_cast<std::size_t>(K3) * n, T(0));
+  out.mean2d_norm.assign(n, T(0));
+  const int block = 1024;
+  const int nv = static_cast<int>(num_visible_);
+  pool_->parallelFor((nv + block - 1) / block, [&](int bi, int thread) {
+    const int end = std::min(nv, (bi + 1) * block);
+    T* pose = thread_pose_[thread].data();
+    for (int j = bi * block; j < end; ++j) {
+      const int i = static_cast<int>(order_[j]);
+      gs::ScreenGrad<T> sg = thread_grads_[0][j];
+      for (int t = 1; t < threads; ++t) {
+        const gs::ScreenGrad<T>& s = thread_grads_[t][j];
+        sg.mean_u += s.mean_u; sg.mean_v += s.mean_v;
+        sg.conic_a += s.conic_a; sg.conic_b += s.conic_b; sg.conic_c += s.conic_c;
+        sg.opacity += s.opacity; sg.depth += s.depth;
+        for (int ch = 0; ch < 3; ++ch) sg.color[ch] += s.color[ch];
+      }
+      out.mean2d_norm[i] = std::sqrt(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
+      gs::ParamGrad<T> pg;
+      gs::projectGaussianBackward(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
+                                  params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
+                                  params_.sh_degree, sg, pg);
+      for (int j = 0; j < 3; ++j) {
+        out.position[3 * i + j] = pg.pos[j];
+        out.log_scale[3 * i + j] = pg.log_scale[j];
+      }
+      for (int j = 0; j < 4; ++j) out.rotation[4 * i + j] = pg.quat[j];
+      out.opacity_logit[i] = pg.opacity_logit;
+      for (int j = 0; j < K3; ++j) out.sh[static_cast<std::size_t>(K3) * i + j] = pg.sh[j];
+      for (int j = 0; j < 6; ++j) pose[j] += pg.pose[j];
+    }
+  });
+  for (int j = 0; j < 6; ++j) {
+    out.pose[j] = T(0);
+    for (int t = 0; t < threads; ++t) out.pose[j] += thread_pose_[t][j];
+  }
+}
+
+template void Rasterizer<float>::backward(const PixelGrads<float>&, GaussianGrads<float>&);
+template void Rasterizer<double>::backward(const PixelGrads<double>&, GaussianGrads<double>&);
+template void Rasterizer<float>::backwardTile(int, int, const PixelGrads<float>&);
+template void Rasterizer<double>::backwardTile(int, int, const PixelGrads<double>&);
+
+}  // namespace dypho::mapping

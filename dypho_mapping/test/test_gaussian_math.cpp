@@ -1,0 +1,212 @@
+/// Projection, covariance and single-Gaussian rendering against closed forms; Adam step.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "dypho/mapping/adam.h"
+#include "dypho/mapping/gaussian_map.h"
+#include "dypho/mapping/rasterizer.h"
+
+namespace dypho::mapping {
+namespace {
+
+CameraIntrinsics testCamera() {
+  CameraIntrinsics c;
+  c.width = 64;
+  c.height = 48;
+  c.fx = 50.0;
+  c.fy = 55.0;
+  c.cx = 31.5;
+  c.cy = 23.5;
+  return c;
+}
+
+TEST(GaussianMath, Covariance3dIsRotatedDiagonal) {
+  const double q[4] = {0.9, 0.2, -0.3, 0.1};
+  const double ls[3] = {std::log(0.1), std::log(0.2), std::log(0.05)};
+  const gs::Mat3<double> C = gs::covariance3d(ls, q);
+  const Eigen::Matrix3d R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  const Eigen::Matrix3d expected = R * Eigen::Vector3d(0.01, 0.04, 0.0025).asDiagonal() * R.transpose();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(C.m[i][j], expected(i, j), 1e-12);  // double round-off
+}
+
+TEST(GaussianMath, ProjectionOfIsotropicGaussianOnAxis) {
+  const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), testCamera());
+  const double pos[3] = {0.2, -0.1, 2.0}, q[4] = {1, 0, 0, 0}, sigma = 0.05;
+  const double ls[3] = {std::log(sigma), std::log(sigma), std::log(sigma)};
+  const double sh[3] = {0, 0, 0};
+  gs::Projected<double> p;
+  ASSERT_TRUE(gs::projectGaussian(view, pos, ls, q, 0.0, sh, 0, 3.0, 0.0, p));
+  EXPECT_NEAR(p.mean_u, 50.0 * 0.2 / 2.0 + 31.5, 1e-12);
+  EXPECT_NEAR(p.mean_v, 55.0 * -0.1 / 2.0 + 23.5, 1e-12);
+  EXPECT_DOUBLE_EQ(p.depth_m, 2.0);
+  EXPECT_DOUBLE_EQ(p.opacity, 0.5);
+  EXPECT_NEAR(p.color[0], 0.5, 1e-15);
+  // Closed form: Sigma2 = J Sigma J^T + 0.3 I with J = [[fx/z, 0, -fx x/z^2], [0, fy/z, -fy y/z^2]].
+  const double z = 2.0, s2 = sigma * sigma;
+  const double a = (50.0 / z) * (50.0 / z) * s2 + std::pow(50.0 * 0.2 / (z * z), 2) * s2 + 0.3;
+  const double b = (50.0 * 0.2 / (z * z)) * (55.0 * -0.1 / (z * z)) * s2;
+  const double c = (55.0 / z) * (55.0 / z) * s2 + std::pow(55.0 * 0.1 / (z * z), 2) * s2 + 0.3;
+  const double det = a * c - b * b;
+  EXPECT_NEAR(p.conic_a, c / det, 1e-12);
+  EXPECT_NEAR(p.conic_b, -b / det, 1e-12);
+  EXPECT_NEAR(p.conic_c, a / det, 1e-12);
+}
+
+TEST(GaussianMath, BehindCameraIsCulled) {
+  const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), testCamera());
+  const double pos[3] = {0, 0, -1}, q[4] = {1, 0, 0, 0}, ls[3] = {-3, -3, -3}, sh[3] = {0, 0, 0};
+  gs::Projected<double> p;
+  EXPECT_FALSE(gs::projectGaussian(view, pos, ls, q, 0.0, sh, 0, 3.0, 0.0, p));
+}
+
+TEST(GaussianMath, FastExpMatchesStdExp) {
+  // Bound 1e-6: polynomial truncation < 1.2e-7 plus float rounding of ~8 operations (each
+  // <= 6e-8) in blendExp, in std::exp and in the division here.
+  for (float x = -20.f; x <= 5.f; x += 0.001f) {
+    EXPECT_NEAR(gs::blendExp(x) / std::exp(x), 1.f, 1e-6f) << x;
+  }
+}
+
+TEST(Rasterizer, SingleGaussianMatchesAnalyticValue) {
+  ThreadPool pool(2);
+  Rasterizer<double> raster(&pool);
+  const CameraIntrinsics cam = testCamera();
+  const std::vector<double> pos = {0.1, 0.05, 1.5}, ls = {std::log(0.04), std::log(0.03), std::log(0.02)},
+                            rot = {0.95, 0.1, 0.2, -0.1}, opa = {1.2};
+  const std::vector<double> sh = {(0.8 - 0.5) / 0.28209479177387814, (0.3 - 0.5) / 0.28209479177387814,
+                                  (0.6 - 0.5) / 0.28209479177387814};
+  GaussianParamsView<double> v;
+  v.position = pos.data();
+  v.log_scale = ls.data();
+  v.rotation = rot.data();
+  v.opacity_logit = opa.data();
+  v.sh = sh.data();
+  v.count = 1;
+  v.sh_degree = 0;
+  const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), cam);
+  RenderResult<double> out;
+  raster.forward(v, view, out);
+  gs::Projected<double> p;
+  ASSERT_TRUE(gs::projectGaussian(view, pos.data(), ls.data(), rot.data(), opa[0], sh.data(), 0, 3.0, 1.0 / 255, p));
+  const double o = 1.0 / (1.0 + std::exp(-1.2));
+  int checked = 0;
+  for (int y = 0; y < cam.height; ++y) {
+    for (int x = 0; x < cam.width; ++x) {
+      const double dx = p.mean_u - x, dy = p.mean_v - y;
+      const double power = -0.5 * (p.conic_a * dx * dx + p.conic_c * dy * dy) - p.conic_b * dx * dy;
+      double alpha = std::min(0.99, o * std::exp(power));
+      if (alpha < 1.0 / 255) alpha = 0;  // below the threshold the pixel skips the Gaussian
+      const std::size_t i = static_cast<std::size_t>(y) * cam.width + x;
+      const std::size_t n = static_cast<std::size_t>(cam.width) * cam.height;
+      // Tolerance 1e-12: same double formula, only the evaluation order differs.
+      EXPECT_NEAR(out.alpha[i], alpha, 1e-12);
+      EXPECT_NEAR(out.color[i], alpha * 0.8, 1e-12);
+      EXPECT_NEAR(out.color[n + i], alpha * 0.3, 1e-12);
+      EXPECT_NEAR(out.color[2 * n + i], alpha * 0.6, 1e-12);
+      EXPECT_NEAR(out.depth[i], alpha * 1.5, 1e-12);
+      checked += alpha > 0.1;
+    }
+  }
+  EXPECT_GT(checked, 10);  // the Gaussian really covers pixels
+}
+
+TEST(Rasterizer, FrontGaussianOccludesBackOne) {
+  ThreadPool pool(1);
+  Rasterizer<float> raster(&pool);
+  CameraIntrinsics cam = testCamera();
+  GaussianMap map(0, 4);
+  GaussianInit g;
+  g.log_scale = Eigen::Vector3f::Constant(std::log(0.5f));  // >= 8 px std dev: G ~ 1 at the centre
+  g.opacity_logit = 10.f;  // opacity ~1 -> alpha clamps at 0.99
+  g.position_w = {0, 0, 3};
+  g.sh = {rgbToShDc(0.f), rgbToShDc(0.f), rgbToShDc(1.f)};
+  map.add(g);
+  g.opacity_logit = std::log(0.7f / 0.3f);  // front: alpha 0.7
+  g.position_w = {0, 0, 1};
+  g.sh = {rgbToShDc(1.f), rgbToShDc(0.f), rgbToShDc(0.f)};
+  map.add(g);  // added second but nearer: depth sorting must put it first
+  GaussianParamsView<float> v{map.data(kParamPosition), map.data(kParamLogScale), map.data(kParamRotation),
+                              map.data(kParamOpacity), map.data(kParamSh), 2, 0};
+  RenderResult<float> out;
+  raster.forward(v, makePinholeView<float>(Eigen::Isometry3d::Identity(), cam), out);
+  const std::size_t c = 24 * 64 + 32, n = 64 * 48;
+  // Tolerance 2e-3: at the centre pixel (half a pixel off the mean) G differs from 1 by < 1e-3.
+  EXPECT_NEAR(out.color[c], 0.7f, 2e-3f);                // red in front
+  EXPECT_NEAR(out.color[2 * n + c], 0.3f * 0.99f, 2e-3f);  // blue behind, through T = 0.3
+  EXPECT_NEAR(out.depth[c], 0.7f * 1.f + 0.3f * 0.99f * 3.f, 6e-3f);  // D = sum d_i alpha_i T_i
+  EXPECT_NEAR(out.alpha[c], 0.7f + 0.3f * 0.99f, 2e-3f);
+}
+
+TEST(Adam, FirstTwoStepsMatchClosedForm) {
+  GaussianMap map(0, 2);
+  map.add(GaussianInit());
+  AdamLearningRates lr;
+  lr.position = 0.1;
+  Adam adam(lr);
+  GaussianGrads<float> g;
+  g.position = {2.f, -3.f, 0.f};
+  g.log_scale.assign(3, 0.f);
+  g.rotation.assign(4, 0.f);
+  g.opacity_logit.assign(1, 0.f);
+  g.sh.assign(3, 0.f);
+  adam.step(map, g);
+  // Step 1: mhat = g, vhat = g^2 -> x -= lr * sign(g).
+  EXPECT_NEAR(map.data(kParamPosition)[0], -0.1f, 1e-6f);
+  EXPECT_NEAR(map.data(kParamPosition)[1], 0.1f, 1e-6f);
+  EXPECT_EQ(map.data(kParamPosition)[2], 0.f);
+  g.position = {1.f, 0.f, 0.f};
+  adam.step(map, g);
+  const double m = 0.9 * 0.1 * 2 + 0.1 * 1, v = 0.999 * 0.001 * 4 + 0.001 * 1;
+  const double expected = -0.1 - 0.1 * (m / (1 - 0.81)) / std::sqrt(v / (1 - 0.999 * 0.999));
+  EXPECT_NEAR(map.data(kParamPosition)[0], expected, 1e-5);  // float arithmetic
+  EXPECT_EQ(adam.steps(), 2);
+  g.position.pop_back();
+  EXPECT_THROW(adam.step(map, g), std::invalid_argument);
+}
+
+TEST(GaussianMap, CapacityIdsAndCompaction) {
+  GaussianMap map(1, 3);
+  GaussianInit g;
+  for (int i = 0; i < 3; ++i) {
+    g.position_w = Eigen::Vector3f::Constant(static_cast<float>(i));
+    EXPECT_EQ(map.add(g), i);
+  }
+  EXPECT_EQ(map.add(g), -1);  // full
+  EXPECT_EQ(map.duplicate(0), -1);
+  map.removeIf({0, 1, 0});
+  ASSERT_EQ(map.size(), 2u);
+  EXPECT_EQ(map.ids()[0], 0);
+  EXPECT_EQ(map.ids()[1], 2);  // ids survive removal
+  EXPECT_EQ(map.data(kParamPosition)[3], 2.f);
+  EXPECT_EQ(map.duplicate(1), 2);
+  EXPECT_EQ(map.ids()[2], 3);  // new id, never reused
+  EXPECT_EQ(map.data(kParamPosition)[6], 2.f);
+  EXPECT_THROW(map.removeIf({1}), std::invalid_argument);
+  EXPECT_THROW(GaussianMap(4, 10), std::invalid_argument);
+}
+
+TEST(GaussianMap, TransformAnchoredMovesOnlyThatKeyframe) {
+  GaussianMap map(0, 4);
+  GaussianInit g;
+  g.position_w = {1, 0, 0};
+  g.anchor_keyframe_id = 7;
+  map.add(g);
+  g.anchor_keyframe_id = 8;
+  map.add(g);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0, 0, 1);
+  EXPECT_EQ(map.transformAnchored(7, T), 1u);
+  EXPECT_NEAR(map.data(kParamPosition)[0], 0.f, 1e-6f);
+  EXPECT_NEAR(map.data(kParamPosition)[1], 1.f, 1e-6f);
+  EXPECT_NEAR(map.data(kParamPosition)[2], 1.f, 1e-6f);
+  EXPECT_EQ(map.data(kParamPosition)[3], 1.f);  // the other keyframe's Gaussian did not move
+  const float* q = map.data(kParamRotation);
+  EXPECT_NEAR(q[0], std::cos(M_PI / 4), 1e-6);
+  EXPECT_NEAR(q[3], std::sin(M_PI / 4), 1e-6);
+}
+
+}  // namespace
+}  // namespace dypho::mapping

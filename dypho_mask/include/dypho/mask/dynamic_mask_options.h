@@ -1,0 +1,95 @@
+#pragma once
+/// \file dynamic_mask_options.h
+/// Settings of the full dynamic mask (`DynamicMasker`): the segment mask from a YOLO model, the
+/// motion mask from optical flow (`FlowMaskOptions`), the prior background model. The flat key
+/// list (prefixes yolo_, flow_, background_) is in mask_options_fields.h.
+
+#include <string>
+#include <vector>
+
+#include "dypho/mask/flow_mask_options.h"
+
+namespace dypho {
+namespace mask {
+
+/// Settings of the YOLO segment/detector mask (`YoloSegmenter`).
+struct YoloOptions {
+  /// ONNX model file (YOLOv5/v8/v11-seg or YOLOX/YOLOv8 detector). Empty = no network (flow and
+  /// background only). Default "" (none).
+  std::string model_path;
+  /// Output layout: auto, yolox, yolov8, yolov8_seg, yolov5_seg. Default auto (from the shapes).
+  std::string layout = "auto";
+  /// Network input width and height [px], multiple of 32 (the size the model was exported at,
+  /// e.g. 416 for YOLOX-nano, 640 for YOLOv8-seg). Default 416.
+  int input_size_px = 416;
+  /// Detections below this confidence are ignored, in (0, 1). Default 0.3.
+  double score_threshold = 0.3;
+  /// IoU above which class-wise NMS drops the weaker box, in (0, 1]. Default 0.45.
+  double nms_iou = 0.45;
+  /// COCO class ids treated as dynamic, comma separated. Default person and movable things:
+  /// "0,1,2,3,5,7,14,15,16,17,24,26,28,36" (person, bicycle, car, motorbike, bus, truck, bird,
+  /// cat, dog, horse, backpack, handbag, suitcase, skateboard).
+  std::string dynamic_classes = "0,1,2,3,5,7,14,15,16,17,24,26,28,36";
+  /// Run the network on every N-th frame, >= 1; in between its mask is carried along with the
+  /// optical flow. Default 1.
+  int every_n_frames = 1;
+  /// Run the network on a worker thread: compute() never waits for it; its newest result is
+  /// carried to the current frame with the flows of the frames since. Default false.
+  bool async = false;
+  /// Detector boxes: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.
+  double box_depth_range_m = 0.6;
+
+  /// Throws std::invalid_argument naming the first bad field.
+  void validate() const;
+  /// Parsed dynamic_classes (throws std::invalid_argument on a bad list).
+  std::vector<int> dynamicClassIds() const;
+};
+
+/// Settings of the prior static-background depth model (`BackgroundModel`).
+struct BackgroundOptions {
+  /// Use the background model and the depth-consistency filter. Default true.
+  bool enabled = true;
+  /// Resolution of the model as a fraction of the input, in (0, 1]. Default 0.5.
+  double scale = 0.5;
+  /// tau: weight of the depth rendered from the map at the predicted pose, in [0, 1). Default 0.1.
+  double tau = 0.1;
+  /// rho: weight of the current depth on pixels the raw masks call static, in (0, 1). Default 0.3.
+  double rho = 0.3;
+  /// sigma_m: a neighbour's depth agrees with the background when it is not nearer than this [m],
+  /// > 0. Default 0.2 (paper).
+  double sigma_m = 0.2;
+  /// n_m: a pixel is static when more than this many neighbours agree, >= 0. Default 9 (paper).
+  int min_agreeing = 9;
+  /// Side of the square neighbourhood [model px], odd >= 3 (5: 25 neighbours). Default 5.
+  int window_px = 5;
+  /// Grow the dynamic regions over their depth-connected surface where the background has no
+  /// value or lies behind (fills the textureless inside of a person the flow outlined; the grown
+  /// pixels are not learnt into B). Default true.
+  bool grow_in_depth = true;
+
+  /// Throws std::invalid_argument naming the first bad field.
+  void validate() const;
+};
+
+/// All settings of `DynamicMasker`.
+struct DynamicMaskOptions {
+  YoloOptions yolo;            ///< segment mask (keys yolo_*)
+  FlowMaskOptions flow = [] {  ///< motion mask (keys flow_*); its own margin is off here
+    FlowMaskOptions f;
+    f.dilate_px = 0;
+    return f;
+  }();
+  BackgroundOptions background;  ///< background model (keys background_*)
+  /// Safety margin grown around the final mask [full-res px], >= 0. Default 4.
+  int margin_px = 4;
+  /// Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.
+  int min_region_area_px = 400;
+
+  /// Throws std::invalid_argument naming the first bad field (of any part).
+  void validate() const;
+  /// One line "key=value ..." with every key, for start-up logs.
+  std::string toString() const;
+};
+
+}  // namespace mask
+}  // namespace dypho

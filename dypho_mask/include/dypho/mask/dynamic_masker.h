@@ -1,0 +1,114 @@
+#pragma once
+/// \file dynamic_masker.h
+/// The dynamic mask of the paper's "Dynamic Process": raw mask = segment mask (YOLO, optional)
+/// OR motion mask (dense flow with the camera's own motion removed), refined by the prior static
+/// background model and its neighbourhood depth-consistency test, cleaned and grown by a margin.
+///
+/// Mask convention at this API edge: CV_8UC1, 255 = dynamic, 0 = static (the paper writes the
+/// inverse, 1 = static); on topics `mono8` with the same values.
+///
+/// Per frame: (1) flow mask (flow_motion_masker.h; with `prior.T_prev_cur`, depth and a valid
+/// camera the ego-motion is predicted from depth, else a global homography is removed);
+/// (2) segment mask from the scheduler (network every N-th frame or async, carried by the flow in
+/// between); (3) at background resolution: consistency mask of D_i against the warped B_{i-1}
+/// (+ rendered depth), final = consistency OR raw, then B_i is updated (background_model.h);
+/// (4) open + small-region removal + margin, upsampled to the input size.
+/// Degraded modes (documented, never a crash): no depth or a size mismatch -> no background
+/// model and no depth-based ego-motion (flow homography + segment boxes painted whole); depth all
+/// zero -> the background model has nothing to compare (raw masks only); no/failed network ->
+/// flow + background only (warning in `message` on the first frame, and in status()).
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "dypho/common/types.h"
+#include "dypho/mask/background_model.h"
+#include "dypho/mask/box_depth_segmenter.h"
+#include "dypho/mask/dynamic_mask_options.h"
+#include "dypho/mask/flow_motion_masker.h"
+#include "dypho/mask/mask_cleaner.h"
+
+namespace dypho {
+namespace mask {
+
+class SegmentScheduler;
+
+/// What other modules know about this frame (all optional).
+struct MaskPrior {
+  /// Predicted pose of the current camera in the previous camera frame (constant velocity from
+  /// tracking): p_prev = T_prev_cur * p_cur.
+  std::optional<Eigen::Isometry3d> T_prev_cur;
+  /// CV_32FC1 depth [m] rendered from the map at the predicted current pose, input size; empty =
+  /// none (0/NaN pixels = no value).
+  cv::Mat rendered_depth_m;
+};
+
+/// Output of `DynamicMasker::compute`. All masks CV_8UC1, input size, 255 = dynamic.
+struct MaskResult {
+  cv::Mat mask;              ///< final mask
+  cv::Mat raw_flow_mask;     ///< thresholded flow residual (empty when no flow this frame)
+  cv::Mat raw_segment_mask;  ///< segment/detector mask in use (empty when none)
+  cv::Mat consistency_mask;  ///< background depth-consistency mask (empty when not run)
+  double masked_fraction = 0.0;  ///< share of `mask` that is dynamic, [0, 1]
+  /// True when part of the pipeline could not run this frame (bad input, flow fit failed);
+  /// the mask is then what the remaining parts give (possibly empty). `message` says why.
+  bool degraded = false;
+  std::string message;             ///< why degraded, warnings, "first frame"
+  bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
+  bool segment_fresh = false;      ///< the network ran on this frame
+  int segment_age_frames = 0;      ///< frames the segment mask was carried
+  std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
+  double flow_ms = 0.0;        ///< flow masker, whole [ms]
+  double segment_ms = 0.0;     ///< network (sync) + carrying [ms]
+  double background_ms = 0.0;  ///< background model + combination + clean-up [ms]
+  double total_ms = 0.0;       ///< whole compute() [ms]
+};
+
+/// Computes the dynamic mask frame by frame. Not thread-safe; one instance per image stream.
+class DynamicMasker {
+ public:
+  /// Validates `options` (std::invalid_argument). Loads the YOLO model when configured; a model
+  /// problem is not an error (see status()).
+  explicit DynamicMasker(const DynamicMaskOptions& options);
+  ~DynamicMasker();
+  DynamicMasker(const DynamicMasker&) = delete;
+  DynamicMasker& operator=(const DynamicMasker&) = delete;
+
+  /// Mask of `frame` (bgr CV_8UC3 or CV_8UC1; depth CV_32FC1 of the same size or empty).
+  MaskResult compute(const RgbdFrame& frame, const MaskPrior& prior = {});
+
+  /// Forgets all history (flow, carried segment mask, background model).
+  void reset();
+
+  /// State of the segment network: ready, or why not (no model / file missing / bad layout).
+  const std::string& segmentStatus() const;
+  bool segmentReady() const;
+  const DynamicMaskOptions& options() const { return options_; }
+  /// The background model's B (CV_32FC1 [m] at background resolution, 0 = none).
+  const cv::Mat& backgroundDepth() const { return background_.background(); }
+  /// The prior Q the last consistency test used (CV_32FC1 [m] at background resolution, 0 = none).
+  const cv::Mat& backgroundPrior() const { return background_.prior(); }
+
+ private:
+  void finish(const cv::Mat& dynamic, const cv::Size& size, double scale, MaskResult& result);
+
+  DynamicMaskOptions options_;
+  FlowMotionMasker flow_;
+  std::unique_ptr<SegmentScheduler> segment_;
+  BackgroundModel background_;
+  MaskCleaner full_cleaner_;
+  MaskCleaner small_cleaner_;
+  bool warned_ = false;
+  BoxDepthSettings box_settings_;
+  DepthGrowSettings grow_settings_;
+  cv::Mat seg_small_, flow_small_;
+  cv::Mat depth_small_, raw_small_, rendered_small_, consistency_small_, combined_;
+};
+
+}  // namespace mask
+}  // namespace dypho

@@ -1,0 +1,162 @@
+#include "dypho/mask/box_depth_segmenter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace dypho {
+namespace mask {
+namespace {
+
+/// [lo, hi] of the nearest depth window of `range` holding min_cluster_share of `z` (sorted).
+void nearestCluster(const std::vector<float>& z, const BoxDepthSettings& s, float& lo, float& hi) {
+  const size_t need = std::max<size_t>(1, static_cast<size_t>(s.min_cluster_share * z.size()));
+  float d_near = z.front();
+  for (size_t i = 0, j = 0; i < z.size(); ++i) {
+    while (j < z.size() && z[j] <= z[i] + s.depth_range_m) ++j;
+    if (j - i >= need) {
+      d_near = z[i];
+      break;
+    }
+  }
+  lo = d_near - 0.1f;
+  hi = d_near + static_cast<float>(s.depth_range_m);
+}
+
+}  // namespace
+
+bool paintBoxForeground(const cv::Mat& depth_m, const cv::Rect& box_in, const BoxDepthSettings& s,
+                        cv::Mat& mask_image) {
+  CV_Assert(mask_image.type() == CV_8UC1);
+  const cv::Rect box = box_in & cv::Rect(cv::Point(0, 0), mask_image.size());
+  if (box.empty()) return false;
+  cv::Mat roi = mask_image(box);
+  if (depth_m.empty() || depth_m.size() != mask_image.size() || depth_m.type() != CV_32FC1) {
+    roi.setTo(255);
+    return false;
+  }
+  const cv::Mat d = depth_m(box);
+  // Sample at most ~4000 depths (stride) to find the cluster; paint every pixel afterwards.
+  const int stride = std::max(1, static_cast<int>(std::sqrt(box.area() / 4000.0)));
+  std::vector<float> z;
+  int total = 0;
+  for (int y = 0; y < d.rows; y += stride) {
+    const float* p = d.ptr<float>(y);
+    for (int x = 0; x < d.cols; x += stride, ++total) {
+      if (p[x] > 0.f) z.push_back(p[x]);  // rejects NaN too
+    }
+  }
+  if (z.empty() || static_cast<double>(z.size()) < s.min_valid_share * total) {
+    roi.setTo(255);
+    return false;
+  }
+  std::sort(z.begin(), z.end());
+  float lo = 0.f, hi = 0.f;
+  nearestCluster(z, s, lo, hi);
+  cv::Mat fg(box.size(), CV_8UC1);
+  for (int y = 0; y < d.rows; ++y) {
+    const float* p = d.ptr<float>(y);
+    uchar* f = fg.ptr<uchar>(y);
+    for (int x = 0; x < d.cols; ++x) f[x] = (p[x] >= lo && p[x] <= hi) ? 255 : 0;
+  }
+  cv::morphologyEx(fg, fg, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {5, 5}));
+  roi |= fg;
+  return true;
+}
+
+void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings& s, cv::Mat& mask) {
+  CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size());
+  cv::Mat labels;
+  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
+  if (n <= 1) return;
+  std::vector<std::vector<float>> z(n);
+  std::vector<int> total(n, 0);
+  for (int y = 0; y < mask.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (l[x] == 0) continue;
+      ++total[l[x]];
+      if (d[x] > 0.f) z[l[x]].push_back(d[x]);
+    }
+  }
+  std::vector<float> lo(n, -1.f), hi(n, 1e30f);
+  for (int i = 1; i < n; ++i) {
+    if (z[i].empty() || static_cast<double>(z[i].size()) < s.min_valid_share * total[i]) continue;
+    std::sort(z[i].begin(), z[i].end());
+    nearestCluster(z[i], s, lo[i], hi[i]);
+  }
+  for (int y = 0; y < mask.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    uchar* m = mask.ptr<uchar>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (l[x] == 0 || !(d[x] > 0.f)) continue;
+      if (d[x] < lo[l[x]] || d[x] > hi[l[x]]) m[x] = 0;
+    }
+  }
+}
+
+void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, const DepthGrowSettings& g,
+                        cv::Mat& mask) {
+  CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size() &&
+            background_m.type() == CV_32FC1 && background_m.size() == mask.size());
+  cv::Mat labels;
+  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
+  if (n <= 1) return;
+  CV_Assert(labels.isContinuous() && depth_m.isContinuous() && background_m.isContinuous() && mask.isContinuous());
+  BoxDepthSettings s;
+  s.depth_range_m = g.depth_range_m;
+  std::vector<std::vector<float>> z(n);
+  const int w = mask.cols, h = mask.rows;
+  for (int y = 0; y < h; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      if (l[x] != 0 && d[x] > 0.f) z[l[x]].push_back(d[x]);
+    }
+  }
+  std::vector<float> lo(n, 1.f), hi(n, -1.f);  // empty range: regions without depth do not grow
+  for (int i = 1; i < n; ++i) {
+    if (z[i].empty() || static_cast<int>(z[i].size()) < g.min_seed_area_px) continue;
+    std::sort(z[i].begin(), z[i].end());
+    nearestCluster(z[i], s, lo[i], hi[i]);
+  }
+  // Breadth-first growth from every region pixel that has depth in its cluster.
+  std::deque<int> queue;
+  for (int y = 0; y < h; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      if (l[x] != 0 && d[x] >= lo[l[x]] && d[x] <= hi[l[x]]) queue.push_back(y * w + x);
+    }
+  }
+  const float sigma = static_cast<float>(g.sigma_m);
+  const float step0 = static_cast<float>(g.max_step_m), step_rel = static_cast<float>(g.max_step_rel);
+  int* L = labels.ptr<int>(0);
+  const float* D = depth_m.ptr<float>(0);
+  const float* B = background_m.ptr<float>(0);
+  uchar* M = mask.ptr<uchar>(0);
+  while (!queue.empty()) {
+    const int i = queue.front();
+    queue.pop_front();
+    const int x = i % w, y = i / w, label = L[i];
+    const float d = D[i], step = step0 + step_rel * d;
+    const int neighbours[4] = {x > 0 ? i - 1 : -1, x + 1 < w ? i + 1 : -1, y > 0 ? i - w : -1, y + 1 < h ? i + w : -1};
+    for (const int j : neighbours) {
+      if (j < 0 || L[j] != 0) continue;
+      const float dj = D[j];
+      if (!(dj >= lo[label] && dj <= hi[label]) || std::abs(dj - d) > step) continue;
+      if (B[j] > 0.f && dj >= B[j] - sigma) continue;  // the background explains it
+      L[j] = label;
+      M[j] = 255;
+      queue.push_back(j);
+    }
+  }
+}
+
+}  // namespace mask
+}  // namespace dypho

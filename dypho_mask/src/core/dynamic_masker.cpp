@@ -1,0 +1,181 @@
+#include "dypho/mask/dynamic_masker.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "dypho/mask/box_depth_segmenter.h"
+#include "dypho/mask/segment_scheduler.h"
+
+namespace dypho {
+namespace mask {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+MaskCleanerSettings cleanerAt(const DynamicMaskOptions& o, double scale) {
+  MaskCleanerSettings s;
+  s.open_radius_px = 1;  // speckles of the consistency test, one pixel at this resolution
+  s.min_region_area_px = static_cast<int>(std::lround(o.min_region_area_px * scale * scale));
+  s.dilate_radius_px = o.margin_px > 0 ? std::max(1, static_cast<int>(std::lround(o.margin_px * scale))) : 0;
+  return s;
+}
+
+/// Intrinsics of an image resized by `scale` (cv::resize pixel-centre convention).
+CameraIntrinsics scaled(const CameraIntrinsics& c, const cv::Size& small, double scale) {
+  CameraIntrinsics s = c;
+  s.fx *= scale;
+  s.fy *= scale;
+  s.cx = (c.cx + 0.5) * scale - 0.5;
+  s.cy = (c.cy + 0.5) * scale - 0.5;
+  s.width = small.width;
+  s.height = small.height;
+  s.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
+  return s;
+}
+
+}  // namespace
+
+DynamicMasker::DynamicMasker(const DynamicMaskOptions& options)
+    : options_((options.validate(), options)),
+      flow_(options.flow),
+      segment_(std::make_unique<SegmentScheduler>(options.yolo)),
+      background_(options.background),
+      full_cleaner_(cleanerAt(options, 1.0)),
+      small_cleaner_(cleanerAt(options, options.background.scale)) {
+  box_settings_.depth_range_m = options.yolo.box_depth_range_m;
+  grow_settings_.depth_range_m = options.yolo.box_depth_range_m;
+  grow_settings_.sigma_m = options.background.sigma_m;
+  grow_settings_.min_seed_area_px = cleanerAt(options, options.background.scale).min_region_area_px;
+}
+
+DynamicMasker::~DynamicMasker() = default;
+
+void DynamicMasker::reset() {
+  flow_.reset();
+  segment_->reset();
+  background_.reset();
+}
+
+const std::string& DynamicMasker::segmentStatus() const { return segment_->status(); }
+bool DynamicMasker::segmentReady() const { return segment_->ready(); }
+
+MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
+  const auto t0 = Clock::now();
+  MaskResult result;
+  auto note = [&](const std::string& m) { result.message += (result.message.empty() ? "" : "; ") + m; };
+
+  // 1. Motion mask. The flow masker checks the colour image, depth size and camera size.
+  const FlowMaskResult flow = flow_.compute(frame, prior.T_prev_cur);
+  result.flow_ms = flow.total_ms;
+  result.ego_motion_from_pose = flow.ego_motion_from_pose;
+  result.raw_flow_mask = flow.raw_flow_mask;
+  if (flow.degraded) {
+    result.degraded = true;
+    note(flow.message);
+  } else if (!flow.message.empty()) {
+    note(flow.message);
+  }
+  if (flow.mask.empty()) {  // unusable input: nothing else can run
+    result.mask = flow.mask;
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  const cv::Size size = frame.bgr.size();
+  if (!warned_ && !segment_->ready()) {
+    note(segment_->status());
+    warned_ = true;
+  }
+
+  // 2. Segment mask (network every N-th frame / async, carried by the flow in between).
+  const auto t_seg = Clock::now();
+  const SegmentStep seg = segment_->step(frame, flow_.lastFlow());
+  result.segment_ms = msSince(t_seg);
+  result.segment_fresh = seg.fresh;
+  result.segment_age_frames = seg.age_frames;
+  result.detection_boxes = seg.boxes_image;
+  result.raw_segment_mask = seg.mask;
+  if (!seg.message.empty()) note("segment: " + seg.message);
+
+  // 3. Raw mask, background model, consistency.
+  const auto t_bg = Clock::now();
+  cv::Mat raw = flow.mask.clone();
+  if (!seg.mask.empty()) raw |= seg.mask;
+  const bool have_depth = !frame.depth_m.empty() && frame.depth_m.size() == size &&
+                          frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
+  if (options_.background.enabled && have_depth) {
+    const double s = options_.background.scale;
+    const cv::Size small(std::max(1, static_cast<int>(std::lround(size.width * s))),
+                         std::max(1, static_cast<int>(std::lround(size.height * s))));
+    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
+    // Raw flow regions are cut to their foreground depth (no halo on the wall behind); the
+    // segment mask is already depth-cut (boxes) or pixel-exact (seg models).
+    cv::resize(flow.mask, raw_small_, small, 0, 0, cv::INTER_NEAREST);
+    cutRegionsToDepthForeground(depth_small_, box_settings_, raw_small_);
+    if (!seg.mask.empty()) {
+      cv::resize(seg.mask, seg_small_, small, 0, 0, cv::INTER_NEAREST);
+      raw_small_ |= seg_small_;
+    }
+    rendered_small_.release();
+    if (!prior.rendered_depth_m.empty()) {
+      if (prior.rendered_depth_m.size() == size && prior.rendered_depth_m.type() == CV_32FC1) {
+        cv::resize(prior.rendered_depth_m, rendered_small_, small, 0, 0, cv::INTER_NEAREST);
+      } else {
+        note("rendered depth ignored: must be CV_32FC1 of the colour size");
+      }
+    }
+    if (flow.raw_flow_mask.empty() && seg.mask.empty()) {
+      // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame.
+      finish(raw_small_, size, s, result);
+      result.background_ms = msSince(t_bg);
+      result.total_ms = msSince(t0);
+      return result;
+    }
+    background_.test(depth_small_, rendered_small_, scaled(frame.camera, small, s), prior.T_prev_cur,
+                     consistency_small_);
+    cv::resize(consistency_small_, result.consistency_mask, size, 0, 0, cv::INTER_NEAREST);
+    // Flow regions that the established background explains (same depth, no occluder in front)
+    // are flow noise on the static scene; segment-mask pixels are never vetoed.
+    cv::resize(flow.mask, flow_small_, small, 0, 0, cv::INTER_NEAREST);
+    flow_small_ &= raw_small_;
+    vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
+                            0.9, 0.5, flow_small_);
+    if (!seg.mask.empty()) {
+      cv::bitwise_or(flow_small_, seg_small_, raw_small_);
+    } else {
+      flow_small_.copyTo(raw_small_);  // no aliasing: both buffers are reused next frame
+    }
+    cv::bitwise_or(consistency_small_, raw_small_, combined_);
+    if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
+    // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
+    background_.update(depth_small_, rendered_small_, combined_);
+    finish(combined_, size, s, result);
+  } else {
+    if (options_.background.enabled && !have_depth) note("no usable depth/camera: background model skipped");
+    combined_ = raw;
+    finish(combined_, size, 1.0, result);
+  }
+  result.background_ms = msSince(t_bg);
+  result.total_ms = msSince(t0);
+  return result;
+}
+
+void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, double scale, MaskResult& result) {
+  cv::Mat m = dynamic.clone();
+  (scale == 1.0 ? full_cleaner_ : small_cleaner_).apply(m);
+  if (m.size() != size) {
+    cv::resize(m, result.mask, size, 0, 0, cv::INTER_LINEAR);
+    cv::threshold(result.mask, result.mask, 127, 255, cv::THRESH_BINARY);
+  } else {
+    result.mask = m;
+  }
+  result.masked_fraction = static_cast<double>(cv::countNonZero(result.mask)) / static_cast<double>(size.area());
+}
+
+}  // namespace mask
+}  // namespace dypho

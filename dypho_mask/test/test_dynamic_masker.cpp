@@ -1,0 +1,184 @@
+// DynamicMasker end to end: ego-motion compensation on pure camera motion, the YOLO network on
+// generated ONNX models of every layout and on the shared YOLOX-nano, bad input.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sys/stat.h>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/mask/dynamic_masker.h"
+#include "dypho/mask/yolo_segmenter.h"
+#include "dypho/tools/synthetic_scene.h"
+
+using namespace dypho;
+using namespace dypho::mask;
+
+namespace {
+
+bool exists(const std::string& p) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;
+}
+
+const std::string kModels = DYPHO_TEST_MODELS_DIR;
+
+}  // namespace
+
+// Pure camera motion (no people) with the true relative pose: the mask must be (nearly) empty
+// once the background model exists (from the second flow frame on; the first flow frame has no
+// background to veto flow noise with, and shows up to ~2.3 % on xyz: a known limit, reported).
+// 1 % of the image allows a few small flow outliers that survive the region filter; the raw
+// magnitude rule of the paper would mask ~100 % here.
+TEST(DynamicMasker, PureCameraMotionGivesANearEmptyMask) {
+  for (auto motion : {tools::SynthMotion::kHalfsphere, tools::SynthMotion::kXyz}) {
+    tools::SynthOptions so;
+    so.frames = 12;
+    so.people = 0;
+    so.seed = 5;
+    so.motion = motion;
+    const tools::SyntheticScene scene(so);
+    DynamicMasker masker{DynamicMaskOptions()};
+    Eigen::Isometry3d T_prev = Eigen::Isometry3d::Identity();
+    double worst = 0.0;
+    int with_pose = 0;
+    for (int i = 0; i < so.frames; ++i) {
+      const tools::SynthFrame f = scene.render(i);
+      MaskPrior prior;
+      if (i > 0) prior.T_prev_cur = T_prev.inverse() * f.T_world_camera;
+      T_prev = f.T_world_camera;
+      const MaskResult r = masker.compute(f.frame, prior);
+      ASSERT_FALSE(r.mask.empty());
+      if (i > 0) with_pose += r.ego_motion_from_pose;
+      if (i > 1) worst = std::max(worst, r.masked_fraction);
+    }
+    EXPECT_LT(worst, 0.01) << tools::synthMotionName(motion);
+    EXPECT_EQ(with_pose, so.frames - 1) << "the depth + pose path must be used when a pose is given";
+  }
+}
+
+TEST(DynamicMasker, MissingOrCorruptModelKeepsFlowWorking) {
+  DynamicMaskOptions o;
+  o.yolo.model_path = "/nonexistent/model.onnx";
+  DynamicMasker masker(o);
+  EXPECT_FALSE(masker.segmentReady());
+  EXPECT_NE(masker.segmentStatus().find("not found"), std::string::npos) << masker.segmentStatus();
+  RgbdFrame f;
+  f.bgr = cv::Mat(120, 160, CV_8UC3, cv::Scalar(50, 60, 70));
+  cv::randu(f.bgr, 0, 255);
+  const MaskResult r1 = masker.compute(f);
+  EXPECT_NE(r1.message.find("not found"), std::string::npos) << "warn once, on the first frame";
+  const MaskResult r2 = masker.compute(f);
+  EXPECT_EQ(r2.message.find("not found"), std::string::npos) << "only once";
+  EXPECT_EQ(r2.mask.size(), f.bgr.size());
+  if (exists(kModels + "/corrupt.onnx")) {
+    YoloOptions y;
+    y.model_path = kModels + "/corrupt.onnx";
+    YoloSegmenter seg(y);
+    EXPECT_FALSE(seg.ready());
+    EXPECT_NE(seg.status().find("could not be loaded"), std::string::npos) << seg.status();
+  }
+}
+
+TEST(DynamicMasker, BadInputIsReportedNotCrashing) {
+  DynamicMasker masker{DynamicMaskOptions()};
+  EXPECT_TRUE(masker.compute(RgbdFrame()).degraded);
+  RgbdFrame f;
+  f.bgr = cv::Mat(120, 160, CV_8UC3, cv::Scalar(1, 2, 3));
+  f.depth_m = cv::Mat(60, 80, CV_32FC1, cv::Scalar(1.f));  // mismatched size
+  const MaskResult r = masker.compute(f);
+  EXPECT_TRUE(r.degraded);
+  EXPECT_NE(r.message.find("does not match"), std::string::npos) << r.message;
+  // Depth all zero: documented degraded mode, the flow path still runs and the mask is sized.
+  RgbdFrame z;
+  z.bgr = cv::Mat(120, 160, CV_8UC3);
+  cv::randu(z.bgr, 0, 255);
+  z.depth_m = cv::Mat::zeros(120, 160, CV_32FC1);
+  z.camera.fx = z.camera.fy = 100;
+  z.camera.cx = 79.5;
+  z.camera.cy = 59.5;
+  z.camera.width = 160;
+  z.camera.height = 120;
+  for (int i = 0; i < 3; ++i) {
+    MaskPrior prior;
+    prior.T_prev_cur = Eigen::Isometry3d::Identity();
+    prior.rendered_depth_m = cv::Mat::zeros(10, 10, CV_32FC1);  // wrong size: ignored with a note
+    const MaskResult rz = masker.compute(z, prior);
+    EXPECT_EQ(rz.mask.size(), z.bgr.size());
+    if (i > 0) {
+      EXPECT_NE(rz.message.find("rendered depth ignored"), std::string::npos) << rz.message;
+    }
+  }
+}
+
+class GeneratedModels : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!exists(kModels + "/yolov8_seg.onnx")) {
+      GTEST_SKIP() << "generated ONNX models missing in " << kModels
+                   << " (install python3-onnx: apt-get install -y python3-onnx, then rebuild)";
+    }
+  }
+  static YoloOptions opts(const std::string& file) {
+    YoloOptions y;
+    y.model_path = kModels + "/" + file;
+    y.input_size_px = 64;
+    y.dynamic_classes = "0,2";
+    return y;
+  }
+};
+
+// Known outputs (make_yolo_test_models.py): person 0.9 at input box centre (32,32) 40x40 with the
+// centre-square mask (input [16,48)^2); class 2 0.8 at (10,10) 8x8; a duplicate person removed by NMS.
+TEST_F(GeneratedModels, SegLayoutsDecodeToTheKnownMask) {
+  for (const std::string file : {"yolov8_seg.onnx", "yolov5_seg.onnx"}) {
+    YoloSegmenter seg(opts(file));
+    ASSERT_TRUE(seg.ready()) << seg.status();
+    const SegmentOutput out = seg.segment(cv::Mat(64, 64, CV_8UC3, cv::Scalar(0, 0, 0)), cv::Mat());
+    ASSERT_TRUE(out.ok) << out.message;
+    ASSERT_EQ(out.detections.size(), 2u) << file;
+    EXPECT_EQ(out.detections[0].class_id, 0);
+    EXPECT_NEAR(out.detections[0].score, 0.9f, 1e-5);
+    // Person mask = centre square (32 x 32 px) cropped to its box; class-2 mask = the box
+    // (8x8) intersected with the square: none. +-1 px of bilinear boundary per side.
+    const int area = cv::countNonZero(out.mask);
+    EXPECT_NEAR(area, 32 * 32, 4 * 32 + 4) << file;
+    EXPECT_EQ(out.mask.at<uchar>(32, 32), 255);
+    EXPECT_EQ(out.mask.at<uchar>(5, 60), 0);
+  }
+}
+
+TEST_F(GeneratedModels, DetectorLayoutPaintsBoxesAndWrongLayoutIsRejected) {
+  YoloSegmenter det(opts("yolov8_det.onnx"));
+  ASSERT_TRUE(det.ready()) << det.status();
+  EXPECT_EQ(det.layout().layout, YoloLayout::kYolov8);
+  const SegmentOutput out = det.segment(cv::Mat(64, 64, CV_8UC3, cv::Scalar(0, 0, 0)), cv::Mat());
+  ASSERT_TRUE(out.ok);
+  ASSERT_EQ(out.boxes_image.size(), 2u);
+  EXPECT_EQ(out.boxes_image[0], cv::Rect(12, 12, 40, 40));
+  YoloSegmenter wrong(opts("wrong_layout.onnx"));
+  EXPECT_FALSE(wrong.ready());
+  EXPECT_NE(wrong.status().find("1x7x5x3"), std::string::npos) << wrong.status();
+  YoloOptions forced = opts("yolov8_det.onnx");
+  forced.layout = "yolox";  // forced layout that does not fit the shapes
+  EXPECT_FALSE(YoloSegmenter(forced).ready());
+}
+
+TEST(YoloxNano, RealModelFindsNothingOnGreyAndRejectsAWrongInputSize) {
+  const std::string model = std::string(DYPHO_SHARED_DIR) + "/models/yolox_nano.onnx";
+  if (!exists(model)) GTEST_SKIP() << model << " missing (shared models are beside the repository)";
+  YoloOptions y;
+  y.model_path = model;
+  YoloSegmenter seg(y);
+  ASSERT_TRUE(seg.ready()) << seg.status();
+  EXPECT_EQ(seg.layout().layout, YoloLayout::kYolox);
+  EXPECT_EQ(seg.layout().num_classes, 80);
+  const SegmentOutput out = seg.segment(cv::Mat(480, 640, CV_8UC3, cv::Scalar(114, 114, 114)), cv::Mat());
+  ASSERT_TRUE(out.ok) << out.message;
+  EXPECT_TRUE(out.detections.empty());  // a uniform image has no objects
+  y.input_size_px = 96;  // the export is 416 (640 also runs); 96 must fail cleanly or decode
+  YoloSegmenter other(y);
+  if (!other.ready()) {
+    EXPECT_FALSE(other.status().empty());
+  }
+}

@@ -1,0 +1,127 @@
+#pragma once
+/// \file local_map.h
+/// Keyframes and map points with their observations and covisibility: the map tracking works on.
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "dypho/common/types.h"
+#include "dypho/tracking/frame_features.h"
+#include "dypho/tracking/keyframe_points.h"
+#include "dypho/tracking/tracking_options.h"
+
+namespace dypho {
+namespace tracking {
+
+/// A 3D point of the map, seen by one or more keyframes.
+struct MapPoint {
+  std::int64_t id = -1;                                  ///< unique map-point id
+  Eigen::Vector3d p_world_m = Eigen::Vector3d::Zero();   ///< position in the world [m]
+  cv::Mat descriptor;                                    ///< 1 x 32 CV_8UC1 ORB descriptor (first observation)
+  cv::KeyPoint keypoint;                                 ///< keypoint of the first observation (level, angle)
+  double reference_distance_m = 0;  ///< distance camera -> point at the first observation [m]
+  std::int64_t first_keyframe_id = -1;  ///< keyframe that created the point
+  std::map<std::int64_t, int> observations;  ///< keyframe id -> keypoint index in that keyframe
+  int num_visible = 0;  ///< frames in whose local map the point was projected into the image [count]
+  int num_found = 0;    ///< frames where it was a pose inlier [count]
+};
+
+/// A keyframe as the map stores it: its features (undistorted, with depth) and their map points.
+struct MapKeyframe {
+  std::int64_t id = -1;                                                  ///< keyframe id
+  Timestamp stamp_ns = 0;                                                ///< frame stamp [ns]
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();     ///< pose (changed by BA / loops)
+  FrameFeatures features;                  ///< keypoints, undistorted px, depth, 3D in camera
+  std::vector<std::int64_t> map_point_ids;  ///< per feature: its map point id (-1 = culled)
+  KeyframeConstPtr keyframe;                ///< the published keyframe (images, mask)
+};
+
+/// Stores keyframes and map points. Map points are created from the keyframe's depth (RGB-D: each
+/// feature with valid depth is a metric point at once); a feature matched to an existing map point
+/// as a pose inlier adds an observation to that point instead (ids passed in map_point_ids).
+///
+/// Covisibility: two keyframes are covisible when they observe >= covisibility_min_shared common
+/// map points; weights are computed on demand from the observations (no cached graph to keep in
+/// sync). The *local map* of a keyframe is the union of the points of that keyframe and its
+/// local_map_keyframes most covisible keyframes.
+///
+/// Culling (ORB-SLAM style): a point is removed once it was predicted visible in >= 10 frames
+/// but found in fewer than cull_min_found_ratio of them; observations pointing to it are cleared.
+class LocalMap {
+ public:
+  /// Uses local_map_keyframes, covisibility_min_shared, cull_min_found_ratio, scale_factor.
+  explicit LocalMap(const TrackingOptions& options);
+
+  /// Adds a keyframe. map_point_ids[i] >= 0 and known -> observation of that point; otherwise a
+  /// new point with the id `map_point_ids[i]` (or a new id when -1) at T_world_camera * p_camera.
+  /// Returns the final ids (same length as the features).
+  std::vector<std::int64_t> addKeyframe(MapKeyframe keyframe);
+
+  /// Keyframe ids sorted by the number of shared map points, most first, at most max_count, each
+  /// sharing >= covisibility_min_shared points with `keyframe_id`. The keyframe itself is excluded.
+  std::vector<std::int64_t> covisibleKeyframes(std::int64_t keyframe_id, int max_count) const;
+
+  /// Number of map points observed by both keyframes.
+  int sharedPoints(std::int64_t a, std::int64_t b) const;
+
+  /// The local map around `keyframe_id` as KeyframePoints (one entry per map point, no
+  /// duplicates; `keyframe` = that keyframe's published keyframe; reference_distance_m filled).
+  KeyframePoints localPoints(std::int64_t keyframe_id) const;
+
+  /// Only the points observed by `keyframe_id` (for descriptor search in relocalisation / loops).
+  KeyframePoints keyframePoints(std::int64_t keyframe_id) const;
+
+  /// Fuses map point `remove_id` into `keep_id` (loop closure: the same scene point seen again):
+  /// keyframes observing `remove_id` observe `keep_id` instead (unless they already do); then
+  /// `remove_id` is erased. False when either is unknown or they are equal.
+  bool mergePoints(std::int64_t keep_id, std::int64_t remove_id);
+
+  /// Sets the keyframe poses to `T_world_keyframe` and moves every map point rigidly with the
+  /// correction of its first keyframe (T_new * T_old^-1). Unknown ids are ignored.
+  void applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe);
+
+  /// Bookkeeping after a tracked frame: `visible` map-point ids were projected into the image,
+  /// `found` were pose inliers.
+  void updateVisibility(const std::vector<std::int64_t>& visible,
+                        const std::vector<std::int64_t>& found);
+
+  /// Removes bad points (see class comment); returns how many.
+  int cullPoints();
+
+  /// Keyframe by id or nullptr.
+  const MapKeyframe* keyframe(std::int64_t id) const;
+  /// Map point by id or nullptr.
+  const MapPoint* point(std::int64_t id) const;
+  /// Mutable access for optimisers (bundle adjustment, loop correction).
+  MapKeyframe* mutableKeyframe(std::int64_t id);
+  /// Mutable access for optimisers.
+  MapPoint* mutablePoint(std::int64_t id);
+
+  /// All keyframes, ordered by id.
+  const std::map<std::int64_t, MapKeyframe>& keyframes() const { return keyframes_; }
+  /// All map points by id.
+  const std::unordered_map<std::int64_t, MapPoint>& points() const { return points_; }
+  /// Next free map-point id.
+  std::int64_t nextPointId() const { return next_point_id_; }
+  /// Forgets everything (ids keep increasing).
+  void clear();
+
+ private:
+  /// Points of the keyframes `kfs` without duplicates; `keyframe` of the result = keyframe_id's.
+  KeyframePoints collectPoints(std::int64_t keyframe_id, const std::vector<std::int64_t>& kfs) const;
+
+  TrackingOptions options_;
+  std::map<std::int64_t, MapKeyframe> keyframes_;
+  std::unordered_map<std::int64_t, MapPoint> points_;
+  std::int64_t next_point_id_ = 0;
+};
+
+}  // namespace tracking
+}  // namespace dypho

@@ -1,0 +1,225 @@
+#include "dypho/tracking/local_map.h"
+
+#include <algorithm>
+#include <unordered_set>
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+/// Frames a point must have been predicted visible in before culling judges it [count].
+constexpr int kCullMinVisible = 10;
+
+}  // namespace
+
+LocalMap::LocalMap(const TrackingOptions& options) : options_(options) { options_.validate(); }
+
+void LocalMap::clear() {
+  keyframes_.clear();
+  points_.clear();
+}
+
+std::vector<std::int64_t> LocalMap::addKeyframe(MapKeyframe kf) {
+  const size_t n = kf.features.size();
+  kf.map_point_ids.resize(n, -1);
+  for (size_t i = 0; i < n; ++i) {
+    std::int64_t& id = kf.map_point_ids[i];
+    auto it = id >= 0 ? points_.find(id) : points_.end();
+    if (it != points_.end() && it->second.observations.count(kf.id) == 0) {
+      it->second.observations[kf.id] = static_cast<int>(i);
+      continue;
+    }
+    if (it != points_.end()) id = -1;  // already observed by this keyframe: a second point
+    if (id < 0) id = next_point_id_;
+    next_point_id_ = std::max(next_point_id_, id + 1);
+    MapPoint p;
+    p.id = id;
+    p.p_world_m = kf.T_world_camera * kf.features.p_camera_m[i];
+    p.descriptor = kf.features.descriptors.row(static_cast<int>(i)).clone();
+    p.keypoint = kf.features.keypoints[i];
+    p.reference_distance_m = kf.features.p_camera_m[i].norm();
+    p.first_keyframe_id = kf.id;
+    p.observations[kf.id] = static_cast<int>(i);
+    points_[id] = std::move(p);
+  }
+  std::vector<std::int64_t> ids = kf.map_point_ids;
+  keyframes_[kf.id] = std::move(kf);
+  return ids;
+}
+
+int LocalMap::sharedPoints(std::int64_t a, std::int64_t b) const {
+  const MapKeyframe* ka = keyframe(a);
+  if (ka == nullptr || keyframe(b) == nullptr) return 0;
+  int count = 0;
+  for (std::int64_t id : ka->map_point_ids) {
+    const MapPoint* p = point(id);
+    if (p != nullptr && p->observations.count(b) > 0) ++count;
+  }
+  return count;
+}
+
+std::vector<std::int64_t> LocalMap::covisibleKeyframes(std::int64_t keyframe_id,
+                                                       int max_count) const {
+  const MapKeyframe* kf = keyframe(keyframe_id);
+  std::vector<std::int64_t> out;
+  if (kf == nullptr || max_count <= 0) return out;
+  std::unordered_map<std::int64_t, int> weights;
+  for (std::int64_t id : kf->map_point_ids) {
+    const MapPoint* p = point(id);
+    if (p == nullptr) continue;
+    for (const auto& obs : p->observations) {
+      if (obs.first != keyframe_id) ++weights[obs.first];
+    }
+  }
+  std::vector<std::pair<int, std::int64_t>> sorted;
+  for (const auto& w : weights) {
+    if (w.second >= options_.covisibility_min_shared) sorted.emplace_back(w.second, w.first);
+  }
+  // Most shared first; ties: the newer keyframe first (deterministic order).
+  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second > b.second;
+  });
+  for (size_t i = 0; i < sorted.size() && static_cast<int>(i) < max_count; ++i) {
+    out.push_back(sorted[i].second);
+  }
+  return out;
+}
+
+KeyframePoints LocalMap::keyframePoints(std::int64_t keyframe_id) const {
+  return collectPoints(keyframe_id, {keyframe_id});
+}
+
+KeyframePoints LocalMap::localPoints(std::int64_t keyframe_id) const {
+  std::vector<std::int64_t> kfs{keyframe_id};
+  for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) {
+    kfs.push_back(id);
+  }
+  return collectPoints(keyframe_id, kfs);
+}
+
+KeyframePoints LocalMap::collectPoints(std::int64_t keyframe_id,
+                                       const std::vector<std::int64_t>& kfs) const {
+  KeyframePoints out;
+  const MapKeyframe* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return out;
+  out.keyframe = kf->keyframe;
+  std::unordered_set<std::int64_t> seen;
+  std::vector<const MapPoint*> selected;
+  for (std::int64_t k : kfs) {
+    for (std::int64_t id : keyframes_.at(k).map_point_ids) {
+      const MapPoint* p = point(id);
+      if (p == nullptr || !seen.insert(id).second) continue;
+      selected.push_back(p);
+    }
+  }
+  out.p_world_m.reserve(selected.size());
+  out.keypoints.reserve(selected.size());
+  out.map_point_ids.reserve(selected.size());
+  out.reference_distance_m.reserve(selected.size());
+  out.descriptors.create(static_cast<int>(selected.size()), 32, CV_8UC1);
+  for (size_t i = 0; i < selected.size(); ++i) {
+    const MapPoint& p = *selected[i];
+    out.p_world_m.push_back(p.p_world_m);
+    out.keypoints.push_back(p.keypoint);
+    out.map_point_ids.push_back(p.id);
+    out.reference_distance_m.push_back(p.reference_distance_m);
+    p.descriptor.copyTo(out.descriptors.row(static_cast<int>(i)));
+  }
+  return out;
+}
+
+void LocalMap::updateVisibility(const std::vector<std::int64_t>& visible,
+                                const std::vector<std::int64_t>& found) {
+  for (std::int64_t id : visible) {
+    auto it = points_.find(id);
+    if (it != points_.end()) ++it->second.num_visible;
+  }
+  for (std::int64_t id : found) {
+    auto it = points_.find(id);
+    if (it != points_.end()) ++it->second.num_found;
+  }
+}
+
+int LocalMap::cullPoints() {
+  int removed = 0;
+  for (auto it = points_.begin(); it != points_.end();) {
+    const MapPoint& p = it->second;
+    const bool bad = p.num_visible >= kCullMinVisible &&
+                     p.num_found < options_.cull_min_found_ratio * p.num_visible;
+    if (!bad) {
+      ++it;
+      continue;
+    }
+    for (const auto& obs : p.observations) {
+      auto kf = keyframes_.find(obs.first);
+      if (kf != keyframes_.end() && obs.second < static_cast<int>(kf->second.map_point_ids.size())) {
+        kf->second.map_point_ids[static_cast<size_t>(obs.second)] = -1;
+      }
+    }
+    it = points_.erase(it);
+    ++removed;
+  }
+  return removed;
+}
+
+bool LocalMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {
+  if (keep_id == remove_id) return false;
+  MapPoint* keep = mutablePoint(keep_id);
+  auto remove = points_.find(remove_id);
+  if (keep == nullptr || remove == points_.end()) return false;
+  for (const auto& obs : remove->second.observations) {
+    auto kf = keyframes_.find(obs.first);
+    if (kf == keyframes_.end()) continue;
+    auto& ids = kf->second.map_point_ids;
+    if (obs.second >= static_cast<int>(ids.size())) continue;
+    if (keep->observations.count(obs.first) == 0) {
+      keep->observations[obs.first] = obs.second;
+      ids[static_cast<size_t>(obs.second)] = keep_id;
+    } else {
+      ids[static_cast<size_t>(obs.second)] = -1;
+    }
+  }
+  keep->num_visible += remove->second.num_visible;
+  keep->num_found += remove->second.num_found;
+  points_.erase(remove);
+  return true;
+}
+
+void LocalMap::applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe) {
+  std::unordered_map<std::int64_t, Eigen::Isometry3d> correction;
+  for (const auto& kv : T_world_keyframe) {
+    auto kf = keyframes_.find(kv.first);
+    if (kf == keyframes_.end()) continue;
+    correction[kv.first] = kv.second * kf->second.T_world_camera.inverse();
+    kf->second.T_world_camera = kv.second;
+  }
+  for (auto& kv : points_) {
+    auto c = correction.find(kv.second.first_keyframe_id);
+    if (c != correction.end()) kv.second.p_world_m = c->second * kv.second.p_world_m;
+  }
+}
+
+const MapKeyframe* LocalMap::keyframe(std::int64_t id) const {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+
+const MapPoint* LocalMap::point(std::int64_t id) const {
+  if (id < 0) return nullptr;
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+
+MapKeyframe* LocalMap::mutableKeyframe(std::int64_t id) {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+
+MapPoint* LocalMap::mutablePoint(std::int64_t id) {
+  if (id < 0) return nullptr;
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+
+}  // namespace tracking
+}  // namespace dypho
