@@ -15,11 +15,15 @@
 
 namespace {
 
-// ATE bounds [m] (RMSE after rigid alignment). Measured values and the margins are in
-// docs/benchmarks.md; each bound is the measured value plus about 30 %, so a real regression fails.
-constexpr double DYPHO_FR1_ATE_BOUND_M = 0.08;
-constexpr double DYPHO_BONN_ATE_BOUND_M = 0.30;
-constexpr double DYPHO_SYNTH_ATE_BOUND_M = 0.02;
+// ATE bounds [m] (RMSE after rigid alignment), default settings (flow mask). Runs are
+// deterministic for a build; the bound is the measured value plus about 30 % for differences in
+// floating point between machines (fr1/rpy is sensitive to which frames become keyframes).
+// Measured (docs/benchmarks.md): fr1 4.75 cm, Bonn 17.5 cm, synthetic 0.48 cm (bag: 0.37 cm).
+// The issue targets (2 cm on fr1 and Bonn) are not reached yet; these bounds catch regressions.
+constexpr double DYPHO_FR1_ATE_BOUND_M = 0.065;
+constexpr double DYPHO_BONN_ATE_BOUND_M = 0.23;
+// Synthetic: the issue's own target (1 cm) is the bound; measured 0.48 cm.
+constexpr double DYPHO_SYNTH_ATE_BOUND_M = 0.01;
 
 bool exists(const std::string& path) {
   struct stat st{};

@@ -100,9 +100,10 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
             << rec.keyframes << " keyframes, " << rec.clouds << " clouds (" << rec.cloud_points
             << " points), ATE RMSE " << ate.rmse_m * 100 << " cm over " << ate.num_pairs
             << " poses\n";
-  // Bound 3 cm: the same sequence run in-process (dypho_run_dataset) tracks to about 1 cm; the
-  // graph adds only transport, so 3 cm leaves room for frames dropped by the synchroniser.
-  EXPECT_LT(ate.rmse_m, 0.03);
+  // Bound 1.5 cm: the same bag run in-process (dypho_run_dataset) gives 0.37 cm and this graph
+  // test measured 0.38-0.47 cm. Unlike the in-process run it is not deterministic (which frames
+  // the synchroniser drops depends on the load), hence the margin.
+  EXPECT_LT(ate.rmse_m, 0.015);
 }
 
 }  // namespace
