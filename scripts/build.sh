@@ -9,8 +9,10 @@ JOBS="${DYPHO_JOBS:-$(nproc)}"
 CONFIG=(-DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3)
 if [ -x /usr/local/cuda/bin/nvcc ]; then CONFIG+=(-DCMAKE_CUDA_COMPILER=/usr/local/cuda/bin/nvcc); fi
 # Configure twice: catkin caches an empty PYTHONPATH in setup_cached.sh on the first configure.
-cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" > "$BUILD.configure.log" 2>&1 || { cat "$BUILD.configure.log"; exit 1; }
-cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" >> "$BUILD.configure.log" 2>&1 || { cat "$BUILD.configure.log"; exit 1; }
+mkdir -p "$BUILD"
+LOG="$BUILD/configure.log"
+cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" > "$LOG" 2>&1 || { cat "$LOG"; exit 1; }
+cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" >> "$LOG" 2>&1 || { cat "$LOG"; exit 1; }
 cmake --build "$BUILD" -j "$JOBS"
 # Test executables (catkin keeps them out of `all`); DYPHO_SKIP_TESTS=1 skips them.
 if [ "${DYPHO_SKIP_TESTS:-0}" != "1" ]; then

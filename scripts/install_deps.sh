@@ -16,6 +16,7 @@ PACKAGES=(
   librostest-dev python3-rostest ros-core rosbash python3-rosbag
   rviz xvfb imagemagick
   python3-onnx python3-numpy
+  opencv-doc
 )
 
 missing=()
