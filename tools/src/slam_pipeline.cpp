@@ -116,7 +116,11 @@ mask::MaskPrior SlamPipeline::predictMaskPrior(const RgbdFrame& frame) const {
 
 cv::Mat SlamPipeline::renderPredictedDepth(const RgbdFrame& /*frame*/,
                                            const Eigen::Isometry3d& /*T_world_camera_pred*/) const {
-  return cv::Mat();  // mapping: render the map's depth here when the renderer exists
+  // The Gaussian map can render this (GaussianMapper::renderDepth), but it trains on a worker
+  // thread, so a render here would make in-process runs depend on thread timing. Until rendering
+  // is tied to the training schedule the background model runs without the R_d term in
+  // dypho_run_dataset; the ROS graph feeds it through the rendered/depth_predicted topic.
+  return cv::Mat();
 }
 
 FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& external_mask) {
