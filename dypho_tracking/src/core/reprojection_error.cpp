@@ -22,6 +22,29 @@ Eigen::Matrix<double, 3, 4> rotationJacobian(const double* q, const Eigen::Vecto
   return J;
 }
 
+/// d (R(q) P) / d P: the rotation matrix of the unit quaternion q = [x, y, z, w],
+/// R = I + 2 w [v]x + 2 [v]x^2.
+Eigen::Matrix3d rotationMatrix(const double* q) {
+  Eigen::Matrix3d skew_v;
+  skew_v << 0, -q[2], q[1], q[2], 0, -q[0], -q[1], q[0], 0;
+  return Eigen::Matrix3d::Identity() + 2.0 * q[3] * skew_v + 2.0 * skew_v * skew_v;
+}
+
+/// Whitened pixel residual (u - u_obs, v - v_obs) / sigma of the camera point p_c (the caller
+/// checks p_c.z() > 0) written to residuals[0..1]; returns d r / d p_c (2x3, whitened).
+Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::Vector2d& uv_px,
+                                          double inv_sigma, const Eigen::Vector3d& p_c,
+                                          double* residuals) {
+  const double inv_z = 1.0 / p_c.z();
+  const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
+  residuals[0] = (pinhole.fx * x + pinhole.cx - uv_px.x()) * inv_sigma;
+  residuals[1] = (pinhole.fy * y + pinhole.cy - uv_px.y()) * inv_sigma;
+  Eigen::Matrix<double, 2, 3> d_r_d_pc;
+  d_r_d_pc << pinhole.fx * inv_z, 0.0, -pinhole.fx * x * inv_z,  //
+      0.0, pinhole.fy * inv_z, -pinhole.fy * y * inv_z;
+  return d_r_d_pc * inv_sigma;
+}
+
 }  // namespace
 
 Eigen::Matrix<double, 3, 4> quaternionRotationJacobian(const double* q, const Eigen::Vector3d& P) {
@@ -35,15 +58,9 @@ bool BaReprojectionError::Evaluate(double const* const* parameters, double* resi
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
   const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const double inv_z = 1.0 / p_c.z();
-  const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
-  residuals[0] = (pinhole_.fx * x + pinhole_.cx - uv_px_.x()) * inv_sigma_;
-  residuals[1] = (pinhole_.fy * y + pinhole_.cy - uv_px_.y()) * inv_sigma_;
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc =
+      pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
   if (jacobians == nullptr) return true;
-  Eigen::Matrix<double, 2, 3> d_r_d_pc;
-  d_r_d_pc << pinhole_.fx * inv_z, 0.0, -pinhole_.fx * x * inv_z,  //
-      0.0, pinhole_.fy * inv_z, -pinhole_.fy * y * inv_z;
-  d_r_d_pc *= inv_sigma_;
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
     J_q = d_r_d_pc * rotationJacobian(q, P);
@@ -53,12 +70,8 @@ bool BaReprojectionError::Evaluate(double const* const* parameters, double* resi
     J_t = d_r_d_pc;
   }
   if (jacobians[2] != nullptr) {
-    const Eigen::Vector3d v(q[0], q[1], q[2]);
-    Eigen::Matrix3d skew_v;
-    skew_v << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    const Eigen::Matrix3d M = Eigen::Matrix3d::Identity() + 2.0 * q[3] * skew_v + 2.0 * skew_v * skew_v;
     Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_p(jacobians[2]);
-    J_p = d_r_d_pc * M;
+    J_p = d_r_d_pc * rotationMatrix(q);
   }
   return true;
 }
@@ -84,12 +97,8 @@ bool BaDepthError::Evaluate(double const* const* parameters, double* residuals,
     J_t = d_r_d_pc;
   }
   if (jacobians[2] != nullptr) {
-    const Eigen::Vector3d v(q[0], q[1], q[2]);
-    Eigen::Matrix3d skew_v;
-    skew_v << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    const Eigen::Matrix3d M = Eigen::Matrix3d::Identity() + 2.0 * q[3] * skew_v + 2.0 * skew_v * skew_v;
     Eigen::Map<Eigen::Matrix<double, 1, 3>> J_p(jacobians[2]);
-    J_p = d_r_d_pc * M;
+    J_p = d_r_d_pc * rotationMatrix(q);
   }
   return true;
 }
@@ -107,17 +116,9 @@ bool ReprojectionError::Evaluate(double const* const* parameters, double* residu
   const double* t = parameters[1];
   const Eigen::Vector3d p_c = rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const double inv_z = 1.0 / p_c.z();
-  const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
-  residuals[0] = (pinhole_.fx * x + pinhole_.cx - uv_px_.x()) * inv_sigma_;
-  residuals[1] = (pinhole_.fy * y + pinhole_.cy - uv_px_.y()) * inv_sigma_;
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc =
+      pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
   if (jacobians == nullptr) return true;
-
-  // d r / d p_c (whitened).
-  Eigen::Matrix<double, 2, 3> d_r_d_pc;
-  d_r_d_pc << pinhole_.fx * inv_z, 0.0, -pinhole_.fx * x * inv_z,  //
-      0.0, pinhole_.fy * inv_z, -pinhole_.fy * y * inv_z;
-  d_r_d_pc *= inv_sigma_;
 
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
@@ -138,18 +139,14 @@ bool RgbdReprojectionError::Evaluate(double const* const* parameters, double* re
       ReprojectionError::rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
   const double inv_z = 1.0 / p_c.z();
-  const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
-  const double u = pinhole_.fx * x + pinhole_.cx;
-  residuals[0] = (u - uv_px_.x()) * inv_sigma_;
-  residuals[1] = (pinhole_.fy * y + pinhole_.cy - uv_px_.y()) * inv_sigma_;
+  Eigen::Matrix<double, 3, 3> d_r_d_pc;
+  d_r_d_pc.topRows<2>() = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  // Third row: the virtual right-camera column u - bf / z against the observed u_right.
+  const double u = pinhole_.fx * p_c.x() * inv_z + pinhole_.cx;
   residuals[2] = (u - bf_ * inv_z - u_right_px_) * inv_sigma_;
   if (jacobians == nullptr) return true;
-
-  Eigen::Matrix<double, 3, 3> d_r_d_pc;
-  d_r_d_pc << pinhole_.fx * inv_z, 0.0, -pinhole_.fx * x * inv_z,  //
-      0.0, pinhole_.fy * inv_z, -pinhole_.fy * y * inv_z,          //
-      pinhole_.fx * inv_z, 0.0, -pinhole_.fx * x * inv_z + bf_ * inv_z * inv_z;
-  d_r_d_pc *= inv_sigma_;
+  d_r_d_pc.row(2) = d_r_d_pc.row(0);
+  d_r_d_pc(2, 2) += bf_ * inv_z * inv_z * inv_sigma_;
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 3, 4, Eigen::RowMajor>> J_q(jacobians[0]);
     J_q = d_r_d_pc * rotationJacobian(q, p_world_m_);
