@@ -50,6 +50,8 @@ void Rasterizer<T>::preprocess() {
       Packed& p = packed_[i];
       gs::Projected<T> pr;
       p.tile_x0 = p.tile_x1 = p.tile_y0 = p.tile_y1 = 0;
+      // Most off-screen Gaussians leave here, before the covariance and the SH colour.
+      if (!gs::mayReachImage(view_, params_.position + 3 * i, params_.log_scale + 3 * i, radius_sigma)) continue;
       if (!gs::projectGaussian(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
                                params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
                                params_.sh_degree, radius_sigma, min_alpha, pr)) {
@@ -137,8 +139,10 @@ void Rasterizer<T>::binTiles() {
   tile_fill_.assign(tile_ranges_.begin(), tile_ranges_.end() - 1);
   // Copy the visible Gaussians in depth order: tile lists then read memory in increasing order.
   sorted_.resize(num_visible_);
+  rank_.assign(n, kNotVisible);
   for (std::uint32_t j = 0; j < num_visible_; ++j) {
     const Packed& p = packed_[order_[j]];
+    rank_[order_[j]] = j;
     sorted_[j] = p;
     for (int ty = p.tile_y0; ty < p.tile_y1; ++ty)
       for (int tx = p.tile_x0; tx < p.tile_x1; ++tx) entries_[tile_fill_[ty * tiles_x_ + tx]++] = j;
@@ -189,6 +193,8 @@ void Rasterizer<T>::forwardTile(int tile, RenderResult<T>& out) {
   }
   const T min_alpha = T(settings_.min_alpha), min_T = T(settings_.min_transmittance), max_alpha = T(gs::kMaxAlpha);
   for (std::uint32_t k = begin; k < end; ++k) {
+    // The tile's Gaussians are scattered over sorted_ (global depth order): fetch ahead.
+    if (k + kPrefetchAhead < end) __builtin_prefetch(&sorted_[entries_[k + kPrefetchAhead]]);
     const Packed& p = sorted_[entries_[k]];
     // Rows of the footprint box inside the tile; every row is processed over the full tile width
     // (fixed trip count, vectorised); pixels outside the box fall below min_alpha by construction.

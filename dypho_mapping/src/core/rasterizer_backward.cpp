@@ -42,7 +42,18 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
   }
   const T min_alpha = T(settings_.min_alpha), max_alpha = T(gs::kMaxAlpha);
   auto& acc = thread_grads_[thread];
+  // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
+  // pair, not once per 8-pixel block.
+  constexpr int kNumSums = 10;
+  alignas(64) T lanes[kNumSums][8];
   for (std::uint32_t k = max_last; k-- > begin;) {
+    // Fetch ahead (the list is walked back to front): the Gaussian and its gradient slot.
+    if (k >= begin + kPrefetchAhead) {
+      const std::uint32_t ahead = entries_[k - kPrefetchAhead];
+      __builtin_prefetch(&sorted_[ahead]);
+      __builtin_prefetch(&acc[ahead], 1);
+      __builtin_prefetch(reinterpret_cast<const char*>(&acc[ahead] + 1) - 1, 1);
+    }
     const std::uint32_t g = entries_[k];
     const Packed& p = sorted_[g];
     const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.radius)));
@@ -54,7 +65,19 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
     const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.radius)));
     const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.radius)) + 1);
     const int xb0 = (cx0 / 8) * 8, xb1 = cx1 <= cx0 ? xb0 : ((cx1 + 7) / 8) * 8;
-    T s_mu = 0, s_mv = 0, s_a = 0, s_b = 0, s_c = 0, s_o = 0, s_c0 = 0, s_c1 = 0, s_c2 = 0, s_d = 0;
+    if (py0 >= py1 || xb0 >= xb1) continue;
+    T* const l_mu = lanes[0];
+    T* const l_mv = lanes[1];
+    T* const l_a = lanes[2];
+    T* const l_b = lanes[3];
+    T* const l_c = lanes[4];
+    T* const l_o = lanes[5];
+    T* const l_c0 = lanes[6];
+    T* const l_c1 = lanes[7];
+    T* const l_c2 = lanes[8];
+    T* const l_d = lanes[9];
+    for (int s = 0; s < kNumSums; ++s)
+      for (int j = 0; j < 8; ++j) lanes[s][j] = T(0);
     for (int py = py0; py < py1; ++py) {
       const T dy = p.mean_v - T(py);
       const T row_term = T(-0.5) * c * dy * dy;
@@ -63,8 +86,9 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
       // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
       // transmittance and its accumulators unchanged and contributes nothing.
       for (int xb = xb0; xb < xb1; xb += 8)
-#pragma omp simd reduction(+ : s_mu, s_mv, s_a, s_b, s_c, s_o, s_c0, s_c1, s_c2, s_d)
-      for (int x = xb; x < xb + 8; ++x) {
+#pragma omp simd
+      for (int j = 0; j < 8; ++j) {
+        const int x = xb + j;
         const int i = row + x;
         const T dx = mu0 - T(x);
         const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
@@ -76,10 +100,10 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
         const T Ti = Tc[i] / (T(1) - alpha);
         Tc[i] = Ti;
         const T w = alpha * Ti;
-        s_c0 += w * gR[i];
-        s_c1 += w * gG[i];
-        s_c2 += w * gB[i];
-        s_d += w * gD[i];
+        l_c0[j] += w * gR[i];
+        l_c1[j] += w * gG[i];
+        l_c2[j] += w * gB[i];
+        l_d[j] += w * gD[i];
         const T dL_dalpha = use * Ti * ((c0 - Br[i]) * gR[i] + (c1 - Bg[i]) * gG[i] + (c2 - Bb[i]) * gB[i] +
                                          (dep - BD[i]) * gD[i] + (T(1) - BA[i]) * gA[i]);
         Br[i] = alpha * c0 + (T(1) - alpha) * Br[i];
@@ -88,15 +112,23 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
         BD[i] = alpha * dep + (T(1) - alpha) * BD[i];
         BA[i] = alpha + (T(1) - alpha) * BA[i];
         const T dG = (raw < max_alpha ? T(1) : T(0)) * dL_dalpha;  // clamped alpha: no gradient through G, o
-        s_o += G * dG;
+        l_o[j] += G * dG;
         const T dpow = o * G * dG;
-        s_mu += dpow * (-a * dx - b * dy);
-        s_mv += dpow * (-b * dx - c * dy);
-        s_a += T(-0.5) * dx * dx * dpow;
-        s_b += -dx * dy * dpow;
-        s_c += T(-0.5) * dy * dy * dpow;
+        l_mu[j] += dpow * (-a * dx - b * dy);
+        l_mv[j] += dpow * (-b * dx - c * dy);
+        l_a[j] += T(-0.5) * dx * dx * dpow;
+        l_b[j] += -dx * dy * dpow;
+        l_c[j] += T(-0.5) * dy * dy * dpow;
       }
     }
+    T sums[kNumSums];
+    for (int s = 0; s < kNumSums; ++s) {
+      T v = T(0);
+      for (int j = 0; j < 8; ++j) v += lanes[s][j];
+      sums[s] = v;
+    }
+    const T s_mu = sums[0], s_mv = sums[1], s_a = sums[2], s_b = sums[3], s_c = sums[4], s_o = sums[5],
+            s_c0 = sums[6], s_c1 = sums[7], s_c2 = sums[8], s_d = sums[9];
     gs::ScreenGrad<T>& sg = acc[g];
     sg.mean_u += s_mu;
     sg.mean_v += s_mv;
@@ -124,41 +156,57 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
   }
   pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int thread) { backwardTile(tile, thread, grads); });
 
+  // Chain rule per Gaussian, in parameter order (sequential reads of the parameters and writes
+  // of the outputs; every output row is written, zeros for Gaussians without a gradient).
   const int K3 = 3 * gs::shCoeffCount(params_.sh_degree);
-  out.position.assign(3 * n, T(0));
-  out.log_scale.assign(3 * n, T(0));
-  out.rotation.assign(4 * n, T(0));
-  out.opacity_logit.assign(n, T(0));
-  out.sh.assign(static_cast<std::size_t>(K3) * n, T(0));
-  out.mean2d_norm.assign(n, T(0));
+  out.position.resize(3 * n);
+  out.log_scale.resize(3 * n);
+  out.rotation.resize(4 * n);
+  out.opacity_logit.resize(n);
+  out.sh.resize(static_cast<std::size_t>(K3) * n);
+  out.mean2d_norm.resize(n);
   const int block = 1024;
-  const int nv = static_cast<int>(num_visible_);
-  pool_->parallelFor((nv + block - 1) / block, [&](int bi, int thread) {
-    const int end = std::min(nv, (bi + 1) * block);
+  pool_->parallelFor((n + block - 1) / block, [&](int bi, int thread) {
+    const int end = std::min(n, (bi + 1) * block);
     T* pose = thread_pose_[thread].data();
-    for (int j = bi * block; j < end; ++j) {
-      const int i = static_cast<int>(order_[j]);
-      gs::ScreenGrad<T> sg = thread_grads_[0][j];
-      for (int t = 1; t < threads; ++t) {
-        const gs::ScreenGrad<T>& s = thread_grads_[t][j];
-        sg.mean_u += s.mean_u; sg.mean_v += s.mean_v;
-        sg.conic_a += s.conic_a; sg.conic_b += s.conic_b; sg.conic_c += s.conic_c;
-        sg.opacity += s.opacity; sg.depth += s.depth;
-        for (int ch = 0; ch < 3; ++ch) sg.color[ch] += s.color[ch];
+    for (int i = bi * block; i < end; ++i) {
+      const std::uint32_t j = rank_[i];
+      gs::ScreenGrad<T> sg{};
+      if (j != kNotVisible) {
+        sg = thread_grads_[0][j];
+        for (int t = 1; t < threads; ++t) {
+          const gs::ScreenGrad<T>& s = thread_grads_[t][j];
+          sg.mean_u += s.mean_u; sg.mean_v += s.mean_v;
+          sg.conic_a += s.conic_a; sg.conic_b += s.conic_b; sg.conic_c += s.conic_c;
+          sg.opacity += s.opacity; sg.depth += s.depth;
+          for (int ch = 0; ch < 3; ++ch) sg.color[ch] += s.color[ch];
+        }
+      }
+      // Not visible, or touched no pixel with a gradient (occluded, or where the loss is flat):
+      // every gradient is zero.
+      if (sg.mean_u == T(0) && sg.mean_v == T(0) && sg.conic_a == T(0) && sg.conic_b == T(0) &&
+          sg.conic_c == T(0) && sg.opacity == T(0) && sg.depth == T(0) && sg.color[0] == T(0) &&
+          sg.color[1] == T(0) && sg.color[2] == T(0)) {
+        for (int k = 0; k < 3; ++k) out.position[3 * i + k] = out.log_scale[3 * i + k] = T(0);
+        for (int k = 0; k < 4; ++k) out.rotation[4 * i + k] = T(0);
+        out.opacity_logit[i] = T(0);
+        for (int k = 0; k < K3; ++k) out.sh[static_cast<std::size_t>(K3) * i + k] = T(0);
+        out.mean2d_norm[i] = T(0);
+        continue;
       }
       out.mean2d_norm[i] = std::sqrt(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
       gs::ParamGrad<T> pg;
       gs::projectGaussianBackward(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
                                   params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
                                   params_.sh_degree, sg, pg);
-      for (int j = 0; j < 3; ++j) {
-        out.position[3 * i + j] = pg.pos[j];
-        out.log_scale[3 * i + j] = pg.log_scale[j];
+      for (int k = 0; k < 3; ++k) {
+        out.position[3 * i + k] = pg.pos[k];
+        out.log_scale[3 * i + k] = pg.log_scale[k];
       }
-      for (int j = 0; j < 4; ++j) out.rotation[4 * i + j] = pg.quat[j];
+      for (int k = 0; k < 4; ++k) out.rotation[4 * i + k] = pg.quat[k];
       out.opacity_logit[i] = pg.opacity_logit;
-      for (int j = 0; j < K3; ++j) out.sh[static_cast<std::size_t>(K3) * i + j] = pg.sh[j];
-      for (int j = 0; j < 6; ++j) pose[j] += pg.pose[j];
+      for (int k = 0; k < K3; ++k) out.sh[static_cast<std::size_t>(K3) * i + k] = pg.sh[k];
+      for (int k = 0; k < 6; ++k) pose[k] += pg.pose[k];
     }
   });
   for (int j = 0; j < 6; ++j) {

@@ -198,6 +198,31 @@ DYPHO_HOST_DEVICE inline ProjectionJacobian<T> projectionJacobian(const PinholeV
   return J;
 }
 
+/// Cheap conservative pre-test of projectGaussian plus the rasterizer's on-screen test (no
+/// covariance, no SH): false only when the Gaussian is behind the near plane, or its screen centre
+/// lies farther outside the image than any footprint its largest scale allows. The bound: the
+/// projected covariance has trace <= ||J||_F^2 s_max^2 + 2 kLowPassPx2, and projectGaussian's
+/// eigenvalue is at most that trace + sqrt(0.1); 1 % and 1 px of margin cover float rounding.
+/// Never rejects a Gaussian whose projected footprint reaches the image.
+template <typename T>
+DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, const T* pos, const T* log_scale,
+                                            T radius_sigma) {
+  T pc[3];
+  for (int i = 0; i < 3; ++i)
+    pc[i] = cam.R_cw[i][0] * pos[0] + cam.R_cw[i][1] * pos[1] + cam.R_cw[i][2] * pos[2] + cam.t_cw[i];
+  if (!(pc[2] > T(kNearPlaneM))) return false;
+  const ProjectionJacobian<T> J = projectionJacobian(cam, pc);
+  T ls = log_scale[0] > log_scale[1] ? log_scale[0] : log_scale[1];
+  ls = ls > log_scale[2] ? ls : log_scale[2];
+  const T s2 = std::exp(T(2) * ls);
+  const T jn2 = J.J00 * J.J00 + J.J02 * J.J02 + J.J11 * J.J11 + J.J12 * J.J12;
+  const T lambda = jn2 * s2 + T(2 * kLowPassPx2) + T(0.3163);
+  const T r = radius_sigma * std::sqrt(lambda) * T(1.01) + T(1);
+  const T u = cam.fx * pc[0] / pc[2] + cam.cx, v = cam.fy * pc[1] / pc[2] + cam.cy;
+  // Written so that NaN fails (as projectGaussian rejects it).
+  return u + r >= T(-0.5) && u - r <= T(cam.width) - T(0.5) && v + r >= T(-0.5) && v - r <= T(cam.height) - T(0.5);
+}
+
 /// Projects one Gaussian. Returns false when it is behind the near plane, degenerate, or too
 /// transparent to ever reach `min_alpha`. The footprint radius is the distance along the major
 /// screen axis at which alpha falls below `min_alpha` (sqrt(2 ln(opacity / min_alpha)) standard

@@ -97,10 +97,14 @@ class Rasterizer {
   const RasterSettings& settings() const { return settings_; }
 
  private:
-  struct Packed {
+  /// One projected Gaussian; cache-line aligned (64 bytes for float) so that a tile's lookup of
+  /// it touches a single line.
+  struct alignas(64) Packed {
     T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth, radius;
     int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
   };
+  /// Tile-list entries ahead of the current one whose Gaussian is prefetched.
+  static constexpr std::uint32_t kPrefetchAhead = 6;
   void preprocess();
   void binTiles();
   void forwardTile(int tile, RenderResult<T>& out);
@@ -115,6 +119,8 @@ class Rasterizer {
   std::vector<Packed> packed_;   ///< [N] per Gaussian
   std::vector<Packed> sorted_;   ///< [visible] visible Gaussians in depth order (tile lists index it)
   std::vector<std::uint32_t> keys_, order_, sort_tmp_keys_, sort_tmp_order_;
+  static constexpr std::uint32_t kNotVisible = 0xffffffffu;
+  std::vector<std::uint32_t> rank_;         ///< [N] index into sorted_, or kNotVisible
   std::vector<std::uint32_t> tile_ranges_;  ///< [tiles + 1] offsets into entries_
   std::vector<std::uint32_t> tile_fill_;
   std::vector<std::uint32_t> entries_;      ///< index into sorted_ per (tile, depth-sorted) slot
