@@ -3,6 +3,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "dypho/mapping/gaussian_sh.h"
+
 namespace dypho::mapping {
 
 float rgbToShDc(float value) { return (value - 0.5f) / 0.28209479177387814f; }
@@ -57,6 +59,13 @@ std::size_t GaussianMap::transformAnchored(std::int64_t keyframe_id, const Eigen
   const Eigen::Matrix3f R = T_new_old.linear().cast<float>();
   const Eigen::Vector3f t = T_new_old.translation().cast<float>();
   const Eigen::Quaternionf qR(R);
+  // View-dependent colour turns with the Gaussian: c_new(R d) = c_old(d).
+  gs::ShRotation<float> sh_rot;
+  float Rm[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Rm[r][c] = R(r, c);
+  if (sh_degree_ > 0) gs::shRotation(Rm, sh_degree_, sh_rot);
+  const int sh_width = widths_[kParamSh];
   std::size_t moved = 0;
   for (std::size_t i = 0; i < size(); ++i) {
     if (anchors_[i] != keyframe_id) continue;
@@ -65,6 +74,7 @@ std::size_t GaussianMap::transformAnchored(std::int64_t keyframe_id, const Eigen
     float* q = &params_[kParamRotation][4 * i];
     const Eigen::Quaternionf qn = qR * Eigen::Quaternionf(q[0], q[1], q[2], q[3]);
     q[0] = qn.w(); q[1] = qn.x(); q[2] = qn.y(); q[3] = qn.z();
+    if (sh_degree_ > 0) gs::rotateSh(sh_rot, sh_degree_, &params_[kParamSh][sh_width * i]);
     ++moved;
   }
   return moved;

@@ -58,8 +58,9 @@ class GaussianMap {
   /// Removes the Gaussians with remove[i] != 0, keeping the order of the others (and their ids).
   void removeIf(const std::vector<std::uint8_t>& remove);
 
-  /// Applies the rigid correction `T_new_old` to the Gaussians anchored at `keyframe_id`
-  /// (positions and orientations; SH stays in the world frame). Returns how many moved.
+  /// Applies the rigid correction `T_new_old` to the Gaussians anchored at `keyframe_id`:
+  /// positions, orientations and the view-dependent SH coefficients (rotated with the Gaussian,
+  /// so it looks the same from the correspondingly moved camera). Returns how many moved.
   std::size_t transformAnchored(std::int64_t keyframe_id, const Eigen::Isometry3d& T_new_old);
 
   /// Removes every Gaussian (capacity and id counter kept).

@@ -1,7 +1,7 @@
 #pragma once
 /// \file gaussian_sh.h
-/// Real spherical harmonics of degree 0-3 (the 3DGS basis and sign convention) and their
-/// derivatives, as inline host+device templates. Part of the per-Gaussian math (gaussian_math.h).
+/// Real spherical harmonics of degree 0-3 (the 3DGS basis and sign convention), their
+/// derivatives and their rotation, as inline host+device templates. Part of the per-Gaussian math (gaussian_math.h).
 
 #include "dypho/mapping/host_device.h"
 
@@ -66,6 +66,107 @@ DYPHO_HOST_DEVICE inline void shBasisGrad(int degree, const T* d, T (*db)[3]) {
   db[13][0] = c2 * (T(4) * zz - T(3) * xx - yy); db[13][1] = c2 * (-T(2) * x * y); db[13][2] = c2 * T(8) * x * z;
   db[14][0] = c5 * T(2) * x * z; db[14][1] = c5 * (-T(2) * y * z); db[14][2] = c5 * (xx - yy);
   db[15][0] = c0 * (T(3) * xx - T(3) * yy); db[15][1] = c0 * (-T(6) * x * y);
+}
+
+/// Rotation of SH coefficients, one block per degree (degree 0 is invariant). For a rotation R
+/// applied to a Gaussian (and its surroundings), the rotated coefficients s' = M s give the
+/// rotated colour: c'(R d) = c(d) for every direction d.
+template <typename T>
+struct ShRotation {
+  T m1[3][3];  ///< degree 1 (coefficients 1..3)
+  T m2[5][5];  ///< degree 2 (coefficients 4..8)
+  T m3[7][7];  ///< degree 3 (coefficients 9..15)
+};
+
+/// Builds the blocks for the rotation `R` (row-major, orthonormal) up to `degree` (blocks above it
+/// are left unset). The basis is orthonormal, so M_l[k][m] = integral of b_k(d) b_m(R^T d) over the
+/// sphere; the integrand is a polynomial of degree <= 6, which the 26-point Lebedev rule
+/// (exact to degree 7) integrates exactly. Cost: 52 basis evaluations; build once per rotation.
+template <typename T>
+DYPHO_HOST_DEVICE inline void shRotation(const T R[3][3], int degree, ShRotation<T>& out) {
+  for (int k = 0; k < 3; ++k)
+    for (int m = 0; m < 3; ++m) out.m1[k][m] = T(0);
+  for (int k = 0; k < 5; ++k)
+    for (int m = 0; m < 5; ++m) out.m2[k][m] = T(0);
+  for (int k = 0; k < 7; ++k)
+    for (int m = 0; m < 7; ++m) out.m3[k][m] = T(0);
+  if (degree < 1) return;
+  const T four_pi = T(12.566370614359172);
+  const T s2 = T(0.70710678118654752), s3 = T(0.57735026918962576);
+  for (int j = 0; j < 26; ++j) {
+    // Lebedev 26: 6 axis points (weight 1/21), 12 edge midpoints (4/105), 8 cube corners (9/280).
+    T d[3];
+    T w;
+    if (j < 6) {
+      d[0] = d[1] = d[2] = T(0);
+      d[j / 2] = (j % 2) ? T(-1) : T(1);
+      w = T(1) / T(21);
+    } else if (j < 18) {
+      const int e = j - 6, pair = e / 4;  // axis pairs (x,y), (x,z), (y,z)
+      const T a = (e & 1) ? -s2 : s2, b = (e & 2) ? -s2 : s2;
+      d[0] = pair == 2 ? T(0) : a;
+      d[1] = pair == 0 ? b : (pair == 1 ? T(0) : a);
+      d[2] = pair == 0 ? T(0) : b;
+      w = T(4) / T(105);
+    } else {
+      const int c = j - 18;
+      d[0] = (c & 1) ? -s3 : s3;
+      d[1] = (c & 2) ? -s3 : s3;
+      d[2] = (c & 4) ? -s3 : s3;
+      w = T(9) / T(280);
+    }
+    // R^T d.
+    const T r[3] = {R[0][0] * d[0] + R[1][0] * d[1] + R[2][0] * d[2],
+                    R[0][1] * d[0] + R[1][1] * d[1] + R[2][1] * d[2],
+                    R[0][2] * d[0] + R[1][2] * d[1] + R[2][2] * d[2]};
+    T b[16] = {}, br[16] = {};  // zero: the compiler cannot see that only `degree` entries are read
+    shBasis(degree, d, b);
+    shBasis(degree, r, br);
+    const T wf = four_pi * w;
+    for (int k = 0; k < 3; ++k)
+      for (int m = 0; m < 3; ++m) out.m1[k][m] += wf * b[1 + k] * br[1 + m];
+    if (degree < 2) continue;
+    for (int k = 0; k < 5; ++k)
+      for (int m = 0; m < 5; ++m) out.m2[k][m] += wf * b[4 + k] * br[4 + m];
+    if (degree < 3) continue;
+    for (int k = 0; k < 7; ++k)
+      for (int m = 0; m < 7; ++m) out.m3[k][m] += wf * b[9 + k] * br[9 + m];
+  }
+}
+
+/// Rotates one Gaussian's SH coefficients in place (`sh`: shCoeffCount(degree) x RGB,
+/// coefficient-major, as in the maps) with blocks built by shRotation for at least `degree`.
+template <typename T>
+DYPHO_HOST_DEVICE inline void rotateSh(const ShRotation<T>& rot, int degree, T* sh) {
+  for (int ch = 0; ch < 3; ++ch) {
+    if (degree >= 1) {
+      T in[3], o[3];
+      for (int m = 0; m < 3; ++m) in[m] = sh[3 * (1 + m) + ch];
+      for (int k = 0; k < 3; ++k) {
+        o[k] = T(0);
+        for (int m = 0; m < 3; ++m) o[k] += rot.m1[k][m] * in[m];
+      }
+      for (int k = 0; k < 3; ++k) sh[3 * (1 + k) + ch] = o[k];
+    }
+    if (degree >= 2) {
+      T in[5], o[5];
+      for (int m = 0; m < 5; ++m) in[m] = sh[3 * (4 + m) + ch];
+      for (int k = 0; k < 5; ++k) {
+        o[k] = T(0);
+        for (int m = 0; m < 5; ++m) o[k] += rot.m2[k][m] * in[m];
+      }
+      for (int k = 0; k < 5; ++k) sh[3 * (4 + k) + ch] = o[k];
+    }
+    if (degree >= 3) {
+      T in[7], o[7];
+      for (int m = 0; m < 7; ++m) in[m] = sh[3 * (9 + m) + ch];
+      for (int k = 0; k < 7; ++k) {
+        o[k] = T(0);
+        for (int m = 0; m < 7; ++m) o[k] += rot.m3[k][m] * in[m];
+      }
+      for (int k = 0; k < 7; ++k) sh[3 * (9 + k) + ch] = o[k];
+    }
+  }
 }
 
 }  // namespace dypho::mapping::gs
