@@ -292,10 +292,10 @@ void GaussianMapper::savePly(const std::string& path) const {
   writeFileAtomically(path, [&](std::ostream& os) { writeGaussianPly(os, impl_->map); }, true);
 }
 
-std::size_t GaussianMapper::loadPly(const std::string& path) {
+std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) {
+  GaussianMap loaded(options_.sh_degree, options_.max_gaussians);  // the map's degree and capacity
+  const std::size_t n = readGaussianPly(path, loaded, note);       // throws before touching the map
   std::lock_guard<std::mutex> lock(mutex_);
-  GaussianMap loaded(impl_->map.shDegree(), impl_->map.capacity());
-  const std::size_t n = readGaussianPly(path, loaded);  // throws before touching the map
   impl_->map.clear();
   GaussianInit g;
   for (std::size_t i = 0; i < loaded.size(); ++i) {

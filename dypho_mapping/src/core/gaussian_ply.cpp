@@ -62,7 +62,8 @@ std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::stri
   bool in_vertex = false, have_vertex = false, binary_le = false;
   std::vector<std::string> props;
   for (;;) {
-    if (!std::getline(in, line)) throw fail("header ends before 'end_header' (truncated file?)");
+    // A header line cut by the end of the file (no newline) is a truncated header too.
+    if (!std::getline(in, line) || in.eof()) throw fail("header ends before 'end_header' (truncated file?)");
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string word;

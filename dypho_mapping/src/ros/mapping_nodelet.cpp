@@ -7,6 +7,8 @@
 /// rendered/depth_predicted (32FC1 m) at the constant-velocity prediction of the next camera pose,
 /// header stamp = the predicted stamp of that next frame (last stamp + last frame interval), for the
 /// mask module; gaussian_cloud (XYZRGB Gaussian centres) and map_cloud (keyframe points).
+/// Services: ~save_map, ~load_map (a 3DGS PLY replaces the Gaussian map; also at start-up with
+/// ~map_load_path), ~reset.
 
 #include <atomic>
 #include <condition_variable>
@@ -17,6 +19,7 @@
 
 #include <dypho_slam/Keyframe.h>
 #include <dypho_slam/KeyframePose.h>
+#include <dypho_slam/LoadMap.h>
 #include <dypho_slam/Reset.h>
 #include <dypho_slam/SaveMap.h>
 #include <geometry_msgs/PoseStamped.h>
@@ -43,6 +46,7 @@ struct MappingRosParams {
   double render_period_s = 0.2;      ///< minimum interval of rendered/color and rendered/depth [s]
   int keyframe_queue_size = 20;      ///< keyframes waiting for the worker before the oldest is dropped
   std::string output_dir;            ///< where save_map writes when the request names no folder
+  std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   bool use_gpu = true;               ///< use CUDA when built with it and a device exists
 };
 
@@ -79,6 +83,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("render_period_s", params_.render_period_s, "");
     reader("keyframe_queue_size", params_.keyframe_queue_size, "");
     reader("output_dir", params_.output_dir, "");
+    reader("map_load_path", params_.map_load_path, "");
     reader("use_gpu", params_.use_gpu, "");
     reader.checkNoUnknownKeys();
     options.validate();
@@ -95,6 +100,15 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     cloud_map_ = std::make_unique<mapping::KeyframeCloudMap>(options.cloud);
     gaussians_ = std::make_unique<mapping::GaussianMapper>(options.gaussian);
     gaussians_->setMessageSink([this](const std::string& m) { NODELET_WARN_STREAM_THROTTLE(5.0, m); });
+    if (!params_.map_load_path.empty()) {
+      // A bad file is reported and mapping starts empty (the nodelet manager keeps running).
+      const LoadOutcome r = loadMap(params_.map_load_path);
+      if (r.success) {
+        NODELET_INFO_STREAM(r.message);
+      } else {
+        NODELET_ERROR_STREAM("~map_load_path: " << r.message << "; starting with an empty map");
+      }
+    }
     gaussians_->start(static_cast<std::size_t>(std::max(1, params_.keyframe_queue_size)));
     render_thread_ = std::thread([this] { renderLoop(); });
 
@@ -106,6 +120,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     predicted_pub_ = nh.advertise<sensor_msgs::Image>("rendered/depth_predicted", 1);
     save_srv_ = pnh.advertiseService("save_map", &GaussianMappingNodelet::onSave, this);
     reset_srv_ = pnh.advertiseService("reset", &GaussianMappingNodelet::onReset, this);
+    load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
     timer_ = nh.createWallTimer(ros::WallDuration(params_.publish_period_s),
                                 [this](const ros::WallTimerEvent&) { publishClouds(); });
 
@@ -264,6 +279,43 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  struct LoadOutcome {
+    bool success = false;
+    std::string message;
+  };
+
+  /// Replaces the Gaussian map with the PLY at `path` (the worker keeps running; the mapper swaps
+  /// the map under its lock). On error the current map is kept.
+  LoadOutcome loadMap(const std::string& path) {
+    LoadOutcome r;
+    if (path.empty()) {
+      r.message = "no path given (expected a 3DGS .ply, e.g. the map.ply written by ~save_map)";
+      return r;
+    }
+    try {
+      std::string note;
+      const std::size_t n = gaussians_->loadPly(path, &note);
+      r.success = true;
+      r.message = "loaded " + std::to_string(n) + " Gaussians from " + path + (note.empty() ? "" : " (" + note + ")");
+      changed_ = true;
+    } catch (const std::exception& e) {
+      r.message = std::string(e.what()) + "; the current map is kept";
+    }
+    return r;
+  }
+
+  bool onLoad(dypho_slam::LoadMap::Request& req, dypho_slam::LoadMap::Response& res) {
+    const LoadOutcome r = loadMap(req.path);
+    res.success = r.success;
+    res.message = r.message;
+    if (r.success) {
+      NODELET_INFO_STREAM(r.message);
+    } else {
+      NODELET_WARN_STREAM("load_map: " << r.message);
+    }
+    return true;
+  }
+
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
     {
       std::lock_guard<std::mutex> lock(cloud_mutex_);
@@ -292,7 +344,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   std::thread render_thread_;
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, pose_sub_, camera_pose_sub_;
-  ros::ServiceServer save_srv_, reset_srv_;
+  ros::ServiceServer save_srv_, reset_srv_, load_srv_;
   ros::WallTimer timer_;
 };
 

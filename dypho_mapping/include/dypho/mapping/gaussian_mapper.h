@@ -127,8 +127,10 @@ class GaussianMapper {
   void savePly(const std::string& path) const;
   /// Replaces the map with a 3DGS PLY (Gaussians not anchored to keyframes). Throws
   /// std::runtime_error naming the problem (missing, not binary little-endian, truncated, missing
-  /// properties); the current map is kept then. Beyond max_gaussians the rest is dropped (reported).
-  std::size_t loadPly(const std::string& path);
+  /// properties); the current map is kept then. Beyond max_gaussians the rest is dropped, and SH
+  /// degrees other than sh_degree are truncated or zero-padded: `note` (optional) says so. The file
+  /// is read before the map lock is taken, so the worker and renders wait only for the swap.
+  std::size_t loadPly(const std::string& path, std::string* note = nullptr);
   /// Writes the centres as a binary PCD (x y z rgb), atomically.
   void saveCentresPcd(const std::string& path) const;
   GaussianMapperStats stats() const;
