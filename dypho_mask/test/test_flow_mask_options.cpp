@@ -46,6 +46,8 @@ TEST(FlowMaskOptions, ValidateRejectsEachBadValueAndNamesTheField) {
       {"ransac_max_iterations", [](FlowMaskOptions& o) { o.ransac_max_iterations = 0; }},
       {"min_inlier_ratio", [](FlowMaskOptions& o) { o.min_inlier_ratio = 1.0; }},
       {"min_texture_gradient", [](FlowMaskOptions& o) { o.min_texture_gradient = -1.0; }},
+      {"dis_refinement_iterations", [](FlowMaskOptions& o) { o.dis_refinement_iterations = -1; }},
+      {"dis_refinement_iterations", [](FlowMaskOptions& o) { o.dis_refinement_iterations = 101; }},
   };
   for (const Case& c : cases) {
     FlowMaskOptions o;
@@ -65,7 +67,7 @@ TEST(FlowMaskOptions, ToStringListsEveryField) {
        {"flow_scale=", "residual_threshold_px=", "min_region_area_px=", "dilate_px=",
         "max_masked_fraction=", "open_radius_px=", "sample_step_px=", "ransac_threshold_px=",
         "ransac_max_iterations=", "min_inlier_ratio=", "min_texture_gradient=",
-        "ultrafast="}) {
+        "ultrafast=", "dis_refinement_iterations="}) {
     EXPECT_NE(s.find(key), std::string::npos) << key << " missing in " << s;
   }
 }

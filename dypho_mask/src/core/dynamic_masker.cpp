@@ -2,7 +2,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <exception>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/mask/box_depth_segmenter.h"
@@ -70,8 +72,57 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   MaskResult result;
   auto note = [&](const std::string& m) { result.message += (result.message.empty() ? "" : "; ") + m; };
 
-  // 1. Motion mask. The flow masker checks the colour image, depth size and camera size.
-  const FlowMaskResult flow = flow_.compute(frame, prior.T_prev_cur);
+  const cv::Size size = frame.bgr.size();
+  const bool have_depth = !frame.depth_m.empty() && frame.depth_m.size() == size &&
+                          frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
+  const bool run_background = options_.background.enabled && have_depth;
+  const double s = options_.background.scale;
+  const cv::Size small(std::max(1, static_cast<int>(std::lround(size.width * s))),
+                       std::max(1, static_cast<int>(std::lround(size.height * s))));
+  bool rendered_ignored = false;
+  double test_ms = 0.0;
+  // The consistency test of D_i against the prior (warped B_{i-1}, rendered depth) needs no flow:
+  // it runs beside the flow on a second thread of OpenCV's pool (serially with one thread).
+  auto background_test = [&] {
+    const auto t = Clock::now();
+    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
+    rendered_small_.release();
+    if (!prior.rendered_depth_m.empty()) {
+      if (prior.rendered_depth_m.size() == size && prior.rendered_depth_m.type() == CV_32FC1) {
+        cv::resize(prior.rendered_depth_m, rendered_small_, small, 0, 0, cv::INTER_NEAREST);
+      } else {
+        rendered_ignored = true;
+      }
+    }
+    background_.test(depth_small_, rendered_small_, scaled(frame.camera, small, s), prior.T_prev_cur,
+                     consistency_small_);
+    test_ms = msSince(t);
+  };
+
+  // 1. Motion mask (beside the background test). The flow masker checks the colour image, depth
+  // size and camera size. Exceptions of either task are rethrown here, after both finished.
+  FlowMaskResult flow;
+  std::exception_ptr failure[2];
+  cv::parallel_for_(
+      cv::Range(0, 2),
+      [&](const cv::Range& range) {
+        for (int task = range.start; task < range.end; ++task) {
+          try {
+            if (task == 0) {
+              flow = flow_.compute(frame, prior.T_prev_cur);
+            } else if (run_background) {
+              background_test();
+            }
+          } catch (...) {
+            failure[task] = std::current_exception();
+          }
+        }
+      },
+      2.0);
+  for (const std::exception_ptr& e : failure) {
+    if (e) std::rethrow_exception(e);
+  }
+  if (rendered_ignored) note("rendered depth ignored: must be CV_32FC1 of the colour size");
   result.flow_ms = flow.total_ms;
   result.ego_motion_from_pose = flow.ego_motion_from_pose;
   result.raw_flow_mask = flow.raw_flow_mask;
@@ -86,7 +137,6 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     result.total_ms = msSince(t0);
     return result;
   }
-  const cv::Size size = frame.bgr.size();
   if (!warned_ && !segment_->ready()) {
     note(segment_->status());
     warned_ = true;
@@ -104,15 +154,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
 
   // 3. Raw mask, background model, consistency.
   const auto t_bg = Clock::now();
-  cv::Mat raw = flow.mask.clone();
-  if (!seg.mask.empty()) raw |= seg.mask;
-  const bool have_depth = !frame.depth_m.empty() && frame.depth_m.size() == size &&
-                          frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
-  if (options_.background.enabled && have_depth) {
-    const double s = options_.background.scale;
-    const cv::Size small(std::max(1, static_cast<int>(std::lround(size.width * s))),
-                         std::max(1, static_cast<int>(std::lround(size.height * s))));
-    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
+  if (run_background) {
     // Raw flow regions are cut to their foreground depth (no halo on the wall behind); the
     // segment mask is already depth-cut (boxes) or pixel-exact (seg models).
     cv::resize(flow.mask, raw_small_, small, 0, 0, cv::INTER_NEAREST);
@@ -121,23 +163,14 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
       cv::resize(seg.mask, seg_small_, small, 0, 0, cv::INTER_NEAREST);
       raw_small_ |= seg_small_;
     }
-    rendered_small_.release();
-    if (!prior.rendered_depth_m.empty()) {
-      if (prior.rendered_depth_m.size() == size && prior.rendered_depth_m.type() == CV_32FC1) {
-        cv::resize(prior.rendered_depth_m, rendered_small_, small, 0, 0, cv::INTER_NEAREST);
-      } else {
-        note("rendered depth ignored: must be CV_32FC1 of the colour size");
-      }
-    }
     if (flow.raw_flow_mask.empty() && seg.mask.empty()) {
-      // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame.
+      // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the
+      // consistency test above changed nothing that the next frame reads).
       finish(raw_small_, size, s, result);
-      result.background_ms = msSince(t_bg);
+      result.background_ms = test_ms + msSince(t_bg);
       result.total_ms = msSince(t0);
       return result;
     }
-    background_.test(depth_small_, rendered_small_, scaled(frame.camera, small, s), prior.T_prev_cur,
-                     consistency_small_);
     cv::resize(consistency_small_, result.consistency_mask, size, 0, 0, cv::INTER_NEAREST);
     // Flow regions that the established background explains (same depth, no occluder in front)
     // are flow noise on the static scene; segment-mask pixels are never vetoed.
@@ -157,10 +190,11 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     finish(combined_, size, s, result);
   } else {
     if (options_.background.enabled && !have_depth) note("no usable depth/camera: background model skipped");
-    combined_ = raw;
+    combined_ = flow.mask.clone();
+    if (!seg.mask.empty()) combined_ |= seg.mask;
     finish(combined_, size, 1.0, result);
   }
-  result.background_ms = msSince(t_bg);
+  result.background_ms = test_ms + msSince(t_bg);
   result.total_ms = msSince(t0);
   return result;
 }

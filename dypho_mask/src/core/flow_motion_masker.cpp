@@ -64,6 +64,7 @@ FlowMotionMasker::FlowMotionMasker(const FlowMaskOptions& options)
   // DIS an image already reduced by flow_scale, so let it refine down to that image's full
   // resolution; otherwise the flow would be 4x coarser than flow_scale says.
   dis_->setFinestScale(0);
+  dis_->setVariationalRefinementIterations(options.dis_refinement_iterations);
 }
 
 FlowMotionMasker::~FlowMotionMasker() = default;

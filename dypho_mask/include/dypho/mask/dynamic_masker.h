@@ -13,6 +13,8 @@
 /// between); (3) at background resolution: consistency mask of D_i against the warped B_{i-1}
 /// (+ rendered depth), final = consistency OR raw, then B_i is updated (background_model.h);
 /// (4) open + small-region removal + margin, upsampled to the input size.
+/// The consistency test of (3) needs no flow and runs beside (1) on OpenCV's thread pool
+/// (cv::parallel_for_ with two tasks; serially when cv::getNumThreads() is 1).
 /// Degraded modes (documented, never a crash): no depth or a size mismatch -> no background
 /// model and no depth-based ego-motion (flow homography + segment boxes painted whole); depth all
 /// zero -> the background model has nothing to compare (raw masks only); no/failed network ->
@@ -65,8 +67,10 @@ struct MaskResult {
   std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
   double flow_ms = 0.0;        ///< flow masker, whole [ms]
   double segment_ms = 0.0;     ///< network (sync) + carrying [ms]
-  double background_ms = 0.0;  ///< background model + combination + clean-up [ms]
-  double total_ms = 0.0;       ///< whole compute() [ms]
+  /// background model + combination + clean-up [ms]; its consistency test runs beside the flow,
+  /// so flow_ms + background_ms can exceed the wall time (total_ms - segment_ms)
+  double background_ms = 0.0;
+  double total_ms = 0.0;       ///< whole compute(), wall time [ms]
 };
 
 /// Computes the dynamic mask frame by frame. Not thread-safe; one instance per image stream.

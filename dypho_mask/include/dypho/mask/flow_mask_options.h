@@ -49,6 +49,11 @@ struct FlowMaskOptions {
   bool aperture_aware = true;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;
+  /// Variational refinement iterations of DIS on every pyramid level, >= 0; replaces the
+  /// preset's count (FAST 5, ULTRAFAST 0). Each iteration costs about as much as a fifth of the
+  /// whole FAST flow at 160x120; beyond 2 the mask does not change measurably
+  /// (bench/mask_synth_bench, docs/benchmarks.md section 3). Default 2.
+  int dis_refinement_iterations = 2;
 
   /// Throws std::invalid_argument naming the first field that is out of range and its range.
   void validate() const;

@@ -29,6 +29,7 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
   visitor("min_texture_gradient", options.min_texture_gradient, "Flow in textureless regions is interpolated, not measured, so its residual is no evidence of motion. A flow pixel counts as textured when the RMS grey-level gradient of the reduced image over a 5x5 flow-pixel window reaches this [grey levels / flow px], >= 0 (0 = every pixel is trusted). Untextured pixels are neither used for the global-motion fit nor marked dynamic. Default 4.0.");
   visitor("aperture_aware", options.aperture_aware, "Aperture-aware residual: on edges only the flow across the edge is measured, so only that part of the residual counts (|r|_eff^2 = r^T S r / lambda_max(S), S = 5x5 structure tensor; = |r| on corners). Removes false motion along straight texture such as floor planks. Default true.");
   visitor("ultrafast", options.ultrafast, "Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.");
+  visitor("dis_refinement_iterations", options.dis_refinement_iterations, "Variational refinement iterations of DIS on every pyramid level, in [0, 100]; replaces the preset's count (FAST 5, ULTRAFAST 0). Beyond 2 the mask does not change measurably. Default 2.");
 }
 
 /// Calls `visitor(key, field, doc)` for every field of `options` (keys without prefix).
