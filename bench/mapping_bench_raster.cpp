@@ -2,12 +2,13 @@
 /// made of surface Gaussians, for several Gaussian counts and image sizes.
 ///
 ///   mapping_bench_raster [--threads 2] [--repeats 10] [--counts 10000,100000,300000]
-///                        [--sizes 640x480,320x240] [--sh-degree 1]
+///                        [--sizes 640x480,320x240] [--sh-degree 1] [--stages 0|1]
 ///
 /// Scene: Gaussians spread uniformly on the walls and floor of a 6 x 3 x 8 m room seen from inside,
 /// flat (one axis 10x thinner), screen size chosen so that the visible ones cover the image about
 /// twice (what a trained map looks like), opacity 0.8. Prints one line per case: visible
-/// Gaussians, tile entries, median forward and backward ms.
+/// Gaussians, tile entries, median forward and backward ms; with --stages 1 also the medians of
+/// the stages (project, bin, composite | backward tiles, chain rule).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -63,7 +64,7 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int threads = 2, repeats = 10, degree = 1;
+  int threads = 2, repeats = 10, degree = 1, stages = 0;
   std::string counts = "10000,100000,300000", sizes = "640x480,320x240";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
     else if (k == "--counts") counts = v;
     else if (k == "--sizes") sizes = v;
     else if (k == "--sh-degree") degree = std::stoi(v);
+    else if (k == "--stages") stages = std::stoi(v);
     else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 1; }
   }
   ThreadPool pool(threads);
@@ -114,7 +116,7 @@ int main(int argc, char** argv) {
       for (auto& v : gcolor) v = u(rng2) * 1e-5f;
       for (auto& v : gdepth) v = u(rng2) * 1e-5f;
       PixelGrads<float> pg{gcolor.data(), gdepth.data(), nullptr};
-      std::vector<double> f, b;
+      std::vector<double> f, b, st[5];
       for (int r = 0; r < repeats + 1; ++r) {
         const auto t0 = std::chrono::steady_clock::now();
         raster.forward(params, view, out);
@@ -124,9 +126,16 @@ int main(int argc, char** argv) {
         if (r == 0) continue;  // warm-up (buffers grow)
         f.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
         b.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+        const RasterStageTimes& s = raster.stageTimes();
+        const double times[5] = {s.project_ms, s.bin_ms, s.composite_ms, s.tiles_back_ms, s.chain_ms};
+        for (int k = 0; k < 5; ++k) st[k].push_back(times[k]);
       }
       std::printf("%9d %9s %9zu %11zu %10.1f %10.1f %10.1f\n", n, ss.c_str(), raster.numVisible(),
                   raster.numTileEntries(), median(f), median(b), median(f) + median(b));
+      if (stages) {
+        std::printf("%31s stages ms: project %.1f, bin %.1f, composite %.1f | tiles %.1f, chain rule %.1f\n", "",
+                    median(st[0]), median(st[1]), median(st[2]), median(st[3]), median(st[4]));
+      }
     }
   }
   return 0;

@@ -134,7 +134,7 @@ TEST(GaussianMath, MayReachImageNeverRejectsAVisibleGaussian) {
     const float q[4] = {u(rng), u(rng), u(rng), u(rng)};
     const float sh[3] = {0.f, 0.f, 0.f};
     const float logit = 3.f * u(rng);
-    const bool may = gs::mayReachImage(view, pos, ls, 3.f);
+    const bool may = gs::mayReachImage(view, pos[0], pos[1], pos[2], ls[0], ls[1], ls[2], 3.f);
     gs::Projected<float> p;
     if (gs::projectGaussian(view, pos, ls, q, logit, sh, 0, 3.f, 1.f / 255.f, p)) {
       const float r = p.radius_px;

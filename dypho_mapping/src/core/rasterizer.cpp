@@ -2,9 +2,11 @@
 #include "dypho/mapping/rasterizer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 namespace dypho::mapping {
 
@@ -40,28 +42,49 @@ template <typename T>
 void Rasterizer<T>::preprocess() {
   const int n = params_.count;
   packed_.resize(n);
+  visible_.resize(n);
   const int K3 = 3 * gs::shCoeffCount(params_.sh_degree);
   const T radius_sigma = T(settings_.radius_sigma), min_alpha = T(settings_.min_alpha);
   const int width = view_.width, height = view_.height;
-  const int block = 1024;
-  pool_->parallelFor((n + block - 1) / block, [&](int b, int) {
-    const int end = std::min(n, (b + 1) * block);
-    for (int i = b * block; i < end; ++i) {
-      Packed& p = packed_[i];
+  constexpr int kBlock = 1024;
+  pool_->parallelFor((n + kBlock - 1) / kBlock, [&](int b, int) {
+    const int begin = b * kBlock, end = std::min(n, (b + 1) * kBlock);
+    // Cheap pre-test over the block (SIMD): most off-screen Gaussians leave here, before the
+    // covariance and the SH colour. Only visible Gaussians write their (cache-line) Packed record.
+    // Rows of 3 transposed to columns first (the vectoriser does not handle the stride-3 loads).
+    alignas(64) T X[kBlock], Y[kBlock], Z[kBlock], L0[kBlock], L1[kBlock], L2[kBlock];
+    alignas(64) T may[kBlock];  // 1 = may reach the image
+    const gs::PinholeView<T> cam = view_;
+    const T* pos = params_.position + 3 * begin;
+    const T* ls = params_.log_scale + 3 * begin;
+    const int count = end - begin;
+    for (int j = 0; j < count; ++j) {
+      X[j] = pos[3 * j];
+      Y[j] = pos[3 * j + 1];
+      Z[j] = pos[3 * j + 2];
+      L0[j] = ls[3 * j];
+      L1[j] = ls[3 * j + 1];
+      L2[j] = ls[3 * j + 2];
+    }
+#pragma omp simd
+    for (int j = 0; j < count; ++j) {
+      may[j] = gs::imageReachMargin(cam, X[j], Y[j], Z[j], L0[j], L1[j], L2[j], radius_sigma) >= T(0) ? T(1) : T(0);
+    }
+    for (int i = begin; i < end; ++i) {
+      visible_[i] = 0;
+      if (may[i - begin] == T(0)) continue;
       gs::Projected<T> pr;
-      p.tile_x0 = p.tile_x1 = p.tile_y0 = p.tile_y1 = 0;
-      // Most off-screen Gaussians leave here, before the covariance and the SH colour.
-      if (!gs::mayReachImage(view_, params_.position + 3 * i, params_.log_scale + 3 * i, radius_sigma)) continue;
       if (!gs::projectGaussian(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
                                params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
                                params_.sh_degree, radius_sigma, min_alpha, pr)) {
         continue;
       }
-      const T r = pr.radius_px;
-      if (!(pr.mean_u + r >= T(-0.5)) || !(pr.mean_u - r <= T(width) - T(0.5)) || !(pr.mean_v + r >= T(-0.5)) ||
-          !(pr.mean_v - r <= T(height) - T(0.5))) {
+      const T ru = pr.half_u, rv = pr.half_v;
+      if (!(pr.mean_u + ru >= T(-0.5)) || !(pr.mean_u - ru <= T(width) - T(0.5)) || !(pr.mean_v + rv >= T(-0.5)) ||
+          !(pr.mean_v - rv <= T(height) - T(0.5))) {
         continue;  // off screen (also rejects NaN)
       }
+      Packed& p = packed_[i];
       p.mean_u = pr.mean_u;
       p.mean_v = pr.mean_v;
       p.conic_a = pr.conic_a;
@@ -72,11 +95,13 @@ void Rasterizer<T>::preprocess() {
       p.color[1] = pr.color[1];
       p.color[2] = pr.color[2];
       p.depth = pr.depth_m;
-      p.radius = r;
-      p.tile_x0 = std::max(0, static_cast<int>(std::floor((pr.mean_u - r + T(0.5)) / gs::kTileSize)));
-      p.tile_x1 = std::min(tiles_x_, static_cast<int>(std::floor((pr.mean_u + r + T(0.5)) / gs::kTileSize)) + 1);
-      p.tile_y0 = std::max(0, static_cast<int>(std::floor((pr.mean_v - r + T(0.5)) / gs::kTileSize)));
-      p.tile_y1 = std::min(tiles_y_, static_cast<int>(std::floor((pr.mean_v + r + T(0.5)) / gs::kTileSize)) + 1);
+      p.half_u = ru;
+      p.half_v = rv;
+      p.tile_x0 = std::max(0, static_cast<int>(std::floor((pr.mean_u - ru + T(0.5)) / gs::kTileSize)));
+      p.tile_x1 = std::min(tiles_x_, static_cast<int>(std::floor((pr.mean_u + ru + T(0.5)) / gs::kTileSize)) + 1);
+      p.tile_y0 = std::max(0, static_cast<int>(std::floor((pr.mean_v - rv + T(0.5)) / gs::kTileSize)));
+      p.tile_y1 = std::min(tiles_y_, static_cast<int>(std::floor((pr.mean_v + rv + T(0.5)) / gs::kTileSize)) + 1);
+      visible_[i] = p.tile_x1 > p.tile_x0 && p.tile_y1 > p.tile_y0;
     }
   });
 }
@@ -121,8 +146,8 @@ void Rasterizer<T>::binTiles() {
   order_.clear();
   tile_ranges_.assign(num_tiles + 1, 0);
   for (int i = 0; i < n; ++i) {
+    if (!visible_[i]) continue;
     const Packed& p = packed_[i];
-    if (p.tile_x1 <= p.tile_x0 || p.tile_y1 <= p.tile_y0) continue;
     const float d = static_cast<float>(p.depth);  // > 0: IEEE bits order like the values
     std::uint32_t bits;
     std::memcpy(&bits, &d, sizeof(bits));
@@ -169,9 +194,17 @@ void Rasterizer<T>::forward(const GaussianParamsView<T>& params, const gs::Pinho
   out.alpha.resize(npix);
   final_T_.resize(npix);
   last_entry_.resize(npix);
+  const auto t0 = std::chrono::steady_clock::now();
   preprocess();
+  const auto t1 = std::chrono::steady_clock::now();
   binTiles();
+  const auto t2 = std::chrono::steady_clock::now();
   pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int) { forwardTile(tile, out); });
+  const auto t3 = std::chrono::steady_clock::now();
+  using Ms = std::chrono::duration<double, std::milli>;
+  times_.project_ms = Ms(t1 - t0).count();
+  times_.bin_ms = Ms(t2 - t1).count();
+  times_.composite_ms = Ms(t3 - t2).count();
 }
 
 template <typename T>
@@ -198,14 +231,14 @@ void Rasterizer<T>::forwardTile(int tile, RenderResult<T>& out) {
     const Packed& p = sorted_[entries_[k]];
     // Rows of the footprint box inside the tile; every row is processed over the full tile width
     // (fixed trip count, vectorised); pixels outside the box fall below min_alpha by construction.
-    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.radius)));
-    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.radius)) + 1);
+    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.half_v)));
+    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.half_v)) + 1);
     const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
     const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
     const T mu0 = p.mean_u - T(tx0);
     // Columns in blocks of 8 (one AVX2 vector): only the blocks the footprint box touches.
-    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.radius)));
-    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.radius)) + 1);
+    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.half_u)));
+    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.half_u)) + 1);
     const int xb0 = (cx0 / 8) * 8, xb1 = cx1 <= cx0 ? xb0 : ((cx1 + 7) / 8) * 8;
     for (int py = py0; py < py1; ++py) {
       const T dy = p.mean_v - T(py);
@@ -241,18 +274,27 @@ void Rasterizer<T>::forwardTile(int tile, RenderResult<T>& out) {
       if (any == T(0)) break;
     }
   }
+  // Rows of the tile out to the images (block copies; full-width rows with a constant size).
+  alignas(64) T A[gs::kTilePixels];
+  for (int i = 0; i < gs::kTilePixels; ++i) A[i] = T(1) - Tr[i];
   const std::size_t npix = static_cast<std::size_t>(view_.width) * view_.height;
+  const int w = tx1 - tx0;
+  auto copyRow = [&](int row, std::size_t o, auto width) {
+    std::memcpy(&out.color[o], &Cr[row], width * sizeof(T));
+    std::memcpy(&out.color[npix + o], &Cg[row], width * sizeof(T));
+    std::memcpy(&out.color[2 * npix + o], &Cb[row], width * sizeof(T));
+    std::memcpy(&out.depth[o], &D[row], width * sizeof(T));
+    std::memcpy(&out.alpha[o], &A[row], width * sizeof(T));
+    std::memcpy(&final_T_[o], &Tr[row], width * sizeof(T));
+    std::memcpy(&last_entry_[o], &last[row], width * sizeof(std::uint32_t));
+  };
   for (int py = ty0; py < ty1; ++py) {
-    for (int px = tx0; px < tx1; ++px) {
-      const int i = (py - ty0) * S + (px - tx0);
-      const std::size_t o = static_cast<std::size_t>(py) * view_.width + px;
-      out.color[o] = Cr[i];
-      out.color[npix + o] = Cg[i];
-      out.color[2 * npix + o] = Cb[i];
-      out.depth[o] = D[i];
-      out.alpha[o] = T(1) - Tr[i];
-      final_T_[o] = Tr[i];
-      last_entry_[o] = last[i];
+    const int row = (py - ty0) * S;
+    const std::size_t o = static_cast<std::size_t>(py) * view_.width + tx0;
+    if (w == S) {
+      copyRow(row, o, std::integral_constant<std::size_t, S>());
+    } else {
+      copyRow(row, o, static_cast<std::size_t>(w));
     }
   }
 }

@@ -1,6 +1,9 @@
 /// Rasterizer: the backward pass (per-tile back-to-front, then per-Gaussian chain rule).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 
 #include "dypho/mapping/rasterizer.h"
 
@@ -24,22 +27,29 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
     gR[i] = gG[i] = gB[i] = gD[i] = gA[i] = T(0);
     last[i] = begin;
   }
+  // Rows of the images into the tile (block copies; full-width rows with a constant size).
+  const int w = tx1 - tx0;
+  auto copyRow = [&](int row, std::size_t o, auto width) {
+    std::memcpy(&Tc[row], &final_T_[o], width * sizeof(T));
+    std::memcpy(&last[row], &last_entry_[o], width * sizeof(std::uint32_t));
+    if (grads.color) {
+      std::memcpy(&gR[row], &grads.color[o], width * sizeof(T));
+      std::memcpy(&gG[row], &grads.color[npix + o], width * sizeof(T));
+      std::memcpy(&gB[row], &grads.color[2 * npix + o], width * sizeof(T));
+    }
+    if (grads.depth) std::memcpy(&gD[row], &grads.depth[o], width * sizeof(T));
+    if (grads.alpha) std::memcpy(&gA[row], &grads.alpha[o], width * sizeof(T));
+  };
   for (int py = ty0; py < ty1; ++py) {
-    for (int px = tx0; px < tx1; ++px) {
-      const int i = (py - ty0) * S + (px - tx0);
-      const std::size_t o = static_cast<std::size_t>(py) * view_.width + px;
-      Tc[i] = final_T_[o];
-      last[i] = last_entry_[o];
-      max_last = std::max(max_last, last[i]);
-      if (grads.color) {
-        gR[i] = grads.color[o];
-        gG[i] = grads.color[npix + o];
-        gB[i] = grads.color[2 * npix + o];
-      }
-      if (grads.depth) gD[i] = grads.depth[o];
-      if (grads.alpha) gA[i] = grads.alpha[o];
+    const int row = (py - ty0) * S;
+    const std::size_t o = static_cast<std::size_t>(py) * view_.width + tx0;
+    if (w == S) {
+      copyRow(row, o, std::integral_constant<std::size_t, S>());
+    } else {
+      copyRow(row, o, static_cast<std::size_t>(w));
     }
   }
+  for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, last[i]);
   const T min_alpha = T(settings_.min_alpha), max_alpha = T(gs::kMaxAlpha);
   auto& acc = thread_grads_[thread];
   // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
@@ -56,14 +66,14 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
     }
     const std::uint32_t g = entries_[k];
     const Packed& p = sorted_[g];
-    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.radius)));
-    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.radius)) + 1);
+    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.half_v)));
+    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.half_v)) + 1);
     const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
     const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
     const T mu0 = p.mean_u - T(tx0);
     // Columns in blocks of 8 (one AVX2 vector): only the blocks the footprint box touches.
-    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.radius)));
-    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.radius)) + 1);
+    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.half_u)));
+    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.half_u)) + 1);
     const int xb0 = (cx0 / 8) * 8, xb1 = cx1 <= cx0 ? xb0 : ((cx1 + 7) / 8) * 8;
     if (py0 >= py1 || xb0 >= xb1) continue;
     T* const l_mu = lanes[0];
@@ -154,7 +164,9 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
     thread_grads_[t].assign(num_visible_, zero);
     thread_pose_[t].assign(6, T(0));
   }
+  const auto t0 = std::chrono::steady_clock::now();
   pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int thread) { backwardTile(tile, thread, grads); });
+  const auto t1 = std::chrono::steady_clock::now();
 
   // Chain rule per Gaussian, in parameter order (sequential reads of the parameters and writes
   // of the outputs; every output row is written, zeros for Gaussians without a gradient).
@@ -167,12 +179,20 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
   out.mean2d_norm.resize(n);
   const int block = 1024;
   pool_->parallelFor((n + block - 1) / block, [&](int bi, int thread) {
-    const int end = std::min(n, (bi + 1) * block);
+    const int begin = bi * block, end = std::min(n, (bi + 1) * block);
     T* pose = thread_pose_[thread].data();
-    for (int i = bi * block; i < end; ++i) {
+    // Zeros first (block fills), then the Gaussians with a gradient overwrite their rows.
+    std::fill(out.position.begin() + 3 * begin, out.position.begin() + 3 * end, T(0));
+    std::fill(out.log_scale.begin() + 3 * begin, out.log_scale.begin() + 3 * end, T(0));
+    std::fill(out.rotation.begin() + 4 * begin, out.rotation.begin() + 4 * end, T(0));
+    std::fill(out.opacity_logit.begin() + begin, out.opacity_logit.begin() + end, T(0));
+    std::fill(out.sh.begin() + static_cast<std::size_t>(K3) * begin, out.sh.begin() + static_cast<std::size_t>(K3) * end, T(0));
+    std::fill(out.mean2d_norm.begin() + begin, out.mean2d_norm.begin() + end, T(0));
+    for (int i = begin; i < end; ++i) {
       const std::uint32_t j = rank_[i];
+      if (j == kNotVisible) continue;
       gs::ScreenGrad<T> sg{};
-      if (j != kNotVisible) {
+      {
         sg = thread_grads_[0][j];
         for (int t = 1; t < threads; ++t) {
           const gs::ScreenGrad<T>& s = thread_grads_[t][j];
@@ -183,15 +203,10 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
         }
       }
       // Not visible, or touched no pixel with a gradient (occluded, or where the loss is flat):
-      // every gradient is zero.
+      // every gradient is zero, as filled above.
       if (sg.mean_u == T(0) && sg.mean_v == T(0) && sg.conic_a == T(0) && sg.conic_b == T(0) &&
           sg.conic_c == T(0) && sg.opacity == T(0) && sg.depth == T(0) && sg.color[0] == T(0) &&
           sg.color[1] == T(0) && sg.color[2] == T(0)) {
-        for (int k = 0; k < 3; ++k) out.position[3 * i + k] = out.log_scale[3 * i + k] = T(0);
-        for (int k = 0; k < 4; ++k) out.rotation[4 * i + k] = T(0);
-        out.opacity_logit[i] = T(0);
-        for (int k = 0; k < K3; ++k) out.sh[static_cast<std::size_t>(K3) * i + k] = T(0);
-        out.mean2d_norm[i] = T(0);
         continue;
       }
       out.mean2d_norm[i] = std::sqrt(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
@@ -213,6 +228,9 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
     out.pose[j] = T(0);
     for (int t = 0; t < threads; ++t) out.pose[j] += thread_pose_[t][j];
   }
+  using Ms = std::chrono::duration<double, std::milli>;
+  times_.tiles_back_ms = Ms(t1 - t0).count();
+  times_.chain_ms = Ms(std::chrono::steady_clock::now() - t1).count();
 }
 
 template void Rasterizer<float>::backward(const PixelGrads<float>&, GaussianGrads<float>&);

@@ -53,6 +53,10 @@ struct Projected {
   T opacity;                ///< sigmoid(opacity_logit)
   T color[3];               ///< RGB from SH, clamped at 0
   T radius_px;              ///< radius_sigma * sqrt(largest eigenvalue) [px]
+  /// Half-width and half-height of the footprint box [px] (<= radius_px): the radius box cut to
+  /// the bounding box of the ellipse outside which opacity * G < min_alpha, so no pixel outside
+  /// it can pass the alpha threshold (a 1e-4 relative + 1e-3 px margin covers float rounding).
+  T half_u, half_v;
 };
 
 /// exp() used in the per-pixel blending: std::exp for double (reference, gradient checks); for
@@ -199,28 +203,49 @@ DYPHO_HOST_DEVICE inline ProjectionJacobian<T> projectionJacobian(const PinholeV
 }
 
 /// Cheap conservative pre-test of projectGaussian plus the rasterizer's on-screen test (no
-/// covariance, no SH): false only when the Gaussian is behind the near plane, or its screen centre
-/// lies farther outside the image than any footprint its largest scale allows. The bound: the
-/// projected covariance has trace <= ||J||_F^2 s_max^2 + 2 kLowPassPx2, and projectGaussian's
-/// eigenvalue is at most that trace + sqrt(0.1); 1 % and 1 px of margin cover float rounding.
-/// Never rejects a Gaussian whose projected footprint reaches the image.
+/// covariance, no SH) for the Gaussian at world (p0, p1, p2) with log std devs log_scale0..2.
+/// Returns a value >= 0 when the Gaussian may reach the image, < 0 or NaN when it cannot: behind
+/// the near plane, or its screen centre farther outside the image than any footprint its largest
+/// scale allows. The bound: the projected covariance has trace <= ||J||_F^2 s_max^2 +
+/// 2 kLowPassPx2, and projectGaussian's eigenvalue is at most that trace + sqrt(0.1); 1 % and 1 px
+/// of margin cover float rounding. Never rejects a Gaussian whose projected footprint reaches the
+/// image. Scalars in, float arithmetic only, branch-free: the rasterizer evaluates it in a SIMD
+/// loop over Gaussians.
 template <typename T>
-DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, const T* pos, const T* log_scale,
-                                            T radius_sigma) {
-  T pc[3];
-  for (int i = 0; i < 3; ++i)
-    pc[i] = cam.R_cw[i][0] * pos[0] + cam.R_cw[i][1] * pos[1] + cam.R_cw[i][2] * pos[2] + cam.t_cw[i];
-  if (!(pc[2] > T(kNearPlaneM))) return false;
-  const ProjectionJacobian<T> J = projectionJacobian(cam, pc);
-  T ls = log_scale[0] > log_scale[1] ? log_scale[0] : log_scale[1];
-  ls = ls > log_scale[2] ? ls : log_scale[2];
-  const T s2 = std::exp(T(2) * ls);
-  const T jn2 = J.J00 * J.J00 + J.J02 * J.J02 + J.J11 * J.J11 + J.J12 * J.J12;
+DYPHO_HOST_DEVICE inline T imageReachMargin(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0,
+                                            T log_scale1, T log_scale2, T radius_sigma) {
+  const T pc0 = cam.R_cw[0][0] * p0 + cam.R_cw[0][1] * p1 + cam.R_cw[0][2] * p2 + cam.t_cw[0];
+  const T pc1 = cam.R_cw[1][0] * p0 + cam.R_cw[1][1] * p1 + cam.R_cw[1][2] * p2 + cam.t_cw[1];
+  const T pc2 = cam.R_cw[2][0] * p0 + cam.R_cw[2][1] * p1 + cam.R_cw[2][2] * p2 + cam.t_cw[2];
+  const T z = pc2 > T(kNearPlaneM) ? pc2 : T(1);  // keeps the arithmetic finite for culled ones
+  const T tx0 = pc0 / z, ty0 = pc1 / z;
+  const T u = cam.fx * tx0 + cam.cx, v = cam.fy * ty0 + cam.cy;
+  // How far the centre lies outside the image [px] (0 on screen).
+  const T lo = T(-0.5), hi_u = T(cam.width) - T(0.5), hi_v = T(cam.height) - T(0.5);
+  const T du = u < lo ? lo - u : (u > hi_u ? u - hi_u : T(0));
+  const T dv = v < lo ? lo - v : (v > hi_v ? v - hi_v : T(0));
+  // ||J||_F^2 of projectionJacobian (x/z, y/z clamped the same way).
+  const T lim_x = T(1.3) * T(0.5) * T(cam.width) / cam.fx, lim_y = T(1.3) * T(0.5) * T(cam.height) / cam.fy;
+  const T tx = tx0 < -lim_x ? -lim_x : (tx0 > lim_x ? lim_x : tx0);
+  const T ty = ty0 < -lim_y ? -lim_y : (ty0 > lim_y ? lim_y : ty0);
+  const T jn2 = (cam.fx * cam.fx * (T(1) + tx * tx) + cam.fy * cam.fy * (T(1) + ty * ty)) / (z * z);
+  T ls = log_scale0 > log_scale1 ? log_scale0 : log_scale1;
+  ls = ls > log_scale2 ? ls : log_scale2;
+  const T s2 = blendExp(T(2) * ls);  // float: 1e-6 relative, within the 1 % margin
   const T lambda = jn2 * s2 + T(2 * kLowPassPx2) + T(0.3163);
   const T r = radius_sigma * std::sqrt(lambda) * T(1.01) + T(1);
-  const T u = cam.fx * pc[0] / pc[2] + cam.cx, v = cam.fy * pc[1] / pc[2] + cam.cy;
-  // Written so that NaN fails (as projectGaussian rejects it).
-  return u + r >= T(-0.5) && u - r <= T(cam.width) - T(0.5) && v + r >= T(-0.5) && v - r <= T(cam.height) - T(0.5);
+  const T reach_u = r - du, reach_v = r - dv;
+  // On screen (du = dv = 0; also a NaN centre, which the on-screen test after projectGaussian
+  // rejects): reachable whatever r is.
+  const T reach = du + dv == T(0) ? T(1) : (reach_u < reach_v ? reach_u : reach_v);
+  return pc2 > T(kNearPlaneM) ? reach : T(-1);
+}
+
+/// imageReachMargin() >= 0.
+template <typename T>
+DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0,
+                                            T log_scale1, T log_scale2, T radius_sigma) {
+  return imageReachMargin(cam, p0, p1, p2, log_scale0, log_scale1, log_scale2, radius_sigma) >= T(0);
 }
 
 /// Projects one Gaussian. Returns false when it is behind the near plane, degenerate, or too
@@ -261,12 +286,22 @@ DYPHO_HOST_DEVICE inline bool projectGaussian(const PinholeView<T>& cam, const T
   const T lambda = mid + std::sqrt(disc > T(0.1) ? disc : T(0.1));
   out.opacity = sigmoid(opacity_logit);
   T extent = radius_sigma;
+  T alpha_extent2 = T(-1);  // squared Mahalanobis radius where opacity * G = min_alpha (< 0: none)
   if (min_alpha > T(0)) {
     if (!(out.opacity > min_alpha)) return false;
-    const T e = std::sqrt(T(2) * std::log(out.opacity / min_alpha));
+    alpha_extent2 = T(2) * std::log(out.opacity / min_alpha);
+    const T e = std::sqrt(alpha_extent2);
     extent = e < extent ? e : extent;
   }
   out.radius_px = extent * std::sqrt(lambda);
+  out.half_u = out.half_v = out.radius_px;
+  if (alpha_extent2 > T(0)) {
+    // Bounding box of {x : x^T Sigma2^-1 x <= alpha_extent2}: half sizes sqrt(alpha_extent2 * a), (.. * c).
+    const T hu = std::sqrt(alpha_extent2 * a) * T(1.0001) + T(1e-3);
+    const T hv = std::sqrt(alpha_extent2 * c) * T(1.0001) + T(1e-3);
+    out.half_u = hu < out.half_u ? hu : out.half_u;
+    out.half_v = hv < out.half_v ? hv : out.half_v;
+  }
   out.mean_u = cam.fx * pc[0] / pc[2] + cam.cx;
   out.mean_v = cam.fy * pc[1] / pc[2] + cam.cy;
   out.depth_m = pc[2];

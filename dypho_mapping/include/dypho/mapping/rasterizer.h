@@ -5,10 +5,13 @@
 /// the scalar: float is the production path, double is used by the gradient checks.
 ///
 /// Stages (each over preallocated buffers that only grow): project every Gaussian (parallel over
-/// Gaussians, gs::projectGaussian) -> depth radix sort + binning into 16x16 tiles (lists come out
-/// sorted front to back) -> per tile, Gaussian-outer / pixel-inner compositing over the Gaussian's
-/// 3-sigma box inside the tile, with per-pixel early stop (parallel over tiles). The backward pass
-/// walks each tile's list back to front and recovers the transmittance by division, as 3DGS does.
+/// Gaussians; gs::mayReachImage drops most off-screen ones before gs::projectGaussian) -> depth
+/// radix sort + binning into 16x16 tiles (lists come out sorted front to back) -> per tile,
+/// Gaussian-outer / pixel-inner compositing over the Gaussian's footprint box inside the tile
+/// (radius_sigma box cut to where alpha can reach min_alpha), rows in 8-pixel blocks, with
+/// per-pixel early stop (parallel over tiles). The backward pass walks each tile's list back to
+/// front and recovers the transmittance by division, as 3DGS does; its per-Gaussian chain rule
+/// runs in parameter order.
 
 #include <cstdint>
 #include <vector>
@@ -71,6 +74,15 @@ struct GaussianGrads {
   T pose[6] = {0, 0, 0, 0, 0, 0};
 };
 
+/// Wall time of the stages of the last forward() and backward() [ms] (for benchmarks).
+struct RasterStageTimes {
+  double project_ms = 0;    ///< forward: cull + projection of every Gaussian
+  double bin_ms = 0;        ///< forward: depth sort and tile lists
+  double composite_ms = 0;  ///< forward: per-tile compositing
+  double tiles_back_ms = 0; ///< backward: per-tile back-to-front pass
+  double chain_ms = 0;      ///< backward: per-Gaussian chain rule
+};
+
 /// Builds the projection view from a pose and undistorted pinhole intrinsics (distortion ignored).
 template <typename T>
 gs::PinholeView<T> makePinholeView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
@@ -95,12 +107,15 @@ class Rasterizer {
   /// Gaussians in front of the camera with a non-empty footprint in the last forward.
   std::size_t numVisible() const { return num_visible_; }
   const RasterSettings& settings() const { return settings_; }
+  /// Stage times of the last forward() / backward().
+  const RasterStageTimes& stageTimes() const { return times_; }
 
  private:
   /// One projected Gaussian; cache-line aligned (64 bytes for float) so that a tile's lookup of
   /// it touches a single line.
   struct alignas(64) Packed {
-    T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth, radius;
+    T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth;
+    T half_u, half_v;  ///< footprint box half sizes [px] (gs::Projected)
     int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
   };
   /// Tile-list entries ahead of the current one whose Gaussian is prefetched.
@@ -112,11 +127,13 @@ class Rasterizer {
 
   ThreadPool* pool_;
   RasterSettings settings_;
+  RasterStageTimes times_;
   GaussianParamsView<T> params_;
   gs::PinholeView<T> view_{};
   int tiles_x_ = 0, tiles_y_ = 0;
   std::size_t num_visible_ = 0;
-  std::vector<Packed> packed_;   ///< [N] per Gaussian
+  std::vector<Packed> packed_;   ///< [N] per Gaussian (valid where visible_)
+  std::vector<std::uint8_t> visible_;  ///< [N] 1 = projected with a non-empty tile rectangle
   std::vector<Packed> sorted_;   ///< [visible] visible Gaussians in depth order (tile lists index it)
   std::vector<std::uint32_t> keys_, order_, sort_tmp_keys_, sort_tmp_order_;
   static constexpr std::uint32_t kNotVisible = 0xffffffffu;
