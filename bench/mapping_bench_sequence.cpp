@@ -4,7 +4,7 @@
 ///
 ///   mapping_bench_sequence --out DIR [--frames 300] [--motion halfsphere] [--people 2] [--seed 1]
 ///       [--keyframe-every 10] [--iterations 20] [--final-iterations 0] [--threads 2]
-///       [--downsample 2] [--sh-degree 0] [--max-gaussians 300000] [--no-pngs]
+///       [--downsample 2] [--sh-degree 0] [--max-gaussians 300000] [--set KEY=VALUE ...] [--no-pngs]
 ///   mapping_bench_sequence --out DIR --dataset TUM_DIR [--keyframe-every 10] [...]
 ///
 /// With --dataset: a TUM-layout folder with groundtruth.txt, mapped from ground-truth poses
@@ -19,11 +19,13 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/mapping/gaussian_mapper.h"
+#include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
@@ -58,7 +60,7 @@ std::vector<KeyframeKeypoint> detectKeypoints(const RgbdFrame& frame, const cv::
 }
 
 /// Maps a real TUM-layout sequence from its ground-truth poses; prints PSNR and depth L1.
-int runDataset(const std::string& dataset, const std::string& out, int every, int final_iterations, bool pngs,
+int runDataset(const std::string& dataset, const std::string& out, int every, bool pngs,
                const mapping::GaussianMapperOptions& mo) {
   const auto source = tools::openFrameSource(dataset, "", tools::defaultConfigDir());
   std::vector<tools::StampedPose> gt = source->groundtruth();
@@ -82,8 +84,7 @@ int runDataset(const std::string& dataset, const std::string& out, int every, in
     mapper.enqueueKeyframe(kf, true);
     ++used;
   }
-  mapper.waitUntilIdle();
-  if (final_iterations > 0) mapper.optimize(final_iterations);
+  mapper.finish();  // waits for the worker, then the final refinement (final_refine_iterations)
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string png_dir = out + "/side_by_side";
   if (pngs) ::mkdir(png_dir.c_str(), 0755);
@@ -106,7 +107,7 @@ int main(int argc, char** argv) {
   std::string out, dataset;
   tools::SynthOptions so;
   so.frames = 300;
-  int every = 10, final_iterations = 0;
+  int every = 10;
   bool pngs = true;
   mapping::GaussianMapperOptions mo;
   for (int i = 1; i < argc; ++i) {
@@ -122,7 +123,18 @@ int main(int argc, char** argv) {
     else if (k == "--seed") so.seed = static_cast<std::uint32_t>(std::stoul(val()));
     else if (k == "--keyframe-every") every = std::stoi(val());
     else if (k == "--iterations") mo.iterations_per_keyframe = std::stoi(val());
-    else if (k == "--final-iterations") final_iterations = std::stoi(val());
+    else if (k == "--final-iterations") mo.final_refine_iterations = std::stoi(val());
+    else if (k == "--set") {  // any GaussianMapperOptions key (config/mapping.yaml), e.g. --set ssim_weight=0.2
+      const std::string kv = val();
+      const std::size_t eq = kv.find('=');
+      bool found = false;
+      mapping::visitOptions(mo, [&](const char* key, auto& field, const char*) {
+        if (eq == std::string::npos || kv.substr(0, eq) != key) return;
+        std::istringstream is(kv.substr(eq + 1));
+        found = static_cast<bool>(is >> field);
+      });
+      if (!found) { std::cerr << "--set " << kv << ": not KEY=VALUE with a Gaussian mapper key\n"; return 1; }
+    }
     else if (k == "--threads") mo.num_threads = std::stoi(val());
     else if (k == "--downsample") mo.train_downsample = std::stoi(val());
     else if (k == "--sh-degree") mo.sh_degree = std::stoi(val());
@@ -133,7 +145,7 @@ int main(int argc, char** argv) {
   }
   if (out.empty()) { std::cerr << "--out DIR is required (PNGs and map.ply go there)\n"; return 1; }
   ::mkdir(out.c_str(), 0755);
-  if (!dataset.empty()) return runDataset(dataset, out, every, final_iterations, pngs, mo);
+  if (!dataset.empty()) return runDataset(dataset, out, every, pngs, mo);
   const std::string png_dir = out + "/side_by_side";
   if (pngs) ::mkdir(png_dir.c_str(), 0755);
 
@@ -163,8 +175,7 @@ int main(int argc, char** argv) {
                   static_cast<long long>(s.iterations), rssMb());
     }
   }
-  mapper.waitUntilIdle();
-  if (final_iterations > 0) mapper.optimize(final_iterations);
+  mapper.finish();  // waits for the worker, then the final refinement (final_refine_iterations)
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   const auto s = mapper.stats();
   const mapping::KeyframeEvaluation ev = mapper.evaluateKeyframes(pngs ? png_dir : "");
@@ -186,7 +197,7 @@ int main(int argc, char** argv) {
   std::printf("sequence: %s\n", so.toString().c_str());
   std::printf("keyframes %zu (every %d frames), %lld iterations (%d per keyframe + %d final), %zu Gaussians\n",
               keyframe_indices.size(), every, static_cast<long long>(s.iterations), mo.iterations_per_keyframe,
-              final_iterations, s.num_gaussians);
+              mo.final_refine_iterations, s.num_gaussians);
   std::printf("time: %.1f s total (incl. rendering the synthetic frames), producer waited %.1f ms per keyframe\n",
               total_s, mapping_wait_ms / std::max<std::size_t>(1, keyframe_indices.size()));
   std::printf("PSNR on static keyframe pixels: %.2f dB (%zu keyframes, %dx downsampled), depth L1 %.2f cm\n",

@@ -229,6 +229,45 @@ TEST(GaussianMapper, WorkerThreadProcessesQueuedKeyframes) {
   mapper.stop();
 }
 
+TEST(GaussianMapper, FinishRunsTheFinalRefinementOverAllKeyframes) {
+  GaussianMapperOptions o = smallOptions();
+  o.final_refine_iterations = 7;
+  o.window_size = 1;
+  GaussianMapper mapper(o);
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 0.1 * i;
+    ASSERT_TRUE(mapper.addKeyframe(planeKeyframe(i, T)).added);
+  }
+  mapper.optimize(2);
+  EXPECT_GT(mapper.finish(), 0.0);  // mean loss of the refinement iterations
+  EXPECT_EQ(mapper.stats().iterations, 2 + 7);
+  GaussianMapper empty(o);
+  EXPECT_EQ(empty.finish(), 0.0);  // nothing to refine: no iteration, no crash
+  EXPECT_EQ(empty.stats().iterations, 0);
+}
+
+TEST(GaussianMapper, StaticPixelsWithoutDepthAreCoveredAtTheNeighbouringDepth) {
+  // A 40x30 px hole without depth (a black screen for the depth camera) in the textured plane.
+  Keyframe kf = planeKeyframe(1, Eigen::Isometry3d::Identity());
+  kf.frame.depth_m(cv::Rect(60, 45, 40, 30)).setTo(0.f);
+  GaussianMapperOptions o = smallOptions();
+  o.coverage_fill_invalid_depth = false;
+  GaussianMapper without(o);
+  ASSERT_TRUE(without.addKeyframe(kf).added);
+  o.coverage_fill_invalid_depth = true;
+  GaussianMapper with(o);
+  ASSERT_TRUE(with.addKeyframe(kf).added);
+  EXPECT_GT(with.stats().num_gaussians, without.stats().num_gaussians);
+  const RenderedView a = without.render(kf.T_world_camera, kf.frame.camera);
+  const RenderedView b = with.render(kf.T_world_camera, kf.frame.camera);
+  // Centre of the hole: nothing rendered without the fill; with it, an opaque surface at the
+  // plane's depth (the filled nodes take the 2 m of their neighbours; 1 cm = float rounding).
+  EXPECT_LT(a.alpha.at<float>(60, 80), 0.05f);
+  EXPECT_GT(b.alpha.at<float>(60, 80), 0.5f);
+  EXPECT_NEAR(b.depth_m.at<float>(60, 80), 2.f, 0.01f);
+}
+
 /// Synthetic room with two walking people, ground-truth poses and masks: static PSNR and the
 /// ghost check (rendered depth where people are stays at the static depth).
 TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {

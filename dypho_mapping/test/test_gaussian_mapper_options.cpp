@@ -55,6 +55,12 @@ TEST(MappingOptions, DefaultsValidateAndBadValuesNameTheField) {
   b = o;
   b.initial_opacity = 1.0;
   expectBad(b, "initial_opacity");
+  b = o;
+  b.ssim_weight = -0.1;
+  expectBad(b, "ssim_weight");
+  b = o;
+  b.final_refine_iterations = -1;
+  expectBad(b, "final_refine_iterations");
 }
 
 }  // namespace

@@ -129,6 +129,20 @@ void GaussianMapper::waitUntilIdle() {
   queue_cv_.wait(lock, [&] { return !worker_.joinable() || stop_ || (queue_.empty() && !worker_busy_); });
 }
 
+double GaussianMapper::finish() {
+  waitUntilIdle();
+  double sum = 0.0;
+  int n = 0;
+  for (int i = 0; i < options_.final_refine_iterations; ++i) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double l = impl_->iterate(/*all_keyframes=*/true);
+    if (l < 0) break;
+    sum += l;
+    ++n;
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
 void GaussianMapper::stop() {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -364,6 +378,7 @@ void GaussianMapper::reset() {
   impl_->adam.resize(impl_->map);
   impl_->grad_accum.clear();
   impl_->grad_count.clear();
+  impl_->refine_order.clear();
 }
 
 }  // namespace dypho::mapping

@@ -13,6 +13,7 @@
 #include "dypho/mapping/gaussian_mapper.h"
 #include "dypho/mapping/rasterizer.h"
 #include "dypho/mapping/ray_cache.h"
+#include "dypho/mapping/ssim_loss.h"
 
 namespace dypho::mapping {
 
@@ -39,8 +40,10 @@ struct GaussianMapper::Impl {
   GaussianParamsView<float> params() const;
   /// Seeds a validated keyframe (see GaussianMapper::addKeyframe).
   AddKeyframeResult integrate(const Keyframe& keyframe);
-  /// One optimisation iteration; returns the loss (or -1 when there is nothing to train on).
-  double iterate();
+  /// One optimisation iteration on a keyframe of the window (or, 1 time in global_sample_ratio,
+  /// of all stored ones); with `all_keyframes`, on the next keyframe of a shuffled pass over every
+  /// stored keyframe (final refinement). Returns the loss (or -1 when there is nothing to train on).
+  double iterate(bool all_keyframes = false);
   void densifyAndPrune();
   void resetOpacity();
   const Undistorter& undistorter(const CameraIntrinsics& camera);
@@ -68,6 +71,10 @@ struct GaussianMapper::Impl {
   RenderResult<float> train_out, seed_out, view_out;
   GaussianGrads<float> grads;
   std::vector<float> pix_gc, pix_gd, pix_ga;
+  std::vector<std::size_t> sample_all;    ///< scratch: indices of keyframes with images
+  std::vector<std::size_t> refine_order;  ///< keyframes left in the current refinement pass
+  SsimLoss<float> ssim;             ///< structural term of the loss (options.ssim_weight > 0)
+  std::vector<float> ssim_target;   ///< [3, H, W] the keyframe's colour, RGB in [0, 1]
 };
 
 /// Throws nothing; returns an empty string when the keyframe is usable, else why not.

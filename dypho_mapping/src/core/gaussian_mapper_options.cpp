@@ -20,10 +20,12 @@ void GaussianMapperOptions::validate() const {
   require(num_threads >= 1, "num_threads", ">= 1");
   require(train_downsample == 1 || train_downsample == 2 || train_downsample == 4, "train_downsample", "1, 2 or 4");
   require(iterations_per_keyframe >= 0, "iterations_per_keyframe", ">= 0");
+  require(final_refine_iterations >= 0, "final_refine_iterations", ">= 0");
   require(window_size >= 1, "window_size", ">= 1");
   require(max_stored_keyframes >= 1, "max_stored_keyframes", ">= 1");
   require(lambda_depth >= 0 && lambda_depth <= 1, "lambda_depth", "in [0, 1]");
   require(alpha_weight >= 0, "alpha_weight", ">= 0");
+  require(ssim_weight >= 0, "ssim_weight", ">= 0");
   require(global_sample_ratio >= 0 && global_sample_ratio <= 1, "global_sample_ratio", "in [0, 1]");
   require(valid_min_depth_m >= 0 && valid_max_depth_m > valid_min_depth_m, "valid_min_depth_m/valid_max_depth_m", ">= 0 and max > min");
   require(initial_opacity > 0 && initial_opacity < 1, "initial_opacity", "in (0, 1)");

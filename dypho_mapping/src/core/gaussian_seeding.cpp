@@ -120,9 +120,9 @@ AddKeyframeResult GaussianMapper::Impl::integrate(const Keyframe& kf) {
   }
   // 4. Seeds: keypoints and samples around them, then unexplained static pixels.
   const float init_logit = logit(options.initial_opacity);
-  auto add = [&](int u, int v, float sigma_px) -> bool {
+  auto add = [&](int u, int v, float sigma_px, float depth_m = -1.f) -> bool {
     if (u < 0 || v < 0 || u >= depth_valid.cols || v >= depth_valid.rows) return true;
-    const float d = depth_valid.at<float>(v, u);
+    const float d = depth_m >= 0.f ? depth_m : depth_valid.at<float>(v, u);
     if (!(d > 0.f) || dyn.at<std::uint8_t>(v, u) != 0) return true;
     GaussianInit g;
     const Eigen::Vector3d pc((u - cam.cx) / cam.fx * d, (v - cam.cy) / cam.fy * d, d);
@@ -156,16 +156,51 @@ AddKeyframeResult GaussianMapper::Impl::integrate(const Keyframe& kf) {
     renderPinhole(kf.T_world_camera, t.camera, render_raster, seed_out);
     const int stride = options.coverage_stride_px;
     const std::size_t tw = static_cast<std::size_t>(t.camera.width);
-    for (int v = stride / 2; v < depth_valid.rows && room; v += stride) {
-      for (int u = stride / 2; u < depth_valid.cols && room; u += stride) {
+    // Coverage grid: measured depth at each node (0 = none); static nodes without a measurement
+    // take the farthest depth of their nearest measured static neighbours (dilation on the grid).
+    const int gw = (depth_valid.cols - stride / 2 + stride - 1) / stride;
+    const int gh = (depth_valid.rows - stride / 2 + stride - 1) / stride;
+    cv::Mat grid(std::max(gh, 0), std::max(gw, 0), CV_32FC1, cv::Scalar(0.f));
+    cv::Mat filled(grid.size(), CV_8UC1, cv::Scalar(0));
+    for (int gv = 0; gv < gh; ++gv)
+      for (int gu = 0; gu < gw; ++gu) {
+        const int u = stride / 2 + gu * stride, v = stride / 2 + gv * stride;
+        if (dyn.at<std::uint8_t>(v, u) == 0) grid.at<float>(gv, gu) = depth_valid.at<float>(v, u);
+      }
+    if (options.coverage_fill_invalid_depth) {
+      cv::Mat next = grid.clone();
+      for (int pass = 0, changed = 1; changed && pass < std::max(gw, gh); ++pass) {
+        changed = 0;
+        for (int gv = 0; gv < gh; ++gv)
+          for (int gu = 0; gu < gw; ++gu) {
+            if (grid.at<float>(gv, gu) > 0.f) continue;
+            float best = 0.f;
+            for (int dv = -1; dv <= 1; ++dv)
+              for (int du = -1; du <= 1; ++du) {
+                const int nu = gu + du, nv = gv + dv;
+                if (nu >= 0 && nv >= 0 && nu < gw && nv < gh) best = std::max(best, grid.at<float>(nv, nu));
+              }
+            if (best > 0.f) {
+              next.at<float>(gv, gu) = best;
+              filled.at<std::uint8_t>(gv, gu) = 1;
+              changed = 1;
+            }
+          }
+        next.copyTo(grid);
+      }
+    }
+    for (int gv = 0; gv < gh && room; ++gv) {
+      for (int gu = 0; gu < gw && room; ++gu) {
+        const int u = stride / 2 + gu * stride, v = stride / 2 + gv * stride;
         const int tu = std::min(t.camera.width - 1, u / ds), tv = std::min(t.camera.height - 1, v / ds);
         const float a = seed_out.alpha[tv * tw + tu];
-        const float d = depth_valid.at<float>(v, u);
+        const float d = grid.at<float>(gv, gu);
         if (!(d > 0.f)) continue;
         const float dr = a > 1e-3f ? seed_out.depth[tv * tw + tu] / a : 0.f;
+        // A node without a measurement is unexplained only when nothing is rendered there.
         const bool unexplained = a < options.coverage_alpha_threshold ||
-                                 std::abs(dr - d) > options.coverage_depth_error_ratio * d;
-        if (unexplained) room = add(u, v, 0.5f * stride);
+                                 (!filled.at<std::uint8_t>(gv, gu) && std::abs(dr - d) > options.coverage_depth_error_ratio * d);
+        if (unexplained) room = add(u, v, 0.5f * stride, d);
       }
     }
   }

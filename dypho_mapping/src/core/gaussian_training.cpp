@@ -27,7 +27,8 @@ GaussianMapper::Impl::Impl(const GaussianMapperOptions& o)
       raster(&pool),
       render_raster(&pool),
       adam(ratesFrom(o)),
-      rng(static_cast<unsigned>(o.random_seed)) {}
+      rng(static_cast<unsigned>(o.random_seed)),
+      ssim(&pool) {}
 
 GaussianParamsView<float> GaussianMapper::Impl::params() const {
   GaussianParamsView<float> p;
@@ -68,10 +69,16 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
   const float wd = nd > 0 ? static_cast<float>(lambda / nd) : 0.f;
   const float wa = nd > 0 ? static_cast<float>(options.alpha_weight / nd) : 0.f;
   double l1c = 0.0, l1d = 0.0, l1a = 0.0;
+  const bool use_ssim = options.ssim_weight > 0.0;
+  if (use_ssim) ssim_target.resize(3 * npix);
   for (int v = 0; v < H; ++v) {
     const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
     const float* d = kf.depth_m.ptr<float>(v);
     const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
+    if (use_ssim) {
+      for (int u = 0; u < W; ++u)
+        for (int ch = 0; ch < 3; ++ch) ssim_target[ch * npix + static_cast<std::size_t>(v) * W + u] = c[u][2 - ch] * (1.f / 255.f);
+    }
     for (int u = 0; u < W; ++u) {
       if (!m[u]) continue;
       const std::size_t i = static_cast<std::size_t>(v) * W + u;
@@ -89,20 +96,40 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
       }
     }
   }
-  return (1.0 - lambda) * l1c / (3.0 * nc) + (nd > 0 ? (lambda * l1d + options.alpha_weight * l1a) / nd : 0.0);
+  double loss = (1.0 - lambda) * l1c / (3.0 * nc) + (nd > 0 ? (lambda * l1d + options.alpha_weight * l1a) / nd : 0.0);
+  if (use_ssim) {
+    // + w (1 - SSIM) over the static pixels; its gradient is added to pix_gc.
+    const double s = ssim.compute(r.color.data(), ssim_target.data(), kf.static_mask.data, kf.static_mask.step, W, H,
+                                  static_cast<float>(options.ssim_weight), pix_gc.data());
+    loss += options.ssim_weight * (1.0 - s);
+  }
+  return loss;
 }
 
-double GaussianMapper::Impl::iterate() {
-  std::vector<std::size_t> window, all;
+double GaussianMapper::Impl::iterate(bool all_keyframes) {
+  std::vector<std::size_t>& all = sample_all;
+  all.clear();
   for (std::size_t i = 0; i < keyframes.size(); ++i)
     if (keyframes[i].hasImages()) all.push_back(i);
   if (all.empty() || map.size() == 0) return -1.0;
-  const std::size_t w = std::min<std::size_t>(all.size(), static_cast<std::size_t>(options.window_size));
-  window.assign(all.end() - static_cast<long>(w), all.end());
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const bool global = unit(rng) < options.global_sample_ratio;
-  const std::vector<std::size_t>& pool_kf = global ? all : window;
-  const TrainingKeyframe& kf = keyframes[pool_kf[std::uniform_int_distribution<std::size_t>(0, pool_kf.size() - 1)(rng)]];
+  std::size_t chosen = 0;
+  if (all_keyframes) {
+    // Refinement: every stored keyframe once per pass, in a shuffled order.
+    if (refine_order.empty()) {
+      refine_order = all;
+      std::shuffle(refine_order.begin(), refine_order.end(), rng);
+    }
+    chosen = refine_order.back();
+    refine_order.pop_back();
+    if (chosen >= keyframes.size() || !keyframes[chosen].hasImages()) chosen = all.back();
+  } else {
+    const std::size_t w = std::min<std::size_t>(all.size(), static_cast<std::size_t>(options.window_size));
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const bool global = unit(rng) < options.global_sample_ratio;
+    const std::size_t first = global ? 0 : all.size() - w;
+    chosen = all[std::uniform_int_distribution<std::size_t>(first, all.size() - 1)(rng)];
+  }
+  const TrainingKeyframe& kf = keyframes[chosen];
 
   renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
   const double loss = lossAndGradient(kf, train_out);

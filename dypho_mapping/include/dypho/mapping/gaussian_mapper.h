@@ -104,6 +104,10 @@ class GaussianMapper {
   bool enqueueKeyframe(KeyframeConstPtr keyframe, bool block_when_full);
   /// Waits until the queue is empty and the worker has finished its iterations.
   void waitUntilIdle();
+  /// End of a sequence: waitUntilIdle(), then `final_refine_iterations` iterations over all stored
+  /// keyframes (shuffled passes, each keyframe equally often) on the calling thread. Call it once
+  /// before the final map is saved or evaluated. Returns the mean loss of those iterations (0: none).
+  double finish();
   /// Stops and joins the worker (remaining queued keyframes are discarded).
   void stop();
   /// Receives one line per skipped keyframe or notable event from the worker (optional).

@@ -21,6 +21,9 @@ struct GaussianMapperOptions {
   int train_downsample = 2;
   /// Optimisation iterations run after each new keyframe, >= 0. Default 30.
   int iterations_per_keyframe = 30;
+  /// Iterations of the final refinement run by GaussianMapper::finish() at the end of a sequence,
+  /// visiting every stored keyframe equally often, >= 0. Default 300.
+  int final_refine_iterations = 300;
   /// Newest keyframes sampled for training (sliding window), >= 1. Default 8.
   int window_size = 8;
   /// Keyframes whose images are kept (training and PSNR); older ones keep only their pose, >= 1. Default 200.
@@ -31,6 +34,11 @@ struct GaussianMapperOptions {
   /// M: static pixels with valid depth); keeps measured surfaces opaque so that D_r is not biased
   /// by partial alpha (0 = the paper's loss only), >= 0. Default 0.1.
   double alpha_weight = 0.1;
+  /// Weight of the structural term w (1 - SSIM(Mc; Cr, C)) added to the loss: SSIM of the colour
+  /// over static pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0.
+  /// Default 0: on TUM fr1/rpy 0.1-0.2 gained 0.13 dB PSNR but cost 0.1-0.25 cm depth L1 and about
+  /// a quarter more mapping time (docs/benchmarks.md section 4).
+  double ssim_weight = 0.0;
   /// Share of training iterations that sample any stored keyframe instead of the window
   /// (keeps older parts of the map from drifting), [0, 1]. Default 0.2.
   double global_sample_ratio = 0.2;
@@ -50,6 +58,10 @@ struct GaussianMapperOptions {
   double coverage_alpha_threshold = 0.6;
   /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.
   double coverage_depth_error_ratio = 0.1;
+  /// Also cover static pixels without valid depth (black screens, out of range) where nothing is
+  /// rendered, at the farthest depth of the nearest measured static nodes of the coverage grid
+  /// (the colour term then trains them; they have no depth term). Default true.
+  bool coverage_fill_invalid_depth = true;
   /// Adam step size of positions [m]. Default 0.0005.
   double lr_position = 0.0005;
   /// Adam step size of log-scales. Default 0.005.
@@ -58,8 +70,9 @@ struct GaussianMapperOptions {
   double lr_rotation = 0.001;
   /// Adam step size of opacity logits. Default 0.05.
   double lr_opacity = 0.05;
-  /// Adam step size of the SH DC coefficients. Default 0.0025.
-  double lr_sh_dc = 0.0025;
+  /// Adam step size of the SH DC coefficients. Default 0.01 (3DGS's 0.0025 is for 30k iterations;
+  /// a keyframe here gets a few tens).
+  double lr_sh_dc = 0.01;
   /// Adam step size of the higher SH coefficients. Default 0.000125.
   double lr_sh_rest = 0.000125;
   /// Densify and prune every this many iterations (0 = never), >= 0. Default 100.

@@ -26,10 +26,12 @@ void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
   visitor("num_threads", options.num_threads, "Threads of the rasterizer and optimiser (including the mapping worker), >= 1. Default 2.");
   visitor("train_downsample", options.train_downsample, "Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.");
   visitor("iterations_per_keyframe", options.iterations_per_keyframe, "Optimisation iterations run after each new keyframe, >= 0. Default 30.");
+  visitor("final_refine_iterations", options.final_refine_iterations, "Iterations of the final refinement run by GaussianMapper::finish() at the end of a sequence, visiting every stored keyframe equally often, >= 0. Default 300.");
   visitor("window_size", options.window_size, "Newest keyframes sampled for training (sliding window), >= 1. Default 8.");
   visitor("max_stored_keyframes", options.max_stored_keyframes, "Keyframes whose images are kept (training and PSNR); older ones keep only their pose, >= 1. Default 200.");
   visitor("lambda_depth", options.lambda_depth, "Weight of the depth term, lambda in (1-lambda)|Mc(Cr-C)|1 + lambda|M(Dr-D)|1, [0, 1]. Default 0.7.");
   visitor("alpha_weight", options.alpha_weight, "Weight of the opacity term w |M (1 - A)|_1 added to the paper's loss (A: accumulated alpha, M: static pixels with valid depth); keeps measured surfaces opaque so that D_r is not biased by partial alpha (0 = the paper's loss only), >= 0. Default 0.1.");
+  visitor("ssim_weight", options.ssim_weight, "Weight of the structural term w (1 - SSIM(Mc; Cr, C)) added to the loss: SSIM of the colour over static pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0. Default 0: on TUM fr1/rpy 0.1-0.2 gained 0.13 dB PSNR but cost 0.1-0.25 cm depth L1 and about a quarter more mapping time (docs/benchmarks.md section 4).");
   visitor("global_sample_ratio", options.global_sample_ratio, "Share of training iterations that sample any stored keyframe instead of the window (keeps older parts of the map from drifting), [0, 1]. Default 0.2.");
   visitor("valid_min_depth_m", options.valid_min_depth_m, "Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default 0.1.");
   visitor("valid_max_depth_m", options.valid_max_depth_m, "Far depth limit of the Gaussian map [m], > valid_min_depth_m. Default 6.0.");
@@ -39,11 +41,12 @@ void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
   visitor("coverage_stride_px", options.coverage_stride_px, "Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.");
   visitor("coverage_alpha_threshold", options.coverage_alpha_threshold, "A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.6.");
   visitor("coverage_depth_error_ratio", options.coverage_depth_error_ratio, "... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.");
+  visitor("coverage_fill_invalid_depth", options.coverage_fill_invalid_depth, "Also cover static pixels without valid depth (black screens, out of range) where nothing is rendered, at the farthest depth of the nearest measured static nodes of the coverage grid (the colour term then trains them; they have no depth term). Default true.");
   visitor("lr_position", options.lr_position, "Adam step size of positions [m]. Default 0.0005.");
   visitor("lr_log_scale", options.lr_log_scale, "Adam step size of log-scales. Default 0.005.");
   visitor("lr_rotation", options.lr_rotation, "Adam step size of quaternions. Default 0.001.");
   visitor("lr_opacity", options.lr_opacity, "Adam step size of opacity logits. Default 0.05.");
-  visitor("lr_sh_dc", options.lr_sh_dc, "Adam step size of the SH DC coefficients. Default 0.0025.");
+  visitor("lr_sh_dc", options.lr_sh_dc, "Adam step size of the SH DC coefficients. Default 0.01 (3DGS's 0.0025 is for 30k iterations; a keyframe here gets a few tens).");
   visitor("lr_sh_rest", options.lr_sh_rest, "Adam step size of the higher SH coefficients. Default 0.000125.");
   visitor("densify_interval", options.densify_interval, "Densify and prune every this many iterations (0 = never), >= 0. Default 100.");
   visitor("densify_grad_threshold", options.densify_grad_threshold, "Mean screen-space position gradient above which a Gaussian is cloned or split [1/px], > 0. Default 0.0002.");

@@ -65,8 +65,9 @@ class SlamPipeline {
   /// each, in order; process() waits only when 4 keyframes are already queued), so results do not
   /// depend on timing. Every call is thread-safe, e.g. `gaussianMap().renderDepth(T, camera)`.
   mapping::GaussianMapper& gaussianMap() const { return *gaussian_map_; }
-  /// Waits until the Gaussian map has integrated and optimised every keyframe handed to it.
-  void finishMapping() { gaussian_map_->waitUntilIdle(); }
+  /// Waits until the Gaussian map has integrated and optimised every keyframe handed to it, then
+  /// runs its final refinement (`final_refine_iterations`, GaussianMapper::finish()).
+  void finishMapping() { gaussian_map_->finish(); }
 
  private:
   PipelineOptions options_;

@@ -1,0 +1,189 @@
+/// Masked SSIM and its gradient (see ssim_loss.h for the definition).
+#include "dypho/mapping/ssim_loss.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dypho::mapping {
+namespace {
+
+constexpr int kRadius = SsimLoss<float>::kWindow / 2;
+
+/// out[u] = sum_k taps[k] in[u + k - R], zero outside [0, W). `pad` has W + 2R entries.
+template <typename T>
+void convolveRow(const T* in, int W, const T* taps, T* pad, T* out) {
+  std::fill(pad, pad + kRadius, T(0));
+  std::copy(in, in + W, pad + kRadius);
+  std::fill(pad + kRadius + W, pad + W + 2 * kRadius, T(0));
+  for (int u = 0; u < W; ++u) out[u] = T(0);
+  for (int k = 0; k < SsimLoss<float>::kWindow; ++k) {
+    const T t = taps[k];
+    const T* p = pad + k;
+#pragma omp simd
+    for (int u = 0; u < W; ++u) out[u] += t * p[u];
+  }
+}
+
+/// out[u] = sum_k taps[k] plane[(v + k - R) W + u] over the rows inside [0, H).
+template <typename T>
+void convolveColumn(const T* plane, int W, int H, int v, const T* taps, T* out) {
+  for (int u = 0; u < W; ++u) out[u] = T(0);
+  const int k0 = std::max(0, kRadius - v), k1 = std::min(SsimLoss<float>::kWindow, H - v + kRadius);
+  for (int k = k0; k < k1; ++k) {
+    const T t = taps[k];
+    const T* p = plane + static_cast<std::size_t>(v + k - kRadius) * W;
+#pragma omp simd
+    for (int u = 0; u < W; ++u) out[u] += t * p[u];
+  }
+}
+
+}  // namespace
+
+template <typename T>
+SsimLoss<T>::SsimLoss(ThreadPool* pool) : pool_(pool) {
+  double w[kWindow], sum = 0.0;
+  for (int k = 0; k < kWindow; ++k) {
+    const double d = k - kRadius;
+    w[k] = std::exp(-d * d / (2.0 * kSigmaPx * kSigmaPx));
+    sum += w[k];
+  }
+  for (int k = 0; k < kWindow; ++k) taps_[k] = static_cast<T>(w[k] / sum);
+}
+
+template <typename T>
+void SsimLoss<T>::resize(int width, int height) {
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  if (x_.size() < 3 * n) {
+    x_.resize(3 * n);
+    y_.resize(3 * n);
+    for (auto& h : h_) h.resize(3 * n);
+    for (auto& p : p_) p.resize(3 * n);
+    static_.resize(n);
+    row_sum_.resize(3 * static_cast<std::size_t>(height));
+  }
+  if (row_sum_.size() < 3 * static_cast<std::size_t>(height)) row_sum_.resize(3 * static_cast<std::size_t>(height));
+  const std::size_t threads = pool_ ? static_cast<std::size_t>(pool_->numThreads()) : 1;
+  const std::size_t per_thread = 6 * static_cast<std::size_t>(width + 2 * kRadius);
+  if (pad_.size() < threads) pad_.resize(threads);
+  for (auto& p : pad_)
+    if (p.size() < per_thread) p.resize(per_thread);
+  width_ = width;
+  height_ = height;
+}
+
+template <typename T>
+double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8_t* static_mask, std::size_t mask_step,
+                            int width, int height, T weight, T* grad, T* ssim_map) {
+  if (width <= 0 || height <= 0) return 1.0;
+  resize(width, height);
+  const int W = width, H = height;
+  const std::size_t npix = static_cast<std::size_t>(W) * H;
+  std::size_t n_static = 0;
+  for (int v = 0; v < H; ++v) {
+    const std::uint8_t* m = static_mask ? static_mask + v * mask_step : nullptr;
+    std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
+    for (int u = 0; u < W; ++u) {
+      s[u] = (!m || m[u]) ? 1 : 0;
+      n_static += s[u];
+    }
+  }
+  const bool want_grad = grad != nullptr && n_static > 0;
+  auto forRows = [&](const auto& fn) {
+    if (pool_) {
+      pool_->parallelFor(3 * H, [&](int r, int thread) { fn(r, thread); }, 4);
+    } else {
+      for (int r = 0; r < 3 * H; ++r) fn(r, 0);
+    }
+  };
+  const T c1 = static_cast<T>(kC1), c2 = static_cast<T>(kC2);
+  const std::size_t pad_len = static_cast<std::size_t>(W + 2 * kRadius);
+
+  // 1. Composite x' = M x + (1 - M) y; horizontal pass of x', y, x'^2, y^2, x'y.
+  forRows([&](int r, int thread) {
+    const int v = r % H;
+    const std::size_t row = static_cast<std::size_t>(r) * W;
+    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
+    T* x = x_.data() + row;
+    T* y = y_.data() + row;
+    for (int u = 0; u < W; ++u) {
+      y[u] = target[row + u];
+      x[u] = s[u] ? rendered[row + u] : y[u];
+    }
+    T* pad = pad_[thread].data();
+    T* prod = pad + pad_len;  // one row of products
+    convolveRow(x, W, taps_, pad, h_[0].data() + row);
+    convolveRow(y, W, taps_, pad, h_[1].data() + row);
+    for (int u = 0; u < W; ++u) prod[u] = x[u] * x[u];
+    convolveRow(prod, W, taps_, pad, h_[2].data() + row);
+    for (int u = 0; u < W; ++u) prod[u] = y[u] * y[u];
+    convolveRow(prod, W, taps_, pad, h_[3].data() + row);
+    for (int u = 0; u < W; ++u) prod[u] = x[u] * y[u];
+    convolveRow(prod, W, taps_, pad, h_[4].data() + row);
+  });
+
+  // 2. Vertical pass -> window statistics -> SSIM and the per-pixel derivative terms
+  //    P0 = M (dS/dmu_x - 2 mu_x dS/dsxx - mu_y dS/dsxy), P1 = M dS/dsxx, P2 = M dS/dsxy.
+  forRows([&](int r, int thread) {
+    const int c = r / H, v = r % H;
+    const std::size_t row = static_cast<std::size_t>(r) * W;
+    const std::size_t plane = static_cast<std::size_t>(c) * npix;
+    T* acc = pad_[thread].data();  // 5 rows of W
+    for (int j = 0; j < 5; ++j) convolveColumn(h_[j].data() + plane, W, H, v, taps_, acc + j * W);
+    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
+    double sum = 0.0;
+    for (int u = 0; u < W; ++u) {
+      const T mx = acc[u], my = acc[W + u];
+      const T sxx = acc[2 * W + u] - mx * mx, syy = acc[3 * W + u] - my * my, sxy = acc[4 * W + u] - mx * my;
+      const T a = 2 * mx * my + c1, b = 2 * sxy + c2, cc = mx * mx + my * my + c1, d = sxx + syy + c2;
+      const T inv_cd = T(1) / (cc * d);
+      const T S = a * b * inv_cd;
+      if (ssim_map) ssim_map[row + u] = S;
+      if (s[u]) sum += static_cast<double>(S);
+      if (want_grad) {
+        const T m = s[u] ? T(1) : T(0);
+        const T dmx = 2 * my * b * inv_cd - S * 2 * mx / cc;
+        const T dsxx = -S / d;
+        const T dsxy = 2 * a * inv_cd;
+        p_[0][row + u] = m * (dmx - 2 * mx * dsxx - my * dsxy);
+        p_[1][row + u] = m * dsxx;
+        p_[2][row + u] = m * dsxy;
+      }
+    }
+    row_sum_[r] = sum;
+  });
+  double total = 0.0;
+  for (int r = 0; r < 3 * H; ++r) total += row_sum_[r];
+  if (n_static == 0) return 1.0;
+  const double n = 3.0 * static_cast<double>(n_static);
+  const double mean = total / n;
+  if (!want_grad) return mean;
+
+  // 3. Adjoint of the windows (the window is symmetric: the same convolutions), horizontal pass.
+  forRows([&](int r, int thread) {
+    const std::size_t row = static_cast<std::size_t>(r) * W;
+    T* pad = pad_[thread].data();
+    for (int j = 0; j < 3; ++j) convolveRow(p_[j].data() + row, W, taps_, pad, h_[j].data() + row);
+  });
+  // 4. Vertical pass and d(1 - mean SSIM)/dx = -(1/n) M (G0 + 2 x' G1 + y G2).
+  const T scale = static_cast<T>(-static_cast<double>(weight) / n);
+  forRows([&](int r, int thread) {
+    const int c = r / H, v = r % H;
+    const std::size_t row = static_cast<std::size_t>(r) * W;
+    const std::size_t plane = static_cast<std::size_t>(c) * npix;
+    T* acc = pad_[thread].data();
+    for (int j = 0; j < 3; ++j) convolveColumn(h_[j].data() + plane, W, H, v, taps_, acc + j * W);
+    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
+    const T* x = x_.data() + row;
+    const T* y = y_.data() + row;
+    for (int u = 0; u < W; ++u) {
+      if (!s[u]) continue;
+      grad[row + u] += scale * (acc[u] + 2 * x[u] * acc[W + u] + y[u] * acc[2 * W + u]);
+    }
+  });
+  return mean;
+}
+
+template class SsimLoss<float>;
+template class SsimLoss<double>;
+
+}  // namespace dypho::mapping
