@@ -133,11 +133,9 @@ DYPHO_HOST_DEVICE inline void quatToRotationBackward(const T* q, const Mat3<T>& 
   dq[3] = (dz - z * dot) / n;
 }
 
-/// World covariance Sigma = (R S)(R S)^T with S = diag(exp(log_scale)).
+/// Sigma = (R S)(R S)^T with S = diag(s).
 template <typename T>
-DYPHO_HOST_DEVICE inline Mat3<T> covariance3d(const T* log_scale, const T* q) {
-  const Mat3<T> R = quatToRotation(q);
-  const T s[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
+DYPHO_HOST_DEVICE inline Mat3<T> covarianceFromRotationScale(const Mat3<T>& R, const T* s) {
   Mat3<T> C;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
@@ -148,12 +146,19 @@ DYPHO_HOST_DEVICE inline Mat3<T> covariance3d(const T* log_scale, const T* q) {
   return C;
 }
 
-/// Backward of covariance3d: dL/dlog_scale, dL/dq from a symmetric dL/dSigma.
+/// World covariance Sigma = (R S)(R S)^T with S = diag(exp(log_scale)).
 template <typename T>
-DYPHO_HOST_DEVICE inline void covariance3dBackward(const T* log_scale, const T* q, const Mat3<T>& G,
-                                                   T* d_log_scale, T* dq) {
+DYPHO_HOST_DEVICE inline Mat3<T> covariance3d(const T* log_scale, const T* q) {
   const Mat3<T> R = quatToRotation(q);
   const T s[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
+  return covarianceFromRotationScale(R, s);
+}
+
+/// Backward of covariance3d with its rotation R = quatToRotation(q) and scales s = exp(log_scale)
+/// already computed: dL/dlog_scale, dL/dq from a symmetric dL/dSigma.
+template <typename T>
+DYPHO_HOST_DEVICE inline void covariance3dBackward(const Mat3<T>& R, const T* s, const T* q, const Mat3<T>& G,
+                                                   T* d_log_scale, T* dq) {
   // M = R S; dL/dM = 2 G M (G symmetric).
   Mat3<T> dM, dR;
   for (int i = 0; i < 3; ++i)
@@ -171,6 +176,15 @@ DYPHO_HOST_DEVICE inline void covariance3dBackward(const T* log_scale, const T* 
     d_log_scale[j] = ds * s[j];
   }
   quatToRotationBackward(q, dR, dq);
+}
+
+/// Backward of covariance3d: dL/dlog_scale, dL/dq from a symmetric dL/dSigma.
+template <typename T>
+DYPHO_HOST_DEVICE inline void covariance3dBackward(const T* log_scale, const T* q, const Mat3<T>& G,
+                                                   T* d_log_scale, T* dq) {
+  const Mat3<T> R = quatToRotation(q);
+  const T s[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
+  covariance3dBackward(R, s, q, G, d_log_scale, dq);
 }
 
 /// Screen-space Jacobian of the pinhole projection at p_c (with the 3DGS clamp of x/z, y/z to
@@ -353,7 +367,9 @@ DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam,
     A[0][j] = J.J00 * cam.R_cw[0][j] + J.J02 * cam.R_cw[2][j];
     A[1][j] = J.J11 * cam.R_cw[1][j] + J.J12 * cam.R_cw[2][j];
   }
-  const Mat3<T> S = covariance3d(log_scale, quat);
+  const Mat3<T> Rq = quatToRotation(quat);  // once for the covariance and its backward
+  const T sc[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
+  const Mat3<T> S = covarianceFromRotationScale(Rq, sc);
   T AS[2][3];
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < 3; ++j) AS[i][j] = A[i][0] * S.m[0][j] + A[i][1] * S.m[1][j] + A[i][2] * S.m[2][j];
@@ -381,7 +397,7 @@ DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam,
   T GA[2][3];
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < 3; ++j) GA[i][j] = T(2) * (GS2[i][0] * AS[0][j] + GS2[i][1] * AS[1][j]);
-  covariance3dBackward(log_scale, quat, GS3, out.log_scale, out.quat);
+  covariance3dBackward(Rq, sc, quat, GS3, out.log_scale, out.quat);
   // A = J R_cw: dL/dJ = GA R^T (only the four non-zero entries), dL/dR_cw = J^T GA.
   T gJ00 = T(0), gJ02 = T(0), gJ11 = T(0), gJ12 = T(0);
   for (int j = 0; j < 3; ++j) {
