@@ -166,6 +166,7 @@ void Rasterizer<T>::binTiles() {
   sorted_.resize(num_visible_);
   rank_.assign(n, kNotVisible);
   for (std::uint32_t j = 0; j < num_visible_; ++j) {
+    if (j + kPrefetchAhead < num_visible_) __builtin_prefetch(&packed_[order_[j + kPrefetchAhead]]);
     const Packed& p = packed_[order_[j]];
     rank_[order_[j]] = j;
     sorted_[j] = p;

@@ -189,6 +189,13 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
     std::fill(out.sh.begin() + static_cast<std::size_t>(K3) * begin, out.sh.begin() + static_cast<std::size_t>(K3) * end, T(0));
     std::fill(out.mean2d_norm.begin() + begin, out.mean2d_norm.begin() + end, T(0));
     for (int i = begin; i < end; ++i) {
+      // The per-thread sums sit in depth order, i.e. scattered: fetch ahead.
+      if (i + static_cast<int>(kPrefetchAhead) < end) {
+        const std::uint32_t ahead = rank_[i + kPrefetchAhead];
+        if (ahead != kNotVisible) {
+          for (int t = 0; t < threads; ++t) __builtin_prefetch(&thread_grads_[t][ahead]);
+        }
+      }
       const std::uint32_t j = rank_[i];
       if (j == kNotVisible) continue;
       gs::ScreenGrad<T> sg{};
