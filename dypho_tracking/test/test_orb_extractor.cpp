@@ -1,10 +1,13 @@
 #include <algorithm>
+#include <array>
+#include <iostream>
 #include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
 
 #include "dypho/tracking/orb_extractor.h"
+#include "dypho/tracking/relaxed_feature_test.h"
 #include "synthetic_scene.h"
 
 namespace dypho {
@@ -78,6 +81,113 @@ TEST(OrbExtractor, RejectsWrongTypes) {
   EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC3), cv::Mat()), std::invalid_argument);
   EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC1), cv::Mat(10, 10, CV_8UC1)),
                std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace tracking
+}  // namespace dypho
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+/// Image with a FAST-invisible pattern: centre pixel `centre` and the 16 ring pixels set to
+/// `ring[i]`, everything else `background`.
+cv::Mat ringPattern(int centre, const std::array<int, 16>& ring, int background = 128) {
+  cv::Mat img(64, 64, CV_8UC1, cv::Scalar(background));
+  img.at<uchar>(32, 32) = static_cast<uchar>(centre);
+  for (int i = 0; i < 16; ++i) img.at<uchar>(32 + kRingDy[i], 32 + kRingDx[i]) = static_cast<uchar>(ring[i]);
+  return img;
+}
+
+TEST(RelaxedFeatureTest, AdaptiveThresholdFollowsThePaper) {
+  // sigma_dy = sigma_0 (1 - k * masked_fraction) with the paper's sigma_0 = 0.3, k = 0.9.
+  EXPECT_DOUBLE_EQ(relaxedThreshold(0.3, 0.9, 0.0), 0.3);
+  EXPECT_NEAR(relaxedThreshold(0.3, 0.9, 0.5), 0.165, 1e-12);
+  EXPECT_NEAR(relaxedThreshold(0.3, 0.9, 1.0), 0.03, 1e-12);
+  EXPECT_DOUBLE_EQ(relaxedThreshold(0.3, 0.0, 0.7), 0.3);  // k = 0: no adaptation
+  EXPECT_GE(relaxedThreshold(0.3, 1.0, 1.0), 0.0);
+}
+
+TEST(RelaxedFeatureTest, CountsMixedSignDifferencesThatFastRejects) {
+  // Ring alternating 40 grey levels above and below the centre: 16 differing pixels, but no arc of
+  // one sign longer than 1, so FAST (which needs 9 contiguous) rejects the centre at any threshold.
+  std::array<int, 16> ring{};
+  for (int i = 0; i < 16; ++i) ring[static_cast<size_t>(i)] = i % 2 == 0 ? 168 : 88;
+  const cv::Mat img = ringPattern(128, ring);
+  const RelaxedResponse r = relaxedResponse(img, 32, 32, 0.3);
+  EXPECT_EQ(r.count, 16);
+  EXPECT_EQ(r.range, 80);
+  EXPECT_FLOAT_EQ(r.score, 16 * 40.f);
+  EXPECT_TRUE(isRelaxedFeature(r, 12, 20));
+  std::vector<cv::KeyPoint> fast;
+  cv::FAST(img, fast, 7, true);
+  for (const auto& kp : fast) EXPECT_FALSE(kp.pt.x == 32.f && kp.pt.y == 32.f);
+  // The local range must reach the floor: the same pattern at +-5 grey levels is noise.
+  for (int i = 0; i < 16; ++i) ring[static_cast<size_t>(i)] = i % 2 == 0 ? 133 : 123;
+  EXPECT_FALSE(isRelaxedFeature(relaxedResponse(ringPattern(128, ring), 32, 32, 0.3), 12, 20));
+}
+
+TEST(RelaxedFeatureTest, ALowerThresholdAdmitsWeakerPoints) {
+  // 13 ring pixels 25 above the centre, 3 pixels 100 above: range 100. At sigma_dy = 0.3 only the
+  // 3 strong pixels exceed 30 (not a feature); at the masked-frame threshold 0.165 (half the view
+  // masked) all 16 exceed 16.5 (a feature). This is how the test keeps the count up under masks.
+  std::array<int, 16> ring{};
+  for (int i = 0; i < 16; ++i) ring[static_cast<size_t>(i)] = i < 3 ? 200 : 125;
+  const cv::Mat img = ringPattern(100, ring);
+  const RelaxedResponse strict = relaxedResponse(img, 32, 32, relaxedThreshold(0.3, 0.9, 0.0));
+  const RelaxedResponse relaxed = relaxedResponse(img, 32, 32, relaxedThreshold(0.3, 0.9, 0.5));
+  EXPECT_EQ(strict.count, 3);
+  EXPECT_EQ(relaxed.count, 16);
+  EXPECT_FALSE(isRelaxedFeature(strict, 12, 20));
+  EXPECT_TRUE(isRelaxedFeature(relaxed, 12, 20));
+}
+
+/// Low-contrast texture: Gaussian noise blurred with sigma 1.5 px, grey standard deviation ~8.
+cv::Mat lowContrastImage(int seed) {
+  cv::RNG rng(static_cast<uint64_t>(seed));
+  cv::Mat noise(480, 640, CV_32FC1);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5);
+  cv::Mat img;
+  noise.convertTo(img, CV_8UC1, 45.0, 128.0);
+  return img;
+}
+
+TEST(OrbExtractor, RelaxedFeaturesFillTheBudgetOnMaskedFrames) {
+  // FAST at 30 grey levels (both tiers) finds few corners in this texture, so the budget is not
+  // filled and the relaxed tier (local range >= 30) has cells to work in.
+  TrackingOptions off;
+  off.fast_threshold = 30;
+  off.min_fast_threshold = 30;
+  TrackingOptions on = off;
+  on.relaxed_features = true;
+  OrbExtractor extractor_off(off), extractor_on(on);
+  const cv::Mat img = lowContrastImage(7);
+  // Without a mask the relaxed tier is not used (it is specific to dynamic masking).
+  const OrbFeatures plain_off = extractor_off.extract(img, cv::Mat());
+  const OrbFeatures plain_on = extractor_on.extract(img, cv::Mat());
+  ASSERT_EQ(plain_off.keypoints.size(), plain_on.keypoints.size());
+  EXPECT_EQ(plain_on.num_relaxed, 0);
+
+  cv::Mat mask(img.size(), CV_8UC1, cv::Scalar(0));
+  const cv::Rect dynamic(0, 0, 320, 480);  // half of the view, as when a person stands close
+  mask(dynamic).setTo(255);
+  const OrbFeatures masked_off = extractor_off.extract(img, mask);
+  const OrbFeatures masked_on = extractor_on.extract(img, mask);
+  EXPECT_NEAR(masked_on.relaxed_threshold_used, 0.165, 1e-9);
+  EXPECT_EQ(masked_off.num_relaxed, 0);
+  EXPECT_GT(masked_on.num_relaxed, 0);
+  EXPECT_EQ(masked_on.keypoints.size(), masked_off.keypoints.size() + static_cast<size_t>(masked_on.num_relaxed));
+  EXPECT_LE(masked_on.keypoints.size(), static_cast<size_t>(on.num_features));
+  ASSERT_EQ(static_cast<int>(masked_on.keypoints.size()), masked_on.descriptors.rows);
+  for (const auto& kp : masked_on.keypoints) {
+    // Static side only, outside the mask border (scaled by the level, 1 px rounding).
+    EXPECT_GE(kp.pt.x, 320.0 + on.mask_border_px * std::pow(on.scale_factor, kp.octave) - 1.0);
+  }
+  std::cout << "keypoints on the unmasked half: FAST only " << masked_off.keypoints.size()
+            << ", with relaxed features " << masked_on.keypoints.size() << " (" << masked_on.num_relaxed
+            << " relaxed)\n";
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "dypho/tracking/orb_extractor.h"
 
+#include "dypho/tracking/relaxed_feature_test.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -96,6 +98,35 @@ OrbExtractor::OrbExtractor(const TrackingOptions& options) : options_(options) {
                          options_.fast_threshold);
 }
 
+template <typename Allowed>
+std::vector<cv::KeyPoint> OrbExtractor::relaxedCandidates(const cv::Mat& level_image,
+                                                          const cv::Rect& cell, double sigma_dy,
+                                                          const Allowed& is_allowed) const {
+  // Candidates on a 2-px lattice (the ring has radius 3, so neighbours on the lattice share most
+  // of their ring), best score first, then a 3-px non-maximum suppression inside the cell.
+  std::vector<cv::KeyPoint> found;
+  for (int y = cell.y; y < cell.y + cell.height; y += 2) {
+    for (int x = cell.x; x < cell.x + cell.width; x += 2) {
+      const RelaxedResponse r = relaxedResponse(level_image, x, y, sigma_dy);
+      if (!isRelaxedFeature(r, options_.relaxed_min_count, options_.fast_threshold)) continue;
+      if (!is_allowed(static_cast<float>(x), static_cast<float>(y))) continue;
+      // Scores below every FAST corner's: relaxed features rank after FAST corners.
+      found.emplace_back(static_cast<float>(x), static_cast<float>(y), 7.f, -1.f,
+                         r.score / 16.f * 1e-3f);
+    }
+  }
+  std::sort(found.begin(), found.end(),
+            [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+  std::vector<cv::KeyPoint> kept;
+  for (const cv::KeyPoint& kp : found) {
+    const bool near = std::any_of(kept.begin(), kept.end(), [&](const cv::KeyPoint& k) {
+      return std::abs(k.pt.x - kp.pt.x) <= 3.f && std::abs(k.pt.y - kp.pt.y) <= 3.f;
+    });
+    if (!near) kept.push_back(kp);
+  }
+  return kept;
+}
+
 OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
   if (gray.empty() || gray.type() != CV_8UC1 || gray.cols < 64 || gray.rows < 64) {
     throw std::invalid_argument(
@@ -126,6 +157,11 @@ OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
       static_cast<int>(std::lround(options_.fast_threshold *
                                    (1.0 - options_.mask_threshold_relaxation * out.masked_fraction))));
   out.fast_threshold_used = threshold;
+  const double sigma_dy =
+      relaxedThreshold(options_.relaxed_sigma0, options_.relaxed_k, out.masked_fraction);
+  out.relaxed_threshold_used = sigma_dy;
+  // The relaxed tier is specific to dynamic masking (paper): it runs when part of the view is masked.
+  const bool use_relaxed = options_.relaxed_features && out.masked_fraction > 0;
 
   std::vector<cv::KeyPoint> all;
   cv::Mat level_image = gray;
@@ -175,15 +211,36 @@ OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
     }
     std::vector<std::vector<cv::KeyPoint>> cells;
     cells.reserve(strong.size());
+    std::vector<size_t> empty_cells;
     for (size_t i = 0; i < strong.size(); ++i) {
       if (!strong[i].empty()) {
         cells.push_back(std::move(strong[i]));
       } else if (!weak[i].empty()) {
         cells.push_back(std::move(weak[i]));
+      } else {
+        empty_cells.push_back(i);
       }
     }
-    std::vector<cv::KeyPoint> chosen =
-        distributeOverCells(cells, features_per_level_[static_cast<size_t>(level)]);
+    const int budget = features_per_level_[static_cast<size_t>(level)];
+    std::vector<cv::KeyPoint> chosen = distributeOverCells(cells, budget);
+    // Relaxed features only make up a deficit left by FAST, and only in cells without a corner.
+    if (use_relaxed && static_cast<int>(chosen.size()) < budget) {
+      std::vector<std::vector<cv::KeyPoint>> relaxed_cells;
+      const cv::Rect usable(x_lo, y_lo, x_hi - x_lo, y_hi - y_lo);
+      for (size_t i : empty_cells) {
+        const int c = static_cast<int>(i) % ncols, r = static_cast<int>(i) / ncols;
+        const cv::Rect cell_rect(x_lo + static_cast<int>(c * cell_w),
+                                 y_lo + static_cast<int>(r * cell_h),
+                                 static_cast<int>(std::ceil(cell_w)), static_cast<int>(std::ceil(cell_h)));
+        std::vector<cv::KeyPoint> relaxed =
+            relaxedCandidates(level_image, cell_rect & usable, sigma_dy, is_allowed);
+        if (!relaxed.empty()) relaxed_cells.push_back(std::move(relaxed));
+      }
+      const std::vector<cv::KeyPoint> extra =
+          distributeOverCells(relaxed_cells, budget - static_cast<int>(chosen.size()));
+      out.num_relaxed += static_cast<int>(extra.size());
+      chosen.insert(chosen.end(), extra.begin(), extra.end());
+    }
     for (cv::KeyPoint& kp : chosen) {
       kp.angle = intensityCentroidAngle(level_image, cvRound(kp.pt.x), cvRound(kp.pt.y), umax_);
       kp.octave = level;

@@ -34,6 +34,9 @@ void TrackingOptions::validate() const {
   requireRange("grid_cell_px", grid_cell_px, 8, 200);
   requireRange("mask_border_px", mask_border_px, 0, 50);
   requireRange("mask_threshold_relaxation", mask_threshold_relaxation, 0.0, 1.0);
+  requireRange("relaxed_sigma0", relaxed_sigma0, 0.0, 1.0, true);
+  requireRange("relaxed_k", relaxed_k, 0.0, 1.0);
+  requireRange("relaxed_min_count", relaxed_min_count, 0, 15);
   requireRange("min_depth_m", min_depth_m, 0.0, 100.0, true);
   requireRange("max_depth_m", max_depth_m, min_depth_m, 100.0, true);
   requireRange("max_hamming_distance", max_hamming_distance, 1, 256);

@@ -20,6 +20,8 @@ struct OrbFeatures {
   cv::Mat descriptors;          ///< keypoints.size() x 32, CV_8UC1 (256-bit rBRIEF), row i = keypoint i
   double masked_fraction = 0;   ///< fraction of mask pixels that are dynamic [0, 1]
   int fast_threshold_used = 0;  ///< FAST threshold after the mask relaxation [grey levels]
+  double relaxed_threshold_used = 0;  ///< sigma_dy of the relaxed test [fraction of local range]
+  int num_relaxed = 0;  ///< keypoints kept from the relaxed test (they follow the FAST ones) [count]
 };
 
 /// ORB extractor in the style of ORB-SLAM: per pyramid level a keypoint budget that falls
@@ -32,7 +34,11 @@ struct OrbFeatures {
 /// Mask handling: keypoints are only kept where the distance to the nearest dynamic pixel is at
 /// least `mask_border_px * scale^level` (level-0 pixels), i.e. the static area is eroded so that
 /// descriptors do not straddle the mask border. When part of the image is masked the FAST threshold
-/// is relaxed by (1 - mask_threshold_relaxation * masked_fraction) (paper, "Feature Extract").
+/// is relaxed by (1 - mask_threshold_relaxation * masked_fraction). With `relaxed_features`, the
+/// budget FAST leaves unfilled on a masked frame goes to the paper's relaxed feature test
+/// (relaxed_feature_test.h) in cells with no FAST corner, with the adaptive threshold
+/// sigma_dy = relaxed_sigma0 (1 - relaxed_k * masked_fraction) ("Feature Extract"): the fewer
+/// static pixels remain, the more low-contrast points qualify.
 class OrbExtractor {
  public:
   /// Throws std::invalid_argument when `options.validate()` does.
@@ -49,6 +55,11 @@ class OrbExtractor {
   static constexpr int kEdgePx = 19;
 
  private:
+  /// Relaxed-test keypoints of one grid cell of a pyramid level (level pixel coordinates).
+  template <typename Allowed>
+  std::vector<cv::KeyPoint> relaxedCandidates(const cv::Mat& level_image, const cv::Rect& cell,
+                                              double sigma_dy, const Allowed& is_allowed) const;
+
   TrackingOptions options_;
   std::vector<double> level_scales_;
   std::vector<int> features_per_level_;

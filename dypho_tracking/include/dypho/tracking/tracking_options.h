@@ -28,10 +28,29 @@ struct TrackingOptions {
   /// Keypoints keep this distance from every dynamic (masked) pixel, scaled by the level scale, so
   /// that descriptors do not straddle the mask border [px at level 0]; default 4, range [0, 50].
   int mask_border_px = 4;
-  /// Paper's relaxed features (sigma_dy = sigma_0 (1 - k * masked fraction)): the FAST threshold
-  /// is multiplied by (1 - k * masked_fraction), never below `min_fast_threshold` [-]; default 0.5,
-  /// range [0, 1]; 0 disables.
+  /// FAST threshold relaxation under the mask: the threshold is multiplied by
+  /// (1 - k * masked_fraction), never below `min_fast_threshold` [-]; default 0.5, range [0, 1];
+  /// 0 disables.
   double mask_threshold_relaxation = 0.5;
+  /// Paper's relaxed feature test ("Feature Extract") as a third tier, on frames with a non-empty
+  /// mask, filling the level's keypoint budget left over by FAST, in grid cells where FAST found
+  /// no corner at `min_fast_threshold`: pixel p is a relaxed feature when more than
+  /// `relaxed_min_count` of the 16 FAST-ring pixels N satisfy |G(N) - G(p)| > sigma_dy * r, with r
+  /// the grey range over the ring and p (the "normalised" grey difference; r must be at least
+  /// `fast_threshold`) and sigma_dy = relaxed_sigma0 (1 - relaxed_k * masked_fraction). Unlike
+  /// FAST the differing pixels need not form one arc of one sign. Default false: on the Bonn
+  /// crowd frames with the detector mask it raised the ATE from 1.44 cm to 1.64 cm (the extra
+  /// points sit on low-contrast walls and match poorly; docs/benchmarks.md, ablation), and on the
+  /// synthetic 3-people sequence it changed nothing (FAST already fills the budget).
+  bool relaxed_features = false;
+  /// Initial threshold sigma_0 of the relaxed test [fraction of the local grey range];
+  /// default 0.3 (paper), range (0, 1].
+  double relaxed_sigma0 = 0.3;
+  /// k of sigma_dy = sigma_0 (1 - k * masked_fraction) [-]; default 0.9 (paper), range [0, 1].
+  double relaxed_k = 0.9;
+  /// n_f: a relaxed feature needs more than this many of the 16 ring pixels to differ [count];
+  /// default 12 (paper), range [0, 15].
+  int relaxed_min_count = 12;
 
   // --- depth ---
   /// Keypoints with a depth below this are dropped [m]; default 0.1, range (0, max_depth_m).
