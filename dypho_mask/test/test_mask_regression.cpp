@@ -1,6 +1,11 @@
-// Accuracy regression of the flow + background mask (no network) on a short synthetic sequence
-// with ground-truth masks, the camera's ground-truth relative pose given as the prior.
+// Accuracy regression of the flow + background mask (no network) on short synthetic sequences
+// with ground-truth masks, the camera's ground-truth relative pose given as the prior: two camera
+// motions and several scene seeds (people placement, texture, noise), so that a change that only
+// helps one sequence does not pass.
 #include <gtest/gtest.h>
+
+#include <string>
+#include <tuple>
 
 #include <opencv2/core.hpp>
 
@@ -9,12 +14,21 @@
 
 using namespace dypho;
 
-TEST(MaskRegression, HalfsphereTwoPeopleWithGroundTruthPosePrior) {
+namespace {
+
+struct Scores {
+  double iou = 0.0;
+  double false_share = 0.0;
+};
+
+/// Pooled IoU and false-dynamic share over frames 5..frames-1 (frames 0..4 are the warm-up of the
+/// background model).
+Scores runSequence(tools::SynthMotion motion, std::uint32_t seed, int frames) {
   tools::SynthOptions so;
-  so.frames = 30;
+  so.frames = frames;
   so.people = 2;
-  so.seed = 3;
-  so.motion = tools::SynthMotion::kHalfsphere;
+  so.seed = seed;
+  so.motion = motion;
   const tools::SyntheticScene scene(so);
   mask::DynamicMasker masker{mask::DynamicMaskOptions()};
   double inter = 0, uni = 0, false_dyn = 0, static_px = 0;
@@ -25,20 +39,38 @@ TEST(MaskRegression, HalfsphereTwoPeopleWithGroundTruthPosePrior) {
     if (i >= 1) prior.T_prev_cur = T_world_prev.inverse() * f.T_world_camera;
     T_world_prev = f.T_world_camera;
     const mask::MaskResult r = masker.compute(f.frame, prior);
-    ASSERT_EQ(r.mask.size(), f.mask_gt.size());
-    if (i < 5) continue;  // warm-up: the background model needs a few frames (frames 0..4 skipped)
+    EXPECT_EQ(r.mask.size(), f.mask_gt.size());
+    if (i < 5) continue;
     const cv::Mat gt = f.mask_gt > 0, m = r.mask > 0;
     inter += cv::countNonZero(gt & m);
     uni += cv::countNonZero(gt | m);
     false_dyn += cv::countNonZero(m & ~gt);
     static_px += cv::countNonZero(~gt);
   }
-  const double iou = inter / uni, false_share = false_dyn / static_px;
-  // Measured (Release, OpenCV 4.6, bookworm): IoU 0.865, false-dynamic 1.58 % over frames 5..29.
-  // Bounds = the issue's acceptance bounds (IoU >= 0.85, false-dynamic <= 2 %), i.e. a margin of
-  // 0.015 IoU and 0.42 points below what is measured; the test fails on any regression beyond it.
-  EXPECT_GE(iou, 0.85);
-  EXPECT_LE(false_share, 0.02);
-  RecordProperty("iou", std::to_string(iou));
-  RecordProperty("false_dynamic", std::to_string(false_share));
+  return {inter / uni, false_dyn / static_px};
 }
+
+}  // namespace
+
+class MaskRegression : public ::testing::TestWithParam<std::tuple<tools::SynthMotion, int>> {};
+
+TEST_P(MaskRegression, MeetsTheIssueBoundsWithGroundTruthPosePrior) {
+  const auto [motion, seed] = GetParam();
+  const Scores s = runSequence(motion, static_cast<std::uint32_t>(seed), 40);
+  // Bounds = the issue's acceptance bounds (IoU >= 0.85, false-dynamic <= 2 % of static pixels);
+  // never loosened. Measured (Release, OpenCV 4.6, bookworm; deterministic), IoU / false-dynamic:
+  // halfsphere seed 1: 0.945 / 1.40 %, seed 3: 0.856 / 0.82 %, seed 5: 0.861 / 1.11 %;
+  // xyz seed 2: 0.928 / 1.13 %. Seeds 3 and 5 (a person in view from the first frame, walking
+  // towards the camera) leave the least margin: 0.006 and 0.011 IoU.
+  EXPECT_GE(s.iou, 0.85);
+  EXPECT_LE(s.false_share, 0.02);
+  RecordProperty("iou", std::to_string(s.iou));
+  RecordProperty("false_dynamic", std::to_string(s.false_share));
+  std::printf("IoU %.3f false-dynamic %.2f %%\n", s.iou, 100.0 * s.false_share);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sequences, MaskRegression,
+                         ::testing::Values(std::make_tuple(tools::SynthMotion::kHalfsphere, 1),
+                                           std::make_tuple(tools::SynthMotion::kHalfsphere, 3),
+                                           std::make_tuple(tools::SynthMotion::kHalfsphere, 5),
+                                           std::make_tuple(tools::SynthMotion::kXyz, 2)));

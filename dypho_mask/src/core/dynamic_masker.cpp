@@ -28,6 +28,13 @@ MaskCleanerSettings cleanerAt(const DynamicMaskOptions& o, double scale) {
   return s;
 }
 
+/// The background-resolution cleaner: without the margin when finish() grows it depth-aware.
+MaskCleanerSettings smallCleaner(const DynamicMaskOptions& o) {
+  MaskCleanerSettings s = cleanerAt(o, o.background.scale);
+  if (o.margin_depth_aware) s.dilate_radius_px = 0;
+  return s;
+}
+
 /// Intrinsics of an image resized by `scale` (cv::resize pixel-centre convention).
 CameraIntrinsics scaled(const CameraIntrinsics& c, const cv::Size& small, double scale) {
   CameraIntrinsics s = c;
@@ -49,16 +56,22 @@ DynamicMasker::DynamicMasker(const DynamicMaskOptions& options)
       segment_(std::make_unique<SegmentScheduler>(options.yolo)),
       background_(options.background),
       full_cleaner_(cleanerAt(options, 1.0)),
-      small_cleaner_(cleanerAt(options, options.background.scale)) {
+      small_cleaner_(smallCleaner(options)) {
   box_settings_.depth_range_m = options.yolo.box_depth_range_m;
   grow_settings_.depth_range_m = options.yolo.box_depth_range_m;
   grow_settings_.sigma_m = options.background.sigma_m;
   grow_settings_.min_seed_area_px = cleanerAt(options, options.background.scale).min_region_area_px;
+  const int margin_small = cleanerAt(options, options.background.scale).dilate_radius_px;
+  if (options.margin_depth_aware && margin_small > 0) {
+    margin_kernel_small_ =
+        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * margin_small + 1, 2 * margin_small + 1));
+  }
 }
 
 DynamicMasker::~DynamicMasker() = default;
 
 void DynamicMasker::reset() {
+  background_updates_ = 0;
   flow_.reset();
   segment_->reset();
   background_.reset();
@@ -166,7 +179,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     if (flow.raw_flow_mask.empty() && seg.mask.empty()) {
       // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the
       // consistency test above changed nothing that the next frame reads).
-      finish(raw_small_, size, s, result);
+      finish(raw_small_, size, true, result);
       result.background_ms = test_ms + msSince(t_bg);
       result.total_ms = msSince(t0);
       return result;
@@ -176,8 +189,10 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     // are flow noise on the static scene; segment-mask pixels are never vetoed.
     cv::resize(flow.mask, flow_small_, small, 0, 0, cv::INTER_NEAREST);
     flow_small_ &= raw_small_;
-    vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
-                            0.9, 0.5, flow_small_);
+    if (background_updates_ >= options_.background.veto_after_updates) {
+      vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
+                              0.9, 0.5, flow_small_);
+    }
     if (!seg.mask.empty()) {
       cv::bitwise_or(flow_small_, seg_small_, raw_small_);
     } else {
@@ -187,21 +202,42 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
     // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
     background_.update(depth_small_, rendered_small_, combined_);
-    finish(combined_, size, s, result);
+    ++background_updates_;
+    finish(combined_, size, true, result);
   } else {
     if (options_.background.enabled && !have_depth) note("no usable depth/camera: background model skipped");
     combined_ = flow.mask.clone();
     if (!seg.mask.empty()) combined_ |= seg.mask;
-    finish(combined_, size, 1.0, result);
+    finish(combined_, size, false, result);
   }
   result.background_ms = test_ms + msSince(t_bg);
   result.total_ms = msSince(t0);
   return result;
 }
 
-void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, double scale, MaskResult& result) {
+void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {
   cv::Mat m = dynamic.clone();
-  (scale == 1.0 ? full_cleaner_ : small_cleaner_).apply(m);
+  const int kept = (at_background ? small_cleaner_ : full_cleaner_).apply(m);
+  if (at_background && kept > 0 && !margin_kernel_small_.empty() && depth_small_.size() == m.size()) {
+    // Depth-aware margin: grow by the margin, then take back the grown pixels whose depth lies
+    // more than sigma_m behind the farthest masked depth within the margin.
+    margin_depth_.create(m.size(), CV_32FC1);
+    margin_depth_.setTo(0.f);
+    depth_small_.copyTo(margin_depth_, m);
+    cv::dilate(margin_depth_, margin_depth_, margin_kernel_small_);
+    cv::dilate(m, margin_grown_, margin_kernel_small_);
+    const float sigma = static_cast<float>(options_.background.sigma_m);
+    for (int y = 0; y < m.rows; ++y) {
+      const uchar* inside = m.ptr<uchar>(y);
+      const float* d = depth_small_.ptr<float>(y);
+      const float* z_far = margin_depth_.ptr<float>(y);
+      uchar* g = margin_grown_.ptr<uchar>(y);
+      for (int x = 0; x < m.cols; ++x) {
+        if (g[x] != 0 && inside[x] == 0 && d[x] > 0.f && z_far[x] > 0.f && d[x] > z_far[x] + sigma) g[x] = 0;
+      }
+    }
+    std::swap(m, margin_grown_);
+  }
   if (m.size() != size) {
     cv::resize(m, result.mask, size, 0, 0, cv::INTER_LINEAR);
     cv::threshold(result.mask, result.mask, 127, 255, cv::THRESH_BINARY);

@@ -66,6 +66,11 @@ struct BackgroundOptions {
   /// value or lies behind (fills the textureless inside of a person the flow outlined; the grown
   /// pixels are not learnt into B). Default true.
   bool grow_in_depth = true;
+  /// Flow regions that the background explains (same depth as B, no consistency pixel) are
+  /// dropped only after this many updates of B since the start or reset(), >= 0: B starts as D
+  /// minus a raw mask that may miss most of a person, and vetoing against that B erases the
+  /// person's own flow detections. Default 10 (1/3 s at 30 Hz).
+  int veto_after_updates = 10;
 
   /// Throws std::invalid_argument naming the first bad field.
   void validate() const;
@@ -82,6 +87,11 @@ struct DynamicMaskOptions {
   BackgroundOptions background;  ///< background model (keys background_*)
   /// Safety margin grown around the final mask [full-res px], >= 0. Default 4.
   int margin_px = 4;
+  /// With depth and the background model: the margin does not grow onto pixels whose depth lies
+  /// more than background_sigma_m behind the farthest masked depth within margin_px (the wall
+  /// behind a person's outline); it still grows where depth is missing or close. Halves the
+  /// false-dynamic border on the synthetic sequences (docs/benchmarks.md section 3). Default true.
+  bool margin_depth_aware = true;
   /// Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.
   int min_region_area_px = 400;
 

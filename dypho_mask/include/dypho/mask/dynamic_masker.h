@@ -99,7 +99,9 @@ class DynamicMasker {
   const cv::Mat& backgroundPrior() const { return background_.prior(); }
 
  private:
-  void finish(const cv::Mat& dynamic, const cv::Size& size, double scale, MaskResult& result);
+  /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
+  /// when `at_background`, else at input resolution).
+  void finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
 
   DynamicMaskOptions options_;
   FlowMotionMasker flow_;
@@ -108,10 +110,13 @@ class DynamicMasker {
   MaskCleaner full_cleaner_;
   MaskCleaner small_cleaner_;
   bool warned_ = false;
+  int background_updates_ = 0;  ///< updates of B since construction / reset()
   BoxDepthSettings box_settings_;
   DepthGrowSettings grow_settings_;
   cv::Mat seg_small_, flow_small_;
   cv::Mat depth_small_, raw_small_, rendered_small_, consistency_small_, combined_;
+  cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
+  cv::Mat margin_depth_, margin_grown_;
 };
 
 }  // namespace mask

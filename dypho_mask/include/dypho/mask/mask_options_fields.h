@@ -57,6 +57,7 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
   visitor("min_agreeing", options.min_agreeing, "n_m: a pixel is static when more than this many neighbours agree, >= 0. Default 9 (paper).");
   visitor("window_px", options.window_px, "Side of the square neighbourhood [background px], odd >= 3. Default 5 (25 neighbours).");
   visitor("grow_in_depth", options.grow_in_depth, "Grow the dynamic regions over their depth-connected surface where the background has no value or lies behind (fills the textureless inside of a person the flow outlined; grown pixels are not learnt into the background). Default true.");
+  visitor("veto_after_updates", options.veto_after_updates, "Flow regions that the background explains (same depth, no consistency pixel) are dropped only after this many background updates since the start or a reset, >= 0: B starts as D minus a raw mask that may miss most of a person, and vetoing against that B erases the person's own flow detections. Default 10 (1/3 s at 30 Hz).");
 }
 
 namespace detail {
@@ -79,6 +80,7 @@ void visitOptions(DynamicMaskOptions& options, Visitor&& visitor) {
   visitOptions(options.flow, detail::PrefixedVisitor<Visitor>{visitor, "flow_"});
   visitOptions(options.background, detail::PrefixedVisitor<Visitor>{visitor, "background_"});
   visitor("margin_px", options.margin_px, "Safety margin grown around the final mask [full-res px], >= 0. Default 4.");
+  visitor("margin_depth_aware", options.margin_depth_aware, "With depth and the background model: the margin does not grow onto pixels whose depth lies more than background_sigma_m behind the farthest masked depth within margin_px (the wall behind a person's outline); it still grows where depth is missing or close. Default true.");
   visitor("min_region_area_px", options.min_region_area_px, "Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.");
 }
 
