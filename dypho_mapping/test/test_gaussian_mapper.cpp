@@ -324,7 +324,8 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
     }
     return false;
   };
-  std::size_t n = 0, ok = 0, closer = 0;
+  mapper.finish();  // the final map: end-of-sequence refinement (final_refine_iterations)
+  std::size_t n = 0, ok = 0, closer = 0, farther = 0;
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const tools::SynthFrame& f = frames[k];
     const cv::Mat d = mapper.renderDepth(f.T_world_camera, f.frame.camera);
@@ -335,18 +336,21 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
         const float err = d.at<float>(y, x) - f.static_depth_m.at<float>(y, x);
         ok += std::abs(err) <= 0.05f;
         closer += err < -0.05f;  // a ghost: something rendered in front of the static surface
+        farther += err > 0.05f;  // seen through: the static surface is not opaque from here
       }
   }
-  std::printf("ghost check: %.2f %% of %zu revealed dynamic pixels within 5 cm (%.2f %% closer: ghosts)\n",
-              100.0 * ok / std::max<std::size_t>(1, n), n, 100.0 * closer / std::max<std::size_t>(1, n));
+  std::printf("ghost check: %.2f %% of %zu revealed dynamic pixels within 5 cm (%.2f %% closer: ghosts, %.2f %% farther)\n",
+              100.0 * ok / std::max<std::size_t>(1, n), n, 100.0 * closer / std::max<std::size_t>(1, n),
+              100.0 * farther / std::max<std::size_t>(1, n));
   ASSERT_GT(n, 1000u);
   const double share = static_cast<double>(ok) / n;
-  // The target is >= 99 % within 5 cm; this short run (10 keyframes, 30 iterations each)
-  // measures 97.0 % (the rest are background seen only from other viewpoints, rendered through
-  // gaps: mostly *farther*), so the test guards the measured level: >= 95 % within 5 cm, and
-  // ghosts proper (rendered > 5 cm in front of the static surface) on <= 1.5 % (measured 1.0 %).
-  EXPECT_GE(share, 0.95);
-  EXPECT_LE(static_cast<double>(closer) / n, 0.015);
+  // The target: >= 99 % within 5 cm. Measured 99.46-99.47 % (0.00 % closer, 0.52 % farther:
+  // background seen only from other viewpoints, rendered through gaps) with the final refinement
+  // and coverage_alpha_threshold 0.9 (97.0 % before both). Ghosts proper (rendered > 5 cm in
+  // front of the static surface): <= 0.5 % (measured 0.00 %). The sampler is seeded; only the
+  // thread scheduling of float sums varies between runs (three runs: 99.46-99.47 %).
+  EXPECT_GE(share, 0.99);
+  EXPECT_LE(static_cast<double>(closer) / n, 0.005);
 }
 
 }  // namespace

@@ -54,10 +54,10 @@ struct GaussianMapperOptions {
   double feature_sample_radius_px = 6.0;
   /// Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.
   int coverage_stride_px = 8;
-  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.6.
-  double coverage_alpha_threshold = 0.6;
-  /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.
-  double coverage_depth_error_ratio = 0.1;
+  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where people later pass: docs/benchmarks.md section 4).
+  double coverage_alpha_threshold = 0.9;
+  /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.05.
+  double coverage_depth_error_ratio = 0.05;
   /// Also cover static pixels without valid depth (black screens, out of range) where nothing is
   /// rendered, at the farthest depth of the nearest measured static nodes of the coverage grid
   /// (the colour term then trains them; they have no depth term). Default true.

@@ -39,8 +39,8 @@ void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
   visitor("feature_samples", options.feature_samples, "Extra Gaussians sampled around each keypoint (the paper's densification at features), >= 0. Default 4.");
   visitor("feature_sample_radius_px", options.feature_sample_radius_px, "Radius of those samples around the keypoint [px] (at full resolution), > 0. Default 6.");
   visitor("coverage_stride_px", options.coverage_stride_px, "Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.");
-  visitor("coverage_alpha_threshold", options.coverage_alpha_threshold, "A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.6.");
-  visitor("coverage_depth_error_ratio", options.coverage_depth_error_ratio, "... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.1.");
+  visitor("coverage_alpha_threshold", options.coverage_alpha_threshold, "A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where people later pass: docs/benchmarks.md section 4).");
+  visitor("coverage_depth_error_ratio", options.coverage_depth_error_ratio, "... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.05.");
   visitor("coverage_fill_invalid_depth", options.coverage_fill_invalid_depth, "Also cover static pixels without valid depth (black screens, out of range) where nothing is rendered, at the farthest depth of the nearest measured static nodes of the coverage grid (the colour term then trains them; they have no depth term). Default true.");
   visitor("lr_position", options.lr_position, "Adam step size of positions [m]. Default 0.0005.");
   visitor("lr_log_scale", options.lr_log_scale, "Adam step size of log-scales. Default 0.005.");
