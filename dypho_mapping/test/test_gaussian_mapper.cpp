@@ -268,6 +268,33 @@ TEST(GaussianMapper, StaticPixelsWithoutDepthAreCoveredAtTheNeighbouringDepth) {
   EXPECT_NEAR(b.depth_m.at<float>(60, 80), 2.f, 0.01f);
 }
 
+TEST(GaussianMapper, ExposureCompensationFollowsABrightnessChange) {
+  // Two views of the same plane; the second image is 30 % darker (auto exposure). With the
+  // per-keyframe exposure the map keeps one colour and keyframe 2's gain absorbs the change.
+  auto run = [](bool compensate) {
+    GaussianMapperOptions o = smallOptions();
+    o.exposure_compensation = compensate;
+    o.window_size = 2;
+    GaussianMapper mapper(o);
+    Keyframe a = planeKeyframe(1, Eigen::Isometry3d::Identity());
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 0.05;
+    Keyframe b = planeKeyframe(2, T);
+    b.frame.bgr.convertTo(b.frame.bgr, CV_8UC3, 0.7);
+    EXPECT_TRUE(mapper.addKeyframe(a).added);
+    EXPECT_TRUE(mapper.addKeyframe(b).added);
+    mapper.optimize(150);
+    return mapper.evaluateKeyframes();
+  };
+  const KeyframeEvaluation off = run(false), on = run(true);
+  std::printf("exposure: PSNR %.2f dB without compensation, %.2f dB with (%.2f dB plain render)\n", off.psnr_db,
+              on.psnr_db, on.psnr_without_exposure_db);
+  EXPECT_EQ(off.psnr_db, off.psnr_without_exposure_db);  // off: the evaluation is the plain render
+  // One map cannot match both brightnesses without the exposure; with it clearly better
+  // (measured +2.15 dB after 150 iterations; the bound asks for half of that).
+  EXPECT_GT(on.psnr_db, off.psnr_db + 1.0);
+}
+
 /// Synthetic room with two walking people, ground-truth poses and masks: static PSNR and the
 /// ghost check (rendered depth where people are stays at the static depth).
 TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
@@ -344,11 +371,11 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
               100.0 * farther / std::max<std::size_t>(1, n));
   ASSERT_GT(n, 1000u);
   const double share = static_cast<double>(ok) / n;
-  // The target: >= 99 % within 5 cm. Measured 99.46-99.47 % (0.00 % closer, 0.52 % farther:
+  // The target: >= 99 % within 5 cm. Measured 99.46-99.51 % (0.00 % closer, 0.5 % farther:
   // background seen only from other viewpoints, rendered through gaps) with the final refinement
   // and coverage_alpha_threshold 0.9 (97.0 % before both). Ghosts proper (rendered > 5 cm in
   // front of the static surface): <= 0.5 % (measured 0.00 %). The sampler is seeded; only the
-  // thread scheduling of float sums varies between runs (three runs: 99.46-99.47 %).
+  // thread scheduling of float sums varies between runs (four runs: 99.46-99.51 %).
   EXPECT_GE(share, 0.99);
   EXPECT_LE(static_cast<double>(closer) / n, 0.005);
 }

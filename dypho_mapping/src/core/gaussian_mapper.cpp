@@ -231,8 +231,14 @@ KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_
     RenderResult<float>& r = impl_->view_out;
     impl_->renderPinhole(kf.T_world_camera, kf.camera, impl_->render_raster, r);
     const std::size_t npix = static_cast<std::size_t>(r.width) * r.height;
-    double se = 0.0;
+    double se = 0.0, se_raw = 0.0;
     std::size_t ns = 0;
+    const bool expose = options_.exposure_compensation;
+    float gain[3], offset[3];
+    for (int ch = 0; ch < 3; ++ch) {
+      gain[ch] = expose ? std::exp(kf.exposure[ch]) : 1.f;
+      offset[ch] = expose ? kf.exposure[3 + ch] : 0.f;
+    }
     cv::Mat rendered(r.height, r.width, CV_8UC3), rdepth(r.height, r.width, CV_32FC1);
     for (int v = 0; v < r.height; ++v) {
       const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
@@ -241,11 +247,13 @@ KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_
       for (int u = 0; u < r.width; ++u) {
         const std::size_t i = static_cast<std::size_t>(v) * r.width + u;
         for (int ch = 0; ch < 3; ++ch) {
-          const float x = std::min(1.f, std::max(0.f, r.color[ch * npix + i]));
+          const float raw = std::min(1.f, std::max(0.f, r.color[ch * npix + i]));
+          const float x = std::min(1.f, std::max(0.f, gain[ch] * r.color[ch * npix + i] + offset[ch]));
           rendered.at<cv::Vec3b>(v, u)[2 - ch] = static_cast<std::uint8_t>(x * 255.f + 0.5f);
           if (m[u]) {
-            const double diff = x - c[u][2 - ch] / 255.0;
+            const double diff = x - c[u][2 - ch] / 255.0, diff_raw = raw - c[u][2 - ch] / 255.0;
             se += diff * diff;
+            se_raw += diff_raw * diff_raw;
           }
         }
         rdepth.at<float>(v, u) = r.depth[i];
@@ -259,6 +267,7 @@ KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_
     if (ns == 0) continue;
     const double mse = std::max(se / (3.0 * ns), 1e-10);
     ev.psnr_per_keyframe_db.push_back(10.0 * std::log10(1.0 / mse));
+    ev.psnr_without_exposure_db += 10.0 * std::log10(1.0 / std::max(se_raw / (3.0 * ns), 1e-10));
     if (!side_by_side_dir.empty()) {
       auto colorize = [&](const cv::Mat& depth) {
         cv::Mat d8, out;
@@ -279,7 +288,10 @@ KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_
   }
   ev.num_keyframes = ev.psnr_per_keyframe_db.size();
   for (double p : ev.psnr_per_keyframe_db) ev.psnr_db += p;
-  if (ev.num_keyframes) ev.psnr_db /= ev.num_keyframes;
+  if (ev.num_keyframes) {
+    ev.psnr_db /= ev.num_keyframes;
+    ev.psnr_without_exposure_db /= ev.num_keyframes;
+  }
   ev.depth_l1_m = depth_n ? depth_sum / depth_n : 0.0;
   return ev;
 }

@@ -25,6 +25,12 @@ struct TrainingKeyframe {
   cv::Mat bgr;              ///< CV_8UC3 (empty once the images were dropped)
   cv::Mat depth_m;          ///< CV_32FC1, 0 = invalid (range-checked)
   cv::Mat static_mask;      ///< CV_8UC1, 255 = static (colour term), 0 = dynamic
+  /// Affine exposure of this keyframe's image (exposure_compensation): channel c (RGB) of the
+  /// image is modelled as exp(exposure[c]) * rendered + exposure[3 + c]. Identity = zeros.
+  float exposure[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  float exposure_m[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam first moments
+  float exposure_v[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam second moments
+  int exposure_steps = 0;
   bool hasImages() const { return !bgr.empty(); }
 };
 
@@ -44,6 +50,8 @@ struct GaussianMapper::Impl {
   /// of all stored ones); with `all_keyframes`, on the next keyframe of a shuffled pass over every
   /// stored keyframe (final refinement). Returns the loss (or -1 when there is nothing to train on).
   double iterate(bool all_keyframes = false);
+  /// One Adam step on `kf`'s exposure from exposure_grad.
+  void stepExposure(TrainingKeyframe& kf);
   void densifyAndPrune();
   void resetOpacity();
   const Undistorter& undistorter(const CameraIntrinsics& camera);
@@ -74,6 +82,8 @@ struct GaussianMapper::Impl {
   std::vector<std::size_t> sample_all;    ///< scratch: indices of keyframes with images
   std::vector<std::size_t> refine_order;  ///< keyframes left in the current refinement pass
   SsimLoss<float> ssim;             ///< structural term of the loss (options.ssim_weight > 0)
+  std::vector<float> exposed;       ///< [3, H, W] rendered colour after the keyframe's exposure
+  float exposure_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< dL/d exposure of the last loss
   std::vector<float> ssim_target;   ///< [3, H, W] the keyframe's colour, RGB in [0, 1]
 };
 

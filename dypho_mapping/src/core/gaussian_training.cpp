@@ -71,6 +71,20 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
   double l1c = 0.0, l1d = 0.0, l1a = 0.0;
   const bool use_ssim = options.ssim_weight > 0.0;
   if (use_ssim) ssim_target.resize(3 * npix);
+  // The colour the loss sees: exp(gain) * rendered + offset per channel (identity when off).
+  const float* color = r.color.data();
+  float gain[3] = {1.f, 1.f, 1.f};
+  if (options.exposure_compensation) {
+    exposed.resize(3 * npix);
+    for (int ch = 0; ch < 3; ++ch) {
+      gain[ch] = std::exp(kf.exposure[ch]);
+      const float g = gain[ch], b = kf.exposure[3 + ch];
+      const float* in = r.color.data() + ch * npix;
+      float* out = exposed.data() + ch * npix;
+      for (std::size_t i = 0; i < npix; ++i) out[i] = g * in[i] + b;
+    }
+    color = exposed.data();
+  }
   for (int v = 0; v < H; ++v) {
     const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
     const float* d = kf.depth_m.ptr<float>(v);
@@ -83,7 +97,7 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
       if (!m[u]) continue;
       const std::size_t i = static_cast<std::size_t>(v) * W + u;
       for (int ch = 0; ch < 3; ++ch) {
-        const float diff = r.color[ch * npix + i] - c[u][2 - ch] * (1.f / 255.f);
+        const float diff = color[ch * npix + i] - c[u][2 - ch] * (1.f / 255.f);
         l1c += std::abs(diff);
         pix_gc[ch * npix + i] = diff > 0.f ? wc : (diff < 0.f ? -wc : 0.f);
       }
@@ -99,9 +113,25 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
   double loss = (1.0 - lambda) * l1c / (3.0 * nc) + (nd > 0 ? (lambda * l1d + options.alpha_weight * l1a) / nd : 0.0);
   if (use_ssim) {
     // + w (1 - SSIM) over the static pixels; its gradient is added to pix_gc.
-    const double s = ssim.compute(r.color.data(), ssim_target.data(), kf.static_mask.data, kf.static_mask.step, W, H,
+    const double s = ssim.compute(color, ssim_target.data(), kf.static_mask.data, kf.static_mask.step, W, H,
                                   static_cast<float>(options.ssim_weight), pix_gc.data());
     loss += options.ssim_weight * (1.0 - s);
+  }
+  if (options.exposure_compensation) {
+    // pix_gc holds dL/d(exposed colour): chain rule to the exposure and to the rendered colour.
+    for (int ch = 0; ch < 3; ++ch) {
+      const float b = kf.exposure[3 + ch];
+      float* g = pix_gc.data() + ch * npix;
+      const float* ex = exposed.data() + ch * npix;
+      double d_gain = 0.0, d_offset = 0.0;
+      for (std::size_t i = 0; i < npix; ++i) {
+        d_offset += g[i];
+        d_gain += g[i] * (ex[i] - b);  // d(exp(k) x + b)/dk = exp(k) x
+        g[i] *= gain[ch];
+      }
+      exposure_grad[ch] = static_cast<float>(d_gain);
+      exposure_grad[3 + ch] = static_cast<float>(d_offset);
+    }
   }
   return loss;
 }
@@ -129,11 +159,12 @@ double GaussianMapper::Impl::iterate(bool all_keyframes) {
     const std::size_t first = global ? 0 : all.size() - w;
     chosen = all[std::uniform_int_distribution<std::size_t>(first, all.size() - 1)(rng)];
   }
-  const TrainingKeyframe& kf = keyframes[chosen];
+  TrainingKeyframe& kf = keyframes[chosen];
 
   renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
   const double loss = lossAndGradient(kf, train_out);
   raster.backward(PixelGrads<float>{pix_gc.data(), pix_gd.data(), pix_ga.data()}, grads);
+  if (options.exposure_compensation && chosen != 0) stepExposure(kf);  // keyframe 0 fixes the gauge
   adam.step(map, grads);
   grad_accum.resize(map.size(), 0.f);
   grad_count.resize(map.size(), 0);
@@ -148,6 +179,20 @@ double GaussianMapper::Impl::iterate(bool all_keyframes) {
   if (options.densify_interval > 0 && iterations % options.densify_interval == 0) densifyAndPrune();
   if (options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0) resetOpacity();
   return loss;
+}
+
+void GaussianMapper::Impl::stepExposure(TrainingKeyframe& kf) {
+  // Adam (beta 0.9 / 0.999, eps 1e-8) on the 6 exposure parameters of this keyframe.
+  const float lr = static_cast<float>(options.lr_exposure), b1 = 0.9f, b2 = 0.999f;
+  ++kf.exposure_steps;
+  const float c1 = 1.f - std::pow(b1, static_cast<float>(kf.exposure_steps));
+  const float c2 = 1.f - std::pow(b2, static_cast<float>(kf.exposure_steps));
+  for (int k = 0; k < 6; ++k) {
+    const float g = exposure_grad[k];
+    kf.exposure_m[k] = b1 * kf.exposure_m[k] + (1.f - b1) * g;
+    kf.exposure_v[k] = b2 * kf.exposure_v[k] + (1.f - b2) * g * g;
+    kf.exposure[k] -= lr * (kf.exposure_m[k] / c1) / (std::sqrt(kf.exposure_v[k] / c2) + 1e-8f);
+  }
 }
 
 void GaussianMapper::Impl::densifyAndPrune() {

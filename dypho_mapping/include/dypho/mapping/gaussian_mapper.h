@@ -58,7 +58,10 @@ struct GaussianMapperStats {
 /// PSNR and depth error of the map rendered at the stored keyframes (training resolution).
 struct KeyframeEvaluation {
   std::size_t num_keyframes = 0;  ///< keyframes evaluated
-  double psnr_db = 0.0;           ///< mean over keyframes of the PSNR on static pixels [dB]
+  /// Mean over keyframes of the PSNR on static pixels [dB]; with exposure_compensation the
+  /// rendered colour goes through the keyframe's exposure first (exp(k) * rendered + b).
+  double psnr_db = 0.0;
+  double psnr_without_exposure_db = 0.0;  ///< the same with the plain rendered colour [dB]
   double depth_l1_m = 0.0;        ///< mean |Dr - D| over static pixels with valid depth [m]
   std::vector<double> psnr_per_keyframe_db;  ///< in keyframe order
 };
@@ -123,7 +126,8 @@ class GaussianMapper {
   /// Depth only (CV_32FC1 [m], 0 = nothing rendered), same geometry as render().
   cv::Mat renderDepth(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const;
   /// PSNR on static pixels and depth L1 at the stored keyframes. When `side_by_side_dir` is not
-  /// empty, writes `kf_<id>.png` there (input | rendered colour over input depth | rendered depth).
+  /// empty, writes `kf_<id>.png` there (input | rendered colour (after the keyframe's exposure)
+  /// over input depth | rendered depth).
   KeyframeEvaluation evaluateKeyframes(const std::string& side_by_side_dir = "") const;
   /// Centres and DC colours of all Gaussians.
   std::vector<GaussianCentre> centres() const;

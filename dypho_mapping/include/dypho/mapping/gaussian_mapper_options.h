@@ -39,6 +39,12 @@ struct GaussianMapperOptions {
   /// Default 0: on TUM fr1/rpy 0.1-0.2 gained 0.13 dB PSNR but cost 0.1-0.25 cm depth L1 and about
   /// a quarter more mapping time (docs/benchmarks.md section 4).
   double ssim_weight = 0.0;
+  /// Per-keyframe affine exposure (gain exp(k_c), offset b_c per RGB channel) optimised with the
+  /// map, as 3DGS SLAM systems do: the loss and the keyframe evaluation compare the keyframe's
+  /// image with exp(k) * rendered + b (the first keyframe stays at identity). Default true.
+  bool exposure_compensation = true;
+  /// Adam step size of the exposure parameters, >= 0. Default 0.01.
+  double lr_exposure = 0.01;
   /// Share of training iterations that sample any stored keyframe instead of the window
   /// (keeps older parts of the map from drifting), [0, 1]. Default 0.2.
   double global_sample_ratio = 0.2;
