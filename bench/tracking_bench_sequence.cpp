@@ -3,14 +3,18 @@
 ///
 /// Usage: tracking_bench_sequence --dataset DIR [--camera NAME_OR_YAML] [--out TRAJ.txt]
 ///        [--bonn] [--set KEY VALUE]...   (KEY = any TrackingOptions field, e.g. num_features)
-/// Prints one line: frames, OK, lost, keyframes, loops, ATE RMSE [cm] (rigid alignment; --bonn
+/// Prints one line: frames, OK, lost, keyframes, loops, ATE RMSE [cm] of the final trajectory
+/// (frames follow later corrections of their keyframe; "online" = poses at frame time; rigid
+/// alignment), the first-to-last-frame drift [cm] (the loop gap on a closed loop; --bonn
 /// applies the Bonn ground-truth correction), median ms per stage (features = pyramid + ORB +
 /// undistortion, matching, pnp, refine = motion-only BA, local_ba, loop) and median / mean total.
 
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -20,6 +24,7 @@
 #include "dypho/tools/trajectory_io.h"
 #include "dypho/tools/tum_dataset.h"
 #include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/trajectory_recorder.h"
 #include "dypho/tracking/tracking_options_fields.h"
 
 namespace {
@@ -84,6 +89,7 @@ int main(int argc, char** argv) {
     dypho::tracking::RgbdOdometry odometry(options);
     std::map<std::string, std::vector<double>> stages;
     std::vector<dt::StampedPose> trajectory;
+    dypho::tracking::TrajectoryRecorder recorder;
     int ok = 0, lost = 0, keyframes = 0, loops = 0;
     for (std::size_t i = 0; i < data.size(); ++i) {
       const dypho::RgbdFrame frame = data.load(i);
@@ -100,16 +106,45 @@ int main(int argc, char** argv) {
       keyframes += r.is_keyframe;
       loops += r.loop_closed;
       trajectory.push_back({dypho::timestampToSeconds(frame.stamp_ns), r.T_world_camera});
+      recorder.add(r);
     }
-    if (!out.empty()) dt::writeTumTrajectory(out, trajectory);
-    double ate_cm = -1;
+    // Final trajectory: each tracked frame follows the later local-BA / loop corrections of its
+    // reference keyframe (what ORB-SLAM saves); `trajectory` holds the poses at frame time.
+    std::vector<dt::StampedPose> final_trajectory;
+    for (const auto& [stamp_ns, T] : recorder.finalPoses(odometry.map())) {
+      final_trajectory.push_back({dypho::timestampToSeconds(stamp_ns), T});
+    }
+    if (!out.empty()) dt::writeTumTrajectory(out, final_trajectory);
+    double ate_cm = -1, ate_online_cm = -1, end_drift_cm = -1;
     if (!data.groundtruth().empty()) {
       const auto gt = bonn ? dt::applyBonnCorrection(data.groundtruth()) : data.groundtruth();
-      ate_cm = 100.0 * dt::computeAte(trajectory, gt).rmse_m;
+      ate_cm = 100.0 * dt::computeAte(final_trajectory, gt).rmse_m;
+      ate_online_cm = 100.0 * dt::computeAte(trajectory, gt).rmse_m;
+      // Drift between the first and the last tracked frame (the gap a loop closure closes on a
+      // loop): translation of (T_gt_first^-1 T_gt_last)^-1 (T_first^-1 T_last).
+      if (final_trajectory.size() >= 2) {
+        const auto& first = final_trajectory.front();
+        const auto& last = final_trajectory.back();
+        const auto nearest = [&gt](double t_s) -> std::optional<Eigen::Isometry3d> {
+          const auto it = std::min_element(gt.begin(), gt.end(), [t_s](const auto& a, const auto& b) {
+            return std::abs(a.stamp_s - t_s) < std::abs(b.stamp_s - t_s);
+          });
+          if (it == gt.end() || std::abs(it->stamp_s - t_s) > 0.02) return std::nullopt;
+          return it->T_world_camera;
+        };
+        const auto gt_first = nearest(first.stamp_s);
+        const auto gt_last = nearest(last.stamp_s);
+        if (gt_first && gt_last) {
+          const Eigen::Isometry3d error = (gt_first->inverse() * *gt_last).inverse() *
+                                          (first.T_world_camera.inverse() * last.T_world_camera);
+          end_drift_cm = 100.0 * error.translation().norm();
+        }
+      }
     }
     const auto& total = stages["total"];
     std::cout << "frames " << data.size() << " ok " << ok << " lost " << lost << " keyframes "
-              << keyframes << " loops " << loops << " ate_cm " << ate_cm << " | median_ms";
+              << keyframes << " loops " << loops << " ate_cm " << ate_cm << " (online " << ate_online_cm
+              << ") end_drift_cm " << end_drift_cm << " | median_ms";
     for (const char* s : {"features", "matching", "pnp", "refine", "local_ba", "loop", "total"}) {
       std::cout << " " << s << " " << median(stages[s]);
     }

@@ -187,6 +187,10 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   result.state = reference_id_ >= 0 ? TrackingState::kLost : TrackingState::kNotInitialized;
   const auto finish = [&]() -> TrackingResult {
     result.T_world_odom = T_world_odom_;
+    if (const MapKeyframe* reference = reference_id_ >= 0 ? map_.keyframe(reference_id_) : nullptr) {
+      result.reference_keyframe_id = reference_id_;
+      result.T_reference_camera = reference->T_world_camera.inverse() * result.T_world_camera;
+    }
     result.num_map_points = static_cast<int>(map_.points().size());
     result.num_keyframes = static_cast<int>(map_.keyframes().size());
     result.times.total = msSince(t_start);

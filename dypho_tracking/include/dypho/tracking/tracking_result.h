@@ -58,6 +58,12 @@ struct TrackingResult {
   /// Accumulated loop-closure correction: T_world_camera = T_world_odom * T_odom_camera, where
   /// odom is the uncorrected odometry frame (REP-105 map -> odom). Identity until a loop closes.
   Eigen::Isometry3d T_world_odom = Eigen::Isometry3d::Identity();
+  /// Keyframe this frame was tracked against (this frame's own id when it became a keyframe);
+  /// -1 before initialisation. With T_reference_camera it lets a trajectory follow later local-BA
+  /// and loop corrections of that keyframe (TrajectoryRecorder, as ORB-SLAM saves trajectories).
+  std::int64_t reference_keyframe_id = -1;
+  /// T_world_camera expressed in the reference keyframe, T_world_reference^-1 T_world_camera.
+  Eigen::Isometry3d T_reference_camera = Eigen::Isometry3d::Identity();
   int num_map_points = 0;      ///< map points in the tracker's map [count]
   int num_keyframes = 0;       ///< keyframes in the tracker's map [count]
   TrackingTimesMs times;       ///< stage timings [ms]

@@ -61,6 +61,9 @@ class SlamPipeline {
   /// The map built so far.
   const mapping::KeyframeCloudMap& map() const { return map_; }
 
+  /// The tracker (its keyframes' current poses give the final trajectory, TrajectoryRecorder).
+  const tracking::RgbdOdometry& odometry() const { return odometry_; }
+
   /// The 3D Gaussian map. Keyframes are optimised on its worker thread (iterations_per_keyframe
   /// each, in order; process() waits only when 4 keyframes are already queued), so results do not
   /// depend on timing. Every call is thread-safe, e.g. `gaussianMap().renderDepth(T, camera)`.

@@ -1,0 +1,37 @@
+#include "dypho/tracking/trajectory_recorder.h"
+
+namespace dypho {
+namespace tracking {
+
+void TrajectoryRecorder::add(const TrackingResult& result) {
+  RecordedPose r;
+  r.stamp_ns = result.stamp_ns;
+  r.reference_keyframe_id =
+      result.state == TrackingState::kOk ? result.reference_keyframe_id : std::int64_t{-1};
+  r.T_reference_camera = result.T_reference_camera;
+  r.T_world_camera_online = result.T_world_camera;
+  records_.push_back(r);
+}
+
+std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPoses(
+    const LocalMap& map) const {
+  std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
+  out.reserve(records_.size());
+  for (const RecordedPose& r : records_) {
+    const MapKeyframe* keyframe =
+        r.reference_keyframe_id >= 0 ? map.keyframe(r.reference_keyframe_id) : nullptr;
+    out.emplace_back(r.stamp_ns, keyframe != nullptr ? keyframe->T_world_camera * r.T_reference_camera
+                                                     : r.T_world_camera_online);
+  }
+  return out;
+}
+
+std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::onlinePoses() const {
+  std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
+  out.reserve(records_.size());
+  for (const RecordedPose& r : records_) out.emplace_back(r.stamp_ns, r.T_world_camera_online);
+  return out;
+}
+
+}  // namespace tracking
+}  // namespace dypho
