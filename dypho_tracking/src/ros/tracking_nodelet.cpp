@@ -24,6 +24,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "dypho/tools/trajectory_io.h"
+#include "dypho/tracking/trajectory_recorder.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho_ros/conversions.h"
@@ -143,7 +144,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       return;
     }
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!trajectory_.empty() && rc::toTimestamp(rgb->header.stamp) <= last_stamp_ns_) {
+    if (!recorder_.records().empty() && rc::toTimestamp(rgb->header.stamp) <= last_stamp_ns_) {
       NODELET_WARN_STREAM("time jumped backwards (bag restarted?): clearing the path");
       clearLocked();
     }
@@ -180,11 +181,26 @@ class TrackingNodelet : public nodelet::Nodelet {
     pose.header.frame_id = params_.map_frame;
     pose.pose = rc::toPoseMsg(result.T_world_camera);
     pose_pub_.publish(pose);
+    recorder_.add(result);
     path_.header.stamp = header.stamp;
-    path_.poses.push_back(pose);
-    if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
+    if (result.is_keyframe || result.loop_closed) {
+      // Local BA and loop closure moved keyframes: redraw the path from the final poses.
+      path_.poses.clear();
+      const auto final_poses = recorder_.finalPoses(odometry_->map());
+      const std::size_t first =
+          final_poses.size() > static_cast<std::size_t>(params_.max_path_length)
+              ? final_poses.size() - static_cast<std::size_t>(params_.max_path_length) : 0;
+      for (std::size_t i = first; i < final_poses.size(); ++i) {
+        geometry_msgs::PoseStamped p = pose;
+        p.header.stamp = rc::toRosTime(final_poses[i].first);
+        p.pose = rc::toPoseMsg(final_poses[i].second);
+        path_.poses.push_back(p);
+      }
+    } else {
+      path_.poses.push_back(pose);
+      if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
+    }
     path_pub_.publish(path_);
-    trajectory_.push_back({timestampToSeconds(result.stamp_ns), result.T_world_camera});
     if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
     if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
   }
@@ -242,7 +258,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   void clearLocked() {
     odometry_->reset();
     path_.poses.clear();
-    trajectory_.clear();
+    recorder_.clear();
     last_stamp_ns_ = 0;
   }
 
@@ -269,9 +285,20 @@ class TrackingNodelet : public nodelet::Nodelet {
 
   std::string saveTrajectory(const std::string& dir) {
     std::lock_guard<std::mutex> lock(mutex_);
+    // trajectory.txt: tracked frames following the final poses of their keyframes (after local BA
+    // and loop closure); trajectory_online.txt: the poses as published.
+    std::vector<tools::StampedPose> final_trajectory, online_trajectory;
+    for (const auto& [stamp_ns, T] : recorder_.finalPoses(odometry_->map())) {
+      final_trajectory.push_back({timestampToSeconds(stamp_ns), T});
+    }
+    for (const auto& [stamp_ns, T] : recorder_.onlinePoses()) {
+      online_trajectory.push_back({timestampToSeconds(stamp_ns), T});
+    }
     const std::string path = dir + "/trajectory.txt";
-    tools::writeTumTrajectory(path, trajectory_);
-    NODELET_INFO_STREAM("wrote " << trajectory_.size() << " poses to " << path);
+    tools::writeTumTrajectory(path, final_trajectory);
+    tools::writeTumTrajectory(dir + "/trajectory_online.txt", online_trajectory);
+    NODELET_INFO_STREAM("wrote " << final_trajectory.size() << " poses to " << path
+                                 << " (and trajectory_online.txt)");
     return path;
   }
 
@@ -279,7 +306,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::unique_ptr<tracking::RgbdOdometry> odometry_;
   std::mutex mutex_;
   nav_msgs::Path path_;
-  std::vector<tools::StampedPose> trajectory_;
+  tracking::TrajectoryRecorder recorder_;  ///< tracked frames (kOk only), for path and trajectory
   Timestamp last_stamp_ns_ = 0;
   ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, keyframe_pose_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
