@@ -1,7 +1,7 @@
 #!/bin/bash
 # Ablation on the Bonn crowd frames (paper's table): dynamic mask none / flow / detector + flow,
-# each with the adaptive features as configured (FAST threshold relaxation under the mask), without
-# adaptation, and with the paper's relaxed feature test added. Prints the final-trajectory ATE
+# each with: "relaxed" = FAST threshold relaxation under the mask + the paper's relaxed feature
+# test (the defaults), "adaptive" = FAST threshold relaxation only, "fixed" = neither. Prints the final-trajectory ATE
 # (and the online one) of `dypho_run_dataset` per case.
 # Usage: bench/tracking_ablation.sh [BUILD_DIR] [OUT_DIR]   (../shared must sit beside the repo)
 set -euo pipefail

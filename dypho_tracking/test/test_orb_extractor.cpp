@@ -158,6 +158,7 @@ TEST(OrbExtractor, RelaxedFeaturesFillTheBudgetOnMaskedFrames) {
   // FAST at 30 grey levels (both tiers) finds few corners in this texture, so the budget is not
   // filled and the relaxed tier (local range >= 30) has cells to work in.
   TrackingOptions off;
+  off.relaxed_features = false;
   off.fast_threshold = 30;
   off.min_fast_threshold = 30;
   TrackingOptions on = off;

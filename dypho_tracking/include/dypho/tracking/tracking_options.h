@@ -38,11 +38,11 @@ struct TrackingOptions {
   /// `relaxed_min_count` of the 16 FAST-ring pixels N satisfy |G(N) - G(p)| > sigma_dy * r, with r
   /// the grey range over the ring and p (the "normalised" grey difference; r must be at least
   /// `fast_threshold`) and sigma_dy = relaxed_sigma0 (1 - relaxed_k * masked_fraction). Unlike
-  /// FAST the differing pixels need not form one arc of one sign. Default false: on the Bonn
-  /// crowd frames with the detector mask it raised the ATE from 1.44 cm to 1.64 cm (the extra
-  /// points sit on low-contrast walls and match poorly; docs/benchmarks.md, ablation), and on the
-  /// synthetic 3-people sequence it changed nothing (FAST already fills the budget).
-  bool relaxed_features = false;
+  /// FAST the differing pixels need not form one arc of one sign. Default true: on the Bonn crowd
+  /// frames it lowered the ATE from 1.47 to 1.34 cm (detector + flow mask) and from 13.4 to
+  /// 6.6 cm (flow mask only; bench/tracking_ablation.sh, docs/benchmarks.md); frames without a
+  /// mask are not affected.
+  bool relaxed_features = true;
   /// Initial threshold sigma_0 of the relaxed test [fraction of the local grey range];
   /// default 0.3 (paper), range (0, 1].
   double relaxed_sigma0 = 0.3;
