@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "dypho/mapping/gaussian_mapper.h"
+#include "plane_keyframe.h"
 
 namespace dypho::mapping {
 namespace {
@@ -24,22 +25,7 @@ std::string tempPath(const std::string& name) {
 
 /// A textured fronto-parallel plane at 2 m seen from `T_world_camera`.
 Keyframe planeKeyframe(std::int64_t id, const Eigen::Isometry3d& T_world_camera) {
-  Keyframe kf;
-  kf.id = id;
-  CameraIntrinsics& c = kf.frame.camera;
-  c.width = 96;
-  c.height = 72;
-  c.fx = c.fy = 80.0;
-  c.cx = 47.5;
-  c.cy = 35.5;
-  kf.frame.bgr.create(c.height, c.width, CV_8UC3);
-  for (int v = 0; v < c.height; ++v)
-    for (int u = 0; u < c.width; ++u)
-      kf.frame.bgr.at<cv::Vec3b>(v, u) =
-          cv::Vec3b(static_cast<uchar>(((u / 8 + v / 8) % 2) * 150 + 50), 120, static_cast<uchar>(2 * u));
-  kf.frame.depth_m = cv::Mat(c.height, c.width, CV_32FC1, cv::Scalar(2.f));
-  kf.T_world_camera = T_world_camera;
-  return kf;
+  return test::texturedPlaneKeyframe(id, T_world_camera, 96, 72, 80.0, 8);
 }
 
 GaussianMapperOptions smallOptions() {

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/mapping/gaussian_mapper.h"
+#include "plane_keyframe.h"
 #include "dypho/mapping/gaussian_ply.h"
 #include "dypho/tools/synthetic_scene.h"
 
@@ -25,21 +26,7 @@ std::string tempPath(const std::string& name) {
 
 /// A textured fronto-parallel plane at 2 m.
 Keyframe planeKeyframe(std::int64_t id, const Eigen::Isometry3d& T_world_camera) {
-  Keyframe kf;
-  kf.id = id;
-  CameraIntrinsics& c = kf.frame.camera;
-  c.width = 160;
-  c.height = 120;
-  c.fx = c.fy = 130.0;
-  c.cx = 79.5;
-  c.cy = 59.5;
-  kf.frame.bgr.create(120, 160, CV_8UC3);
-  for (int v = 0; v < 120; ++v)
-    for (int u = 0; u < 160; ++u)
-      kf.frame.bgr.at<cv::Vec3b>(v, u) = cv::Vec3b(static_cast<uchar>(((u / 10 + v / 10) % 2) * 150 + 50), 120, static_cast<uchar>(2 * u));
-  kf.frame.depth_m = cv::Mat(120, 160, CV_32FC1, cv::Scalar(2.f));
-  kf.T_world_camera = T_world_camera;
-  return kf;
+  return test::texturedPlaneKeyframe(id, T_world_camera, 160, 120, 130.0, 10);
 }
 
 GaussianMapperOptions smallOptions() {
