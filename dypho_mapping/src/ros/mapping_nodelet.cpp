@@ -48,6 +48,9 @@ struct MappingRosParams {
   std::string output_dir;            ///< where save_map writes when the request names no folder
   std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   bool use_gpu = true;               ///< use CUDA when built with it and a device exists
+  /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
+  /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
+  bool refine_before_save = true;
 };
 
 /// A pose to render at (the latest tracked pose and its predecessor).
@@ -85,6 +88,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("output_dir", params_.output_dir, "");
     reader("map_load_path", params_.map_load_path, "");
     reader("use_gpu", params_.use_gpu, "");
+    reader("refine_before_save", params_.refine_before_save, "");
     reader.checkNoUnknownKeys();
     options.validate();
     NODELET_INFO_STREAM("mapping parameters:" << reader.summary());
@@ -266,6 +270,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         std::lock_guard<std::mutex> lock(cloud_mutex_);
         cloud_map_->savePcd(dir + "/map.pcd");
       }
+      if (params_.refine_before_save) gaussians_->finish();
       gaussians_->savePly(dir + "/map.ply");
       gaussians_->saveCentresPcd(dir + "/gaussian_centres.pcd");
       res.success = true;
