@@ -66,15 +66,10 @@ void Rasterizer<T>::backwardTile(int tile, int thread, const PixelGrads<T>& grad
     }
     const std::uint32_t g = entries_[k];
     const Packed& p = sorted_[g];
-    const int py0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.half_v)));
-    const int py1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.half_v)) + 1);
+    const auto [py0, py1, xb0, xb1] = p.windowInTile(tx0, ty0, ty1, S);
     const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
     const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
     const T mu0 = p.mean_u - T(tx0);
-    // Columns in blocks of 8 (one AVX2 vector): only the blocks the footprint box touches.
-    const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.half_u)));
-    const int cx1 = std::min(S, static_cast<int>(std::floor(mu0 + p.half_u)) + 1);
-    const int xb0 = (cx0 / 8) * 8, xb1 = cx1 <= cx0 ? xb0 : ((cx1 + 7) / 8) * 8;
     if (py0 >= py1 || xb0 >= xb1) continue;
     T* const l_mu = lanes[0];
     T* const l_mv = lanes[1];

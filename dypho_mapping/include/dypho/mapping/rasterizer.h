@@ -13,6 +13,8 @@
 /// front and recovers the transmittance by division, as 3DGS does; its per-Gaussian chain rule
 /// runs in parameter order.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -117,6 +119,24 @@ class Rasterizer {
     T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth;
     T half_u, half_v;  ///< footprint box half sizes [px] (gs::Projected)
     int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
+
+    /// Part of a tile the footprint box touches: pixel rows [y0, y1) and columns in blocks of 8
+    /// (one AVX2 vector) [xb0, xb1), relative to the tile's left edge; empty when y0 >= y1 or
+    /// xb0 >= xb1. The tile starts at pixel (tx0, ty0), is `tile_size` wide and ends before row ty1.
+    struct TileWindow {
+      int y0, y1, xb0, xb1;
+    };
+    TileWindow windowInTile(int tx0, int ty0, int ty1, int tile_size) const {
+      TileWindow w;
+      w.y0 = std::max(ty0, static_cast<int>(std::ceil(mean_v - half_v)));
+      w.y1 = std::min(ty1, static_cast<int>(std::floor(mean_v + half_v)) + 1);
+      const T mu0 = mean_u - T(tx0);
+      const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - half_u)));
+      const int cx1 = std::min(tile_size, static_cast<int>(std::floor(mu0 + half_u)) + 1);
+      w.xb0 = (cx0 / 8) * 8;
+      w.xb1 = cx1 <= cx0 ? w.xb0 : ((cx1 + 7) / 8) * 8;
+      return w;
+    }
   };
   /// Tile-list entries ahead of the current one whose Gaussian is prefetched.
   static constexpr std::uint32_t kPrefetchAhead = 6;
