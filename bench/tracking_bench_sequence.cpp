@@ -88,7 +88,6 @@ int main(int argc, char** argv) {
     const dt::TumDataset data = dt::TumDataset::open(dataset, camera);
     dypho::tracking::RgbdOdometry odometry(options);
     std::map<std::string, std::vector<double>> stages;
-    std::vector<dt::StampedPose> trajectory;
     dypho::tracking::TrajectoryRecorder recorder;
     int ok = 0, lost = 0, keyframes = 0, loops = 0;
     for (std::size_t i = 0; i < data.size(); ++i) {
@@ -105,15 +104,13 @@ int main(int argc, char** argv) {
       lost += r.state == dypho::tracking::TrackingState::kLost;
       keyframes += r.is_keyframe;
       loops += r.loop_closed;
-      trajectory.push_back({dypho::timestampToSeconds(frame.stamp_ns), r.T_world_camera});
       recorder.add(r);
     }
     // Final trajectory: each tracked frame follows the later local-BA / loop corrections of its
     // reference keyframe (what ORB-SLAM saves); `trajectory` holds the poses at frame time.
-    std::vector<dt::StampedPose> final_trajectory;
-    for (const auto& [stamp_ns, T] : recorder.finalPoses(odometry.map())) {
-      final_trajectory.push_back({dypho::timestampToSeconds(stamp_ns), T});
-    }
+    const std::vector<dt::StampedPose> final_trajectory =
+        dt::toStampedPoses(recorder.finalPoses(odometry.map()));
+    const std::vector<dt::StampedPose> trajectory = dt::toStampedPoses(recorder.onlinePoses());
     if (!out.empty()) dt::writeTumTrajectory(out, final_trajectory);
     double ate_cm = -1, ate_online_cm = -1, end_drift_cm = -1;
     if (!data.groundtruth().empty()) {

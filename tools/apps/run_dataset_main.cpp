@@ -155,9 +155,7 @@ int run(const Args& args) {
             << " frames, camera " << source->cameraName() << ", mask " << args.mask << "\n";
 
   SlamPipeline pipeline(options);
-  std::vector<StampedPose> trajectory;  // as published at frame time
-  tracking::TrajectoryRecorder recorder;  // the same frames, following later keyframe corrections
-  std::vector<Timestamp> keyframe_stamps;
+  tracking::TrajectoryRecorder recorder;  // every frame: as published, and relative to its keyframe
   std::size_t num_keyframes = 0;
   std::vector<TimingRow> rows;
   std::vector<double> totals;
@@ -175,8 +173,7 @@ int run(const Args& args) {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     const auto& tr = report.tracking;
     if (tr.state != tracking::TrackingState::kOk) ++lost;
-    // One line per processed frame; a frame that was not tracked keeps the last trusted pose.
-    trajectory.push_back({timestampToSeconds(sf.frame.stamp_ns), tr.T_world_camera});
+    // One pose per processed frame; a frame that was not tracked keeps the last trusted pose.
     recorder.add(tr);
     if (tr.keyframe) ++num_keyframes;
     rows.push_back({i, timestampToSeconds(sf.frame.stamp_ns), load_ms, report, total_ms});
@@ -193,11 +190,10 @@ int run(const Args& args) {
   // trajectory.txt: every frame re-expressed with the final pose of the keyframe it was tracked
   // against (after local BA and loop closure; what ORB-SLAM saves); trajectory_online.txt: the
   // poses as published at frame time.
-  std::vector<StampedPose> final_trajectory;
+  const std::vector<StampedPose> final_trajectory =
+      toStampedPoses(recorder.finalPoses(pipeline.odometry().map()));
+  const std::vector<StampedPose> trajectory = toStampedPoses(recorder.onlinePoses());
   std::vector<StampedPose> keyframes;
-  for (const auto& [stamp_ns, T_world_camera] : recorder.finalPoses(pipeline.odometry().map())) {
-    final_trajectory.push_back({timestampToSeconds(stamp_ns), T_world_camera});
-  }
   for (const auto& [id, keyframe] : pipeline.odometry().map().keyframes()) {
     keyframes.push_back({timestampToSeconds(keyframe.stamp_ns), keyframe.T_world_camera});
   }

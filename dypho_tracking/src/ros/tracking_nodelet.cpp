@@ -287,13 +287,8 @@ class TrackingNodelet : public nodelet::Nodelet {
     std::lock_guard<std::mutex> lock(mutex_);
     // trajectory.txt: tracked frames following the final poses of their keyframes (after local BA
     // and loop closure); trajectory_online.txt: the poses as published.
-    std::vector<tools::StampedPose> final_trajectory, online_trajectory;
-    for (const auto& [stamp_ns, T] : recorder_.finalPoses(odometry_->map())) {
-      final_trajectory.push_back({timestampToSeconds(stamp_ns), T});
-    }
-    for (const auto& [stamp_ns, T] : recorder_.onlinePoses()) {
-      online_trajectory.push_back({timestampToSeconds(stamp_ns), T});
-    }
+    const auto final_trajectory = tools::toStampedPoses(recorder_.finalPoses(odometry_->map()));
+    const auto online_trajectory = tools::toStampedPoses(recorder_.onlinePoses());
     const std::string path = dir + "/trajectory.txt";
     tools::writeTumTrajectory(path, final_trajectory);
     tools::writeTumTrajectory(dir + "/trajectory_online.txt", online_trajectory);

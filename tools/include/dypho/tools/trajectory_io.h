@@ -3,9 +3,12 @@
 /// TUM trajectory text files: one pose per line, "timestamp tx ty tz qx qy qz qw".
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
+
+#include "dypho/common/types.h"
 
 namespace dypho::tools {
 
@@ -26,5 +29,16 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path);
 /// translations and quaternions (qx qy qz qw, qw >= 0) with 9 significant digits. Throws
 /// std::runtime_error when the file cannot be written.
 void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses);
+
+/// (stamp [ns], T_world_camera) pairs, e.g. TrajectoryRecorder's, as StampedPose.
+inline std::vector<StampedPose> toStampedPoses(
+    const std::vector<std::pair<Timestamp, Eigen::Isometry3d>>& poses) {
+  std::vector<StampedPose> out;
+  out.reserve(poses.size());
+  for (const auto& [stamp_ns, T_world_camera] : poses) {
+    out.push_back({timestampToSeconds(stamp_ns), T_world_camera});
+  }
+  return out;
+}
 
 }  // namespace dypho::tools
