@@ -63,7 +63,7 @@ std::vector<KeyframeKeypoint> detectKeypoints(const RgbdFrame& frame, const cv::
 int runDataset(const std::string& dataset, const std::string& out, int every, bool pngs,
                const mapping::GaussianMapperOptions& mo) {
   const auto source = tools::openFrameSource(dataset, "", tools::defaultConfigDir());
-  std::vector<tools::StampedPose> gt = source->groundtruth();
+  std::vector<dypho::StampedPose> gt = source->groundtruth();
   if (gt.empty()) { std::cerr << dataset << " has no groundtruth.txt\n"; return 1; }
   if (source->cameraName() == "bonn") gt = tools::applyBonnCorrection(gt);
   mapping::GaussianMapper mapper(mo);

@@ -144,7 +144,7 @@ int main(int argc, char** argv) {
   }
   const tools::TumDataset& dataset = *opened;
   const int n = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(dataset.size())) : static_cast<int>(dataset.size());
-  const std::vector<tools::StampedPose> gt = tools::applyBonnCorrection(dataset.groundtruth());
+  const std::vector<dypho::StampedPose> gt = tools::applyBonnCorrection(dataset.groundtruth());
   std::vector<std::optional<Eigen::Isometry3d>> T_world_cam(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) T_world_cam[static_cast<size_t>(i)] = tools::interpolatePose(gt, dataset.entry(static_cast<size_t>(i)).stamp_s, 0.1);
 

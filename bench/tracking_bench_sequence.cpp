@@ -21,7 +21,7 @@
 
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 #include "dypho/tools/tum_dataset.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/trajectory_recorder.h"
@@ -108,10 +108,10 @@ int main(int argc, char** argv) {
     }
     // Final trajectory: each tracked frame follows the later local-BA / loop corrections of its
     // reference keyframe (what ORB-SLAM saves); `trajectory` holds the poses at frame time.
-    const std::vector<dt::StampedPose> final_trajectory =
-        dt::toStampedPoses(recorder.finalPoses(odometry.map()));
-    const std::vector<dt::StampedPose> trajectory = dt::toStampedPoses(recorder.onlinePoses());
-    if (!out.empty()) dt::writeTumTrajectory(out, final_trajectory);
+    const std::vector<dypho::StampedPose> final_trajectory =
+        dypho::toStampedPoses(recorder.finalPoses(odometry.map()));
+    const std::vector<dypho::StampedPose> trajectory = dypho::toStampedPoses(recorder.onlinePoses());
+    if (!out.empty()) dypho::writeTumTrajectory(out, final_trajectory);
     double ate_cm = -1, ate_online_cm = -1, end_drift_cm = -1;
     if (!data.groundtruth().empty()) {
       const auto gt = bonn ? dt::applyBonnCorrection(data.groundtruth()) : data.groundtruth();

@@ -21,7 +21,7 @@
 #include <opencv2/rgbd.hpp>
 
 #include "dypho/tools/camera_config.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 #include "dypho/tools/tum_dataset.h"
 
 int main(int argc, char** argv) {
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
     const cv::Mat K = (cv::Mat_<float>(3, 3) << camera.camera.fx, 0, camera.camera.cx, 0,
                        camera.camera.fy, camera.camera.cy, 0, 0, 1);
     cv::rgbd::RgbdOdometry odometry(K);  // default parameters
-    std::vector<dt::StampedPose> trajectory;
+    std::vector<dypho::StampedPose> trajectory;
     std::vector<double> ms;
     Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
     cv::Mat prev_gray, prev_depth;
@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
       prev_depth = depth;
       trajectory.push_back({dypho::timestampToSeconds(frame.stamp_ns), T_world_camera});
     }
-    dt::writeTumTrajectory(out, trajectory);
+    dypho::writeTumTrajectory(out, trajectory);
     std::sort(ms.begin(), ms.end());
     std::cout << "opencv_rgbd_odometry frames " << trajectory.size() << " failures " << failures
               << " median_ms " << (ms.empty() ? 0.0 : ms[ms.size() / 2]) << " trajectory " << out

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "dypho/tools/evaluation.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 namespace {
 
@@ -48,8 +48,8 @@ int runDataset(const std::string& dataset, const std::string& out, const std::st
   return WEXITSTATUS(status);
 }
 
-double ateOf(const std::string& out, const std::vector<dypho::tools::StampedPose>& gt) {
-  const auto est = dypho::tools::readTumTrajectory(out + "/trajectory.txt");
+double ateOf(const std::string& out, const std::vector<dypho::StampedPose>& gt) {
+  const auto est = dypho::readTumTrajectory(out + "/trajectory.txt");
   return dypho::tools::computeAte(est, gt).rmse_m;
 }
 
@@ -58,12 +58,12 @@ TEST(DatasetRun, TumFr1RpyFirst150) {
   if (!exists(data)) GTEST_SKIP() << "SKIPPED: " << data << " not found (needs ../shared beside the repo)";
   const std::string out = std::string(DYPHO_TEST_OUT) + "/fr1";
   ASSERT_EQ(runDataset(data, out), 0);
-  const auto est = dypho::tools::readTumTrajectory(out + "/trajectory.txt");
+  const auto est = dypho::readTumTrajectory(out + "/trajectory.txt");
   EXPECT_EQ(est.size(), 150u);  // one line per processed frame
   for (const char* f : {"timing.csv", "map.pcd", "keyframes.txt", "evaluation.txt", "trajectory.png"}) {
     EXPECT_TRUE(exists(out + "/" + f)) << f;
   }
-  const auto gt = dypho::tools::readTumTrajectory(data + "/groundtruth.txt");
+  const auto gt = dypho::readTumTrajectory(data + "/groundtruth.txt");
   const double ate = ateOf(out, gt);
   std::cout << "fr1/rpy first 150: ATE RMSE " << ate * 100 << " cm\n";
   EXPECT_LT(ate, DYPHO_FR1_ATE_BOUND_M);
@@ -82,7 +82,7 @@ TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
   }
   ASSERT_EQ(runDataset(data, out, "--config '" + out + "/detector.yaml'"), 0);
   const auto gt = dypho::tools::applyBonnCorrection(
-      dypho::tools::readTumTrajectory(data + "/groundtruth.txt"));
+      dypho::readTumTrajectory(data + "/groundtruth.txt"));
   const double ate = ateOf(out, gt);
   std::cout << "Bonn crowd 200-399: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
   EXPECT_LT(ate, DYPHO_BONN_ATE_BOUND_M);
@@ -95,7 +95,7 @@ TEST(DatasetRun, SyntheticDefaultInput) {
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_run";
   ASSERT_EQ(runDataset(data, out), 0);
-  const double ate = ateOf(out, dypho::tools::readTumTrajectory(data + "/groundtruth.txt"));
+  const double ate = ateOf(out, dypho::readTumTrajectory(data + "/groundtruth.txt"));
   std::cout << "synthetic halfsphere, 2 people: ATE RMSE " << ate * 100 << " cm\n";
   EXPECT_LT(ate, DYPHO_SYNTH_ATE_BOUND_M);
 }
@@ -109,7 +109,7 @@ TEST(DatasetRun, SyntheticBagInput) {
   const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_bag_run";
   ASSERT_EQ(runDataset(bag, out), 0);
   const std::string gt = bag.substr(0, bag.find_last_of('/')) + "/groundtruth.txt";
-  const double ate = ateOf(out, dypho::tools::readTumTrajectory(gt));
+  const double ate = ateOf(out, dypho::readTumTrajectory(gt));
   std::cout << "synthetic bag (120 frames): ATE RMSE " << ate * 100 << " cm\n";
   EXPECT_LT(ate, DYPHO_SYNTH_ATE_BOUND_M);
 }

@@ -13,7 +13,6 @@ find_package(yaml-cpp REQUIRED)  # target yaml-cpp (Debian libyaml-cpp-dev)
 
 add_library(dypho_tools
   ${CMAKE_CURRENT_SOURCE_DIR}/src/camera_config.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/trajectory_io.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/tum_dataset.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/evaluation.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/trajectory_plot.cpp)
@@ -22,7 +21,7 @@ target_include_directories(dypho_tools PUBLIC
   $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
   $<INSTALL_INTERFACE:include>)
 target_link_libraries(dypho_tools
-  PUBLIC dypho_common Eigen3::Eigen ${OpenCV_LIBS}
+  PUBLIC dypho_common dypho_trajectory_io Eigen3::Eigen ${OpenCV_LIBS}
   PRIVATE yaml-cpp)
 target_compile_features(dypho_tools PUBLIC cxx_std_17)
 target_compile_definitions(dypho_tools PRIVATE

@@ -1,31 +1,30 @@
-# dypho_pipeline: the three cores chained in one process; dypho_run_dataset: the command users run.
+# dypho_frame_source: frames of a TUM-layout folder or a bag; dypho_run_dataset: the command users
+# run (the in-process pipeline, dypho_pipeline, on a dataset).
 if(TARGET dypho_tools AND TARGET dypho_mask_core AND TARGET dypho_tracking_core AND TARGET dypho_mapping_core)
   set(_frame_source_impl src/frame_source_nobag.cpp)
   if(TARGET dypho_bag)
     set(_frame_source_impl src/frame_source_bag.cpp)
   endif()
-  add_library(dypho_pipeline
-    src/slam_pipeline.cpp
+  add_library(dypho_frame_source
     src/frame_source.cpp
     ${_frame_source_impl})
-  target_include_directories(dypho_pipeline PUBLIC
+  target_include_directories(dypho_frame_source PUBLIC
     $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
-  target_link_libraries(dypho_pipeline PUBLIC
-    dypho_tools dypho_mask_core dypho_tracking_core dypho_mapping_core yaml-cpp)
+  target_link_libraries(dypho_frame_source PUBLIC dypho_tools)
   if(TARGET dypho_bag)
-    target_link_libraries(dypho_pipeline PUBLIC dypho_bag)
+    target_link_libraries(dypho_frame_source PUBLIC dypho_bag)
   endif()
-  dypho_set_warnings(dypho_pipeline)
+  dypho_set_warnings(dypho_frame_source)
 
   add_executable(dypho_run_dataset apps/run_dataset_main.cpp)
-  target_link_libraries(dypho_run_dataset dypho_pipeline)
+  target_link_libraries(dypho_run_dataset dypho_pipeline dypho_frame_source)
   dypho_set_warnings(dypho_run_dataset)
 
   if(DYPHO_WITH_ROS)
-    install(TARGETS dypho_pipeline LIBRARY DESTINATION ${DYPHO_LIB_DEST} ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
+    install(TARGETS dypho_frame_source LIBRARY DESTINATION ${DYPHO_LIB_DEST} ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
     install(TARGETS dypho_run_dataset RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
   else()
-    install(TARGETS dypho_pipeline dypho_run_dataset
+    install(TARGETS dypho_frame_source dypho_run_dataset
             RUNTIME DESTINATION ${DYPHO_BIN_DEST} LIBRARY DESTINATION ${DYPHO_LIB_DEST}
             ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
   endif()

@@ -8,7 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/tracking/local_bundle_adjuster.h"
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pose_graph_optimizer.h"
 #include "dypho/tracking/reprojection_error.h"
 #include "jacobian_check.h"
@@ -119,7 +119,7 @@ TEST(LocalBundleAdjuster, RecoversPerturbedKeyframesAndPoints) {
   options.local_ba_keyframes = 2;  // free: newest + its most covisible (the 3rd)
   options.local_ba_iterations = 20;
   options.cull_min_found_ratio = 0;
-  LocalMap map(options);
+  TrackerMap map(options);
   const Pinhole pin = testPinhole();
   cv::Mat desc(static_cast<int>(points.size()), 32, CV_8UC1, cv::Scalar(0));
   for (size_t k = 0; k < truth.size(); ++k) {

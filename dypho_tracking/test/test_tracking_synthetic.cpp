@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include <map>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -66,6 +68,42 @@ TEST_F(SyntheticTracking, TracksWithLocalMapAndBuildsCovisibility) {
   // The newest keyframe shares points with an older one (map points are re-observed).
   const std::int64_t newest = odometry.map().keyframes().rbegin()->first;
   EXPECT_FALSE(odometry.map().covisibleKeyframes(newest, 5).empty());
+}
+
+// Local BA moves earlier keyframes; each move beyond the correction thresholds is reported once,
+// in the result of the keyframe whose BA caused it, with the pose the map holds at that moment.
+// Loop closure is off, so every correction here comes from local BA.
+TEST_F(SyntheticTracking, LocalBaCorrectionsAreReportedForMapping) {
+  TrackingOptions options;
+  options.loop_closure = false;
+  RgbdOdometry odometry(options);
+  std::map<std::int64_t, Eigen::Isometry3d> held;  // what a consumer holds, as mapping does
+  std::size_t corrections = 0;
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    const TrackingResult r = odometry.track(frames_[i].frame, cv::Mat());
+    ASSERT_FALSE(r.loop_closed);
+    if (!r.is_keyframe) {
+      EXPECT_TRUE(r.corrected_keyframes.empty()) << "frame " << i;
+    }
+    for (const auto& [id, T] : r.corrected_keyframes) {
+      ASSERT_NE(id, r.keyframe->id);  // the new keyframe travels with its own final pose
+      ASSERT_TRUE(held.count(id));
+      const MapKeyframe* kf = odometry.map().keyframe(id);
+      ASSERT_NE(kf, nullptr);
+      EXPECT_TRUE(kf->T_world_camera.isApprox(T, 1e-12));
+      held[id] = T;
+      ++corrections;
+    }
+    if (r.keyframe) held[r.keyframe->id] = r.keyframe->T_world_camera;
+  }
+  EXPECT_GT(corrections, 0u);
+  // What the consumer holds differs from the tracker's map by at most the thresholds.
+  for (const auto& [id, kf] : odometry.map().keyframes()) {
+    ASSERT_TRUE(held.count(id));
+    const Eigen::Isometry3d delta = held[id].inverse() * kf.T_world_camera;
+    EXPECT_LE(delta.translation().norm(), options.correction_min_translation_m) << "keyframe " << id;
+    EXPECT_LE(Eigen::AngleAxisd(delta.rotation()).angle(), options.correction_min_rotation_rad) << "keyframe " << id;
+  }
 }
 
 TEST_F(SyntheticTracking, RelocalizesAfterForcedLoss) {

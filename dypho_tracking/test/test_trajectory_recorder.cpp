@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/trajectory_recorder.h"
 
 namespace dypho {
@@ -26,7 +26,7 @@ TrackingResult tracked(Timestamp stamp, std::int64_t reference, const Eigen::Iso
 }
 
 TEST(TrajectoryRecorder, FramesFollowTheLaterCorrectionOfTheirKeyframe) {
-  LocalMap map{TrackingOptions()};
+  TrackerMap map{TrackingOptions()};
   MapKeyframe kf0, kf1;
   kf0.id = 0;
   kf0.T_world_camera = pose(0.0, 0.0);

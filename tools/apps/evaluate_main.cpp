@@ -14,7 +14,7 @@
 
 #include "dypho/common/atomic_file.h"
 #include "dypho/tools/evaluation.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 #include "dypho/tools/trajectory_plot.h"
 
 namespace {
@@ -109,6 +109,7 @@ struct RpeOutcome {
 }  // namespace
 
 int main(int argc, char** argv) {
+  using namespace dypho;
   using namespace dypho::tools;
   Args args;
   try {

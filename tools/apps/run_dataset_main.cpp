@@ -25,15 +25,15 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
-#include "dypho/tools/slam_pipeline.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
+#include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
-#include "dypho/tracking/trajectory_recorder.h"
 
 namespace {
 
 using namespace dypho;
 using namespace dypho::tools;
+using namespace dypho::pipeline;
 
 struct Args {
   std::string dataset;
@@ -122,17 +122,17 @@ struct TimingRow {
 
 void writeTiming(const std::string& path, const std::vector<TimingRow>& rows) {
   writeFileAtomically(path, [&](std::ostream& os) {
-    os << "frame,stamp_s,load_ms,mask_ms,features_ms,matching_ms,pnp_ms,refine_ms,tracking_ms,"
-          "mapping_ms,total_ms,state,is_keyframe,num_features,num_inliers,masked_fraction\n";
+    os << "frame,stamp_s,load_ms,render_ms,mask_ms,features_ms,matching_ms,pnp_ms,refine_ms,tracking_ms,"
+          "mapping_ms,total_ms,state,is_keyframe,num_features,num_inliers,masked_fraction,rendered_depth_used\n";
     os << std::fixed;
     for (const TimingRow& r : rows) {
       const auto& t = r.report.tracking;
       os << r.index << ',' << std::setprecision(6) << r.stamp_s << ',' << std::setprecision(3)
-         << r.load_ms << ',' << r.report.mask_ms << ',' << t.times.features << ','
+         << r.load_ms << ',' << r.report.render_ms << ',' << r.report.mask_ms << ',' << t.times.features << ','
          << t.times.matching << ',' << t.times.pnp << ',' << t.times.refine << ',' << t.times.total
          << ',' << r.report.mapping_ms << ',' << r.total_ms << ',' << tracking::toString(t.state)
          << ',' << (t.is_keyframe ? 1 : 0) << ',' << t.num_features << ',' << t.num_inliers << ','
-         << std::setprecision(4) << r.report.masked_fraction << '\n';
+         << std::setprecision(4) << r.report.masked_fraction << ',' << (r.report.rendered_depth_used ? 1 : 0) << '\n';
     }
   });
 }
@@ -154,8 +154,7 @@ int run(const Args& args) {
   std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size()
             << " frames, camera " << source->cameraName() << ", mask " << args.mask << "\n";
 
-  SlamPipeline pipeline(options);
-  tracking::TrajectoryRecorder recorder;  // every frame: as published, and relative to its keyframe
+  SlamPipeline pipeline(options);  // deterministic: the same run gives the same bits
   std::size_t num_keyframes = 0;
   std::vector<TimingRow> rows;
   std::vector<double> totals;
@@ -173,8 +172,6 @@ int run(const Args& args) {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     const auto& tr = report.tracking;
     if (tr.state != tracking::TrackingState::kOk) ++lost;
-    // One pose per processed frame; a frame that was not tracked keeps the last trusted pose.
-    recorder.add(tr);
     if (tr.keyframe) ++num_keyframes;
     rows.push_back({i, timestampToSeconds(sf.frame.stamp_ns), load_ms, report, total_ms});
     totals.push_back(total_ms);
@@ -189,37 +186,32 @@ int run(const Args& args) {
 
   // trajectory.txt: every frame re-expressed with the final pose of the keyframe it was tracked
   // against (after local BA and loop closure; what ORB-SLAM saves); trajectory_online.txt: the
-  // poses as published at frame time.
-  const std::vector<StampedPose> final_trajectory =
-      toStampedPoses(recorder.finalPoses(pipeline.odometry().map()));
-  const std::vector<StampedPose> trajectory = toStampedPoses(recorder.onlinePoses());
-  std::vector<StampedPose> keyframes;
-  for (const auto& [id, keyframe] : pipeline.odometry().map().keyframes()) {
-    keyframes.push_back({timestampToSeconds(keyframe.stamp_ns), keyframe.T_world_camera});
-  }
-  std::sort(keyframes.begin(), keyframes.end(),
-            [](const StampedPose& a, const StampedPose& b) { return a.stamp_s < b.stamp_s; });
-  writeTumTrajectory(args.out + "/trajectory.txt", final_trajectory);
-  writeTumTrajectory(args.out + "/trajectory_online.txt", trajectory);
-  writeTumTrajectory(args.out + "/keyframes.txt", keyframes);
+  // poses as published at frame time; keyframes.txt. The final map gets the final refinement.
+  pipeline.tracking().saveTrajectories(args.out);
+  const std::vector<StampedPose> final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
+  const std::vector<StampedPose> trajectory = toStampedPoses(pipeline.tracking().onlineTrajectory());
+  const std::size_t num_final_keyframes = pipeline.tracking().keyframePoses().size();
   writeTiming(args.out + "/timing.csv", rows);
-  pipeline.map().savePcd(args.out + "/map.pcd");
-  pipeline.finishMapping();  // the Gaussian map's worker finishes the queued keyframes
-  pipeline.gaussianMap().savePly(args.out + "/map.ply");
+  pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
   makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
-  const mapping::KeyframeEvaluation map_eval = pipeline.gaussianMap().evaluateKeyframes(args.out + "/map_render");
-  const mapping::GaussianMapperStats map_stats = pipeline.gaussianMap().stats();
-  std::cout << "frames:       " << n << " (" << lost << " not tracked), " << keyframes.size()
+  const mapping::KeyframeEvaluation map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
+  const mapping::MappingStageStats map_stats = pipeline.mapping().stats();
+  const mask::MaskStageStats mask_stats = pipeline.mask().stats();
+  std::cout << "frames:       " << n << " (" << lost << " not tracked), " << num_final_keyframes
             << " keyframes\n"
+            << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
+            << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
+            << " with the tracked ego-motion\n"
             << "time:         " << std::fixed << std::setprecision(1) << median(totals)
             << " ms/frame median (mask + tracking + mapping)\n"
             << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n"
-            << "map:          " << args.out << "/map.pcd (" << pipeline.map().numPoints()
+            << "map:          " << args.out << "/map.pcd (" << pipeline.mapping().numCloudPoints()
             << " points before voxel filter)\n"
-            << "gaussians:    " << args.out << "/map.ply (" << map_stats.num_gaussians << " Gaussians, "
-            << map_stats.iterations << " iterations)\n"
+            << "gaussians:    " << args.out << "/map.ply (" << map_stats.gaussians.num_gaussians << " Gaussians, "
+            << map_stats.gaussians.iterations << " iterations, " << map_stats.gaussians.corrected_keyframes
+            << " keyframe re-anchorings)\n"
             << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
             << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
 

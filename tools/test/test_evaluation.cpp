@@ -14,6 +14,7 @@
 #include "dypho/tools/trajectory_plot.h"
 
 namespace fs = std::filesystem;
+using namespace dypho;
 using namespace dypho::tools;
 
 namespace {

@@ -15,7 +15,7 @@
 #include "dypho/tools/synthetic_writer.h"
 #ifdef DYPHO_HAVE_TOOLS_IO
 #include "dypho/tools/camera_config.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 #include "dypho/tools/tum_dataset.h"
 #endif
 

@@ -6,10 +6,10 @@
 
 #include <gtest/gtest.h>
 
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 namespace fs = std::filesystem;
-using namespace dypho::tools;
+using namespace dypho;
 
 namespace {
 

@@ -184,4 +184,37 @@ Keyframe toKeyframe(const dypho_slam::Keyframe& msg) {
   return keyframe;
 }
 
+PoseUpdate toPoseUpdate(const dypho_slam::TrackingStatus& status) {
+  PoseUpdate update;
+  update.stamp_ns = toTimestamp(status.header.stamp);
+  update.T_world_camera = toIsometry(status.T_world_camera);
+  update.trusted = status.trusted && update.T_world_camera.matrix().allFinite();
+  update.discontinuous = status.discontinuous || status.restarted;
+  return update;
+}
+
+dypho_slam::KeyframeCorrectionsPtr toCorrectionsMsg(const KeyframePoseCorrections& corrections,
+                                                    const std_msgs::Header& header) {
+  auto msg = boost::make_shared<dypho_slam::KeyframeCorrections>();
+  msg->header = header;
+  for (const auto& [id, T_world_camera] : corrections) {
+    if (!T_world_camera.matrix().allFinite()) continue;
+    dypho_slam::KeyframePose pose;
+    pose.header = header;
+    pose.id = id;
+    pose.T_world_camera = toPoseMsg(T_world_camera);
+    msg->poses.push_back(pose);
+  }
+  return msg;
+}
+
+KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg) {
+  KeyframePoseCorrections corrections;
+  for (const auto& pose : msg.poses) {
+    const Eigen::Isometry3d T = toIsometry(pose.T_world_camera);
+    if (T.matrix().allFinite()) corrections.emplace_back(pose.id, T);
+  }
+  return corrections;
+}
+
 }  // namespace dypho::ros_conversions

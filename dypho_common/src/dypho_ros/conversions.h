@@ -12,7 +12,10 @@
 #include <std_msgs/Header.h>
 
 #include <dypho_slam/Keyframe.h>
+#include <dypho_slam/KeyframeCorrections.h>
+#include <dypho_slam/TrackingStatus.h>
 
+#include "dypho/common/motion_prior.h"
 #include "dypho/common/types.h"
 
 namespace dypho::ros_conversions {
@@ -61,5 +64,15 @@ ros::Time toRosTime(Timestamp stamp_ns);
 dypho_slam::KeyframePtr toKeyframeMsg(const Keyframe& keyframe, const std::string& camera_frame);
 /// Throws ConversionError for bad images or a pose with NaN.
 Keyframe toKeyframe(const dypho_slam::Keyframe& msg);
+
+/// The pose a TrackingStatus carries, as the stages' motion models take it.
+PoseUpdate toPoseUpdate(const dypho_slam::TrackingStatus& status);
+
+/// A correction batch as a message (poses that are not finite are left out).
+dypho_slam::KeyframeCorrectionsPtr toCorrectionsMsg(const KeyframePoseCorrections& corrections,
+                                                    const std_msgs::Header& header);
+
+/// A correction batch from a message (poses that are not finite are left out).
+KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg);
 
 }  // namespace dypho::ros_conversions

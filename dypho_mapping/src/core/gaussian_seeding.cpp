@@ -5,7 +5,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "gaussian_mapper_impl.h"
+#include "gaussian_trainer.h"
 
 namespace dypho::mapping {
 namespace {
@@ -19,13 +19,15 @@ float logit(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
 
 }  // namespace
 
+bool isRigidPose(const Eigen::Isometry3d& T) {
+  if (!T.matrix().allFinite()) return false;
+  const Eigen::Matrix3d R = T.linear();
+  return (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() <= 1e-3 && std::abs(R.determinant() - 1.0) <= 1e-3;
+}
+
 std::string checkKeyframe(const Keyframe& kf) {
-  const Eigen::Matrix4d& M = kf.T_world_camera.matrix();
-  if (!M.allFinite()) return "pose is not finite (NaN/inf)";
-  const Eigen::Matrix3d R = kf.T_world_camera.linear();
-  if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-3 || std::abs(R.determinant() - 1.0) > 1e-3) {
-    return "pose rotation is not a rotation matrix";
-  }
+  if (!kf.T_world_camera.matrix().allFinite()) return "pose is not finite (NaN/inf)";
+  if (!isRigidPose(kf.T_world_camera)) return "pose rotation is not a rotation matrix";
   const CameraIntrinsics& cam = kf.frame.camera;
   if (!cam.valid()) return "invalid camera intrinsics (fx, fy, width, height must be > 0)";
   if (kf.frame.bgr.empty() || kf.frame.bgr.type() != CV_8UC3) return "colour image empty or not CV_8UC3 BGR";
@@ -40,7 +42,7 @@ std::string checkKeyframe(const Keyframe& kf) {
   return "";
 }
 
-const Undistorter& GaussianMapper::Impl::undistorter(const CameraIntrinsics& camera) {
+const Undistorter& GaussianTrainer::undistorter(const CameraIntrinsics& camera) {
   for (const auto& u : undistorters)
     if (sameCamera(u.camera, camera)) return u;
   Undistorter u;
@@ -54,7 +56,7 @@ const Undistorter& GaussianMapper::Impl::undistorter(const CameraIntrinsics& cam
   return undistorters.back();
 }
 
-AddKeyframeResult GaussianMapper::Impl::integrate(const Keyframe& kf) {
+AddKeyframeResult GaussianTrainer::integrate(const Keyframe& kf) {
   AddKeyframeResult result;
   const CameraIntrinsics& cam = kf.frame.camera;
   // 1. Undistort onto the pinhole with the same intrinsics.

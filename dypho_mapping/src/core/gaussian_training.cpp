@@ -1,8 +1,9 @@
-/// GaussianMapper: loss, one optimisation iteration, densification, pruning, opacity reset.
+/// GaussianTrainer: loss, one optimisation iteration, densification, pruning, opacity reset.
 #include <algorithm>
 #include <cmath>
 
-#include "gaussian_mapper_impl.h"
+#include "gaussian_trainer.h"
+#include "dypho/mapping/map_renderer.h"
 
 namespace dypho::mapping {
 namespace {
@@ -20,7 +21,7 @@ AdamLearningRates ratesFrom(const GaussianMapperOptions& o) {
 
 }  // namespace
 
-GaussianMapper::Impl::Impl(const GaussianMapperOptions& o)
+GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o)
     : options(o),
       map(o.sh_degree, o.max_gaussians),
       pool(o.num_threads),
@@ -30,24 +31,14 @@ GaussianMapper::Impl::Impl(const GaussianMapperOptions& o)
       rng(static_cast<unsigned>(o.random_seed)),
       ssim(&pool) {}
 
-GaussianParamsView<float> GaussianMapper::Impl::params() const {
-  GaussianParamsView<float> p;
-  p.position = map.data(kParamPosition);
-  p.log_scale = map.data(kParamLogScale);
-  p.rotation = map.data(kParamRotation);
-  p.opacity_logit = map.data(kParamOpacity);
-  p.sh = map.data(kParamSh);
-  p.count = static_cast<int>(map.size());
-  p.sh_degree = map.shDegree();
-  return p;
-}
+GaussianParamsView<float> GaussianTrainer::params() const { return paramsView(map); }
 
-void GaussianMapper::Impl::renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
+void GaussianTrainer::renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
                                          Rasterizer<float>& r, RenderResult<float>& out) {
   r.forward(params(), makePinholeView<float>(T_world_camera, pinhole), out);
 }
 
-double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r) {
+double GaussianTrainer::lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r) {
   const int W = r.width, H = r.height;
   const std::size_t npix = static_cast<std::size_t>(W) * H;
   pix_gc.assign(3 * npix, 0.f);
@@ -136,7 +127,32 @@ double GaussianMapper::Impl::lossAndGradient(const TrainingKeyframe& kf, const R
   return loss;
 }
 
-double GaussianMapper::Impl::iterate(bool all_keyframes) {
+std::size_t GaussianTrainer::correctKeyframePoses(const KeyframePoseCorrections& corrections) {
+  std::size_t corrected = 0;
+  for (const auto& [id, T_world_camera] : corrections) {
+    if (!isRigidPose(T_world_camera)) continue;
+    for (TrainingKeyframe& kf : keyframes) {
+      if (kf.id != id) continue;
+      map.transformAnchored(id, T_world_camera * kf.T_world_camera.inverse());
+      kf.T_world_camera = T_world_camera;
+      ++corrected;
+      break;
+    }
+  }
+  return corrected;
+}
+
+void GaussianTrainer::clear() {
+  map.clear();
+  keyframes.clear();
+  adam.compact(map, std::vector<std::uint8_t>());
+  adam.resize(map);
+  grad_accum.clear();
+  grad_count.clear();
+  refine_order.clear();
+}
+
+double GaussianTrainer::iterate(bool all_keyframes) {
   std::vector<std::size_t>& all = sample_all;
   all.clear();
   for (std::size_t i = 0; i < keyframes.size(); ++i)
@@ -181,7 +197,7 @@ double GaussianMapper::Impl::iterate(bool all_keyframes) {
   return loss;
 }
 
-void GaussianMapper::Impl::stepExposure(TrainingKeyframe& kf) {
+void GaussianTrainer::stepExposure(TrainingKeyframe& kf) {
   // Adam (beta 0.9 / 0.999, eps 1e-8) on the 6 exposure parameters of this keyframe.
   const float lr = static_cast<float>(options.lr_exposure), b1 = 0.9f, b2 = 0.999f;
   ++kf.exposure_steps;
@@ -195,7 +211,7 @@ void GaussianMapper::Impl::stepExposure(TrainingKeyframe& kf) {
   }
 }
 
-void GaussianMapper::Impl::densifyAndPrune() {
+void GaussianTrainer::densifyAndPrune() {
   const std::size_t n0 = map.size();
   const float thr = static_cast<float>(options.densify_grad_threshold);
   const float log_split = std::log(static_cast<float>(options.densify_scale_threshold_m));
@@ -247,7 +263,7 @@ void GaussianMapper::Impl::densifyAndPrune() {
   grad_count.assign(map.size(), 0);
 }
 
-void GaussianMapper::Impl::resetOpacity() {
+void GaussianTrainer::resetOpacity() {
   const float cap = std::log(0.01f / 0.99f);
   float* o = map.data(kParamOpacity);
   for (std::size_t i = 0; i < map.size(); ++i) o[i] = std::min(o[i], cap);

@@ -160,7 +160,8 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
     thread_pose_[t].assign(6, T(0));
   }
   const auto t0 = std::chrono::steady_clock::now();
-  pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int thread) { backwardTile(tile, thread, grads); });
+  // Fixed tile-to-thread assignment: the per-thread sums, and so training, are repeatable.
+  pool_->parallelForStatic(tiles_x_ * tiles_y_, [&](int tile, int thread) { backwardTile(tile, thread, grads); });
   const auto t1 = std::chrono::steady_clock::now();
 
   // Chain rule per Gaussian, in parameter order (sequential reads of the parameters and writes
@@ -173,7 +174,7 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
   out.sh.resize(static_cast<std::size_t>(K3) * n);
   out.mean2d_norm.resize(n);
   const int block = 1024;
-  pool_->parallelFor((n + block - 1) / block, [&](int bi, int thread) {
+  pool_->parallelForStatic((n + block - 1) / block, [&](int bi, int thread) {
     const int begin = bi * block, end = std::min(n, (bi + 1) * block);
     T* pose = thread_pose_[thread].data();
     // Zeros first (block fills), then the Gaussians with a gradient overwrite their rows.

@@ -18,6 +18,19 @@ ThreadPool::~ThreadPool() {
 }
 
 void ThreadPool::runItems(int thread_index) {
+  if (job_static_) {
+    // Fixed assignment: item i on thread i % numThreads(), in increasing order.
+    for (int i = thread_index; i < job_n_; i += num_threads_) {
+      try {
+        (*job_)(i, thread_index);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+        return;
+      }
+    }
+    return;
+  }
   for (;;) {
     const int begin = next_.fetch_add(job_chunk_);
     if (begin >= job_n_) break;
@@ -54,6 +67,14 @@ void ThreadPool::workerLoop(int thread_index) {
 }
 
 void ThreadPool::parallelFor(int n, const std::function<void(int, int)>& fn, int chunk) {
+  run(n, fn, chunk, /*fixed=*/false);
+}
+
+void ThreadPool::parallelForStatic(int n, const std::function<void(int, int)>& fn) {
+  run(n, fn, 1, /*fixed=*/true);
+}
+
+void ThreadPool::run(int n, const std::function<void(int, int)>& fn, int chunk, bool fixed) {
   if (n <= 0) return;
   if (workers_.empty() || n == 1) {
     for (int i = 0; i < n; ++i) fn(i, 0);
@@ -64,6 +85,7 @@ void ThreadPool::parallelFor(int n, const std::function<void(int, int)>& fn, int
     job_ = &fn;
     job_n_ = n;
     job_chunk_ = std::max(1, chunk);
+    job_static_ = fixed;
     next_.store(0);
     busy_ = static_cast<int>(workers_.size());
     error_ = nullptr;

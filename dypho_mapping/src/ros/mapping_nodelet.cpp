@@ -1,14 +1,15 @@
-/// GaussianMappingNodelet: keyframes (and corrected keyframe poses) in; the 3D Gaussian map and
-/// the keyframe point cloud out. Keyframes go to the Gaussian mapper's worker thread through a
-/// bounded queue (never blocks: the oldest is dropped when full); renders run on this nodelet's
-/// own render thread, so no ROS callback waits for the optimiser.
+/// GaussianMappingNodelet: keyframes, keyframe correction batches and tracking status in; the 3D
+/// Gaussian map and the keyframe point cloud out. All the work and its policy are in
+/// dypho::mapping::MappingStage (kLive: a full queue drops the oldest waiting keyframe, counted;
+/// R_d and views are rendered from map snapshots, outside the map's lock), the same stage the
+/// in-process pipeline runs. Renders run on this nodelet's own render thread, so no ROS callback
+/// waits for the optimiser.
 ///
 /// Outputs: rendered/color (bgr8) and rendered/depth (32FC1 m) at the latest tracked pose;
-/// rendered/depth_predicted (32FC1 m) at the constant-velocity prediction of the next camera pose,
-/// header stamp = the predicted stamp of that next frame (last stamp + last frame interval), for the
-/// mask module; gaussian_cloud (XYZRGB Gaussian centres) and map_cloud (keyframe points).
-/// Services: ~save_map, ~load_map (a 3DGS PLY replaces the Gaussian map; also at start-up with
-/// ~map_load_path), ~reset.
+/// rendered/depth_predicted (32FC1 m, R_d) at the constant-velocity prediction of the next frame's
+/// pose, at the mask's working resolution (~predicted_depth_scale), header stamp = the expected
+/// stamp of that frame; gaussian_cloud (XYZRGB Gaussian centres) and map_cloud (keyframe points).
+/// Services: ~save_map (final refinement first with ~refine_before_save), ~load_map, ~reset.
 
 #include <atomic>
 #include <condition_variable>
@@ -18,20 +19,19 @@
 #include <thread>
 
 #include <dypho_slam/Keyframe.h>
-#include <dypho_slam/KeyframePose.h>
+#include <dypho_slam/KeyframeCorrections.h>
 #include <dypho_slam/LoadMap.h>
 #include <dypho_slam/Reset.h>
 #include <dypho_slam/SaveMap.h>
-#include <geometry_msgs/PoseStamped.h>
+#include <dypho_slam/TrackingStatus.h>
 #include <nodelet/nodelet.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/mapping/compute_device.h"
-#include "dypho/mapping/gaussian_mapper.h"
-#include "dypho/mapping/keyframe_cloud_map.h"
 #include "dypho/mapping/mapping_options_fields.h"
+#include "dypho/mapping/mapping_stage.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 
@@ -44,7 +44,9 @@ struct MappingRosParams {
   std::string map_frame = "map";     ///< frame of the published clouds (the tracking world frame)
   double publish_period_s = 1.0;     ///< cloud publication period [s] (only with subscribers)
   double render_period_s = 0.2;      ///< minimum interval of rendered/color and rendered/depth [s]
-  int keyframe_queue_size = 20;      ///< keyframes waiting for the worker before the oldest is dropped
+  int keyframe_queue_size = 8;       ///< jobs waiting for the worker before the oldest keyframe is dropped
+  /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
+  double predicted_depth_scale = 0.5;
   std::string output_dir;            ///< where save_map writes when the request names no folder
   std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   bool use_gpu = true;               ///< use CUDA when built with it and a device exists
@@ -53,12 +55,10 @@ struct MappingRosParams {
   bool refine_before_save = true;
 };
 
-/// A pose to render at (the latest tracked pose and its predecessor).
+/// A pose to render at (the latest tracked pose).
 struct RenderRequest {
   Eigen::Isometry3d T_world_camera;
   ros::Time stamp;
-  std::optional<Eigen::Isometry3d> T_world_camera_prev;
-  ros::Time stamp_prev;
 };
 
 class GaussianMappingNodelet : public nodelet::Nodelet {
@@ -70,7 +70,12 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
     render_cv_.notify_all();
     if (render_thread_.joinable()) render_thread_.join();
-    if (gaussians_) gaussians_->stop();
+    if (!stage_ || params_.output_dir.empty()) return;
+    try {
+      stage_->save(params_.output_dir, params_.refine_before_save);
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM("could not write the map on shutdown: " << e.what());
+    }
   }
 
   void onInit() override {
@@ -85,6 +90,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("publish_period_s", params_.publish_period_s, "");
     reader("render_period_s", params_.render_period_s, "");
     reader("keyframe_queue_size", params_.keyframe_queue_size, "");
+    reader("predicted_depth_scale", params_.predicted_depth_scale, "");
     reader("output_dir", params_.output_dir, "");
     reader("map_load_path", params_.map_load_path, "");
     reader("use_gpu", params_.use_gpu, "");
@@ -101,9 +107,10 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
 
     // 2. Cores and threads.
-    cloud_map_ = std::make_unique<mapping::KeyframeCloudMap>(options.cloud);
-    gaussians_ = std::make_unique<mapping::GaussianMapper>(options.gaussian);
-    gaussians_->setMessageSink([this](const std::string& m) { NODELET_WARN_STREAM_THROTTLE(5.0, m); });
+    mapping::MappingStageOptions stage_options;
+    stage_options.keyframe_queue_size = params_.keyframe_queue_size;
+    stage_ = std::make_unique<mapping::MappingStage>(options, mapping::MappingMode::kLive, stage_options);
+    stage_->gaussians().setMessageSink([this](const std::string& m) { NODELET_WARN_STREAM_THROTTLE(5.0, m); });
     if (!params_.map_load_path.empty()) {
       // A bad file is reported and mapping starts empty (the nodelet manager keeps running).
       const LoadOutcome r = loadMap(params_.map_load_path);
@@ -113,7 +120,6 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         NODELET_ERROR_STREAM("~map_load_path: " << r.message << "; starting with an empty map");
       }
     }
-    gaussians_->start(static_cast<std::size_t>(std::max(1, params_.keyframe_queue_size)));
     render_thread_ = std::thread([this] { renderLoop(); });
 
     // 3. Outputs.
@@ -130,8 +136,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
 
     // 4. Inputs.
     keyframe_sub_ = nh.subscribe("keyframe", 10, &GaussianMappingNodelet::onKeyframe, this);
-    pose_sub_ = nh.subscribe("keyframe_pose", 100, &GaussianMappingNodelet::onKeyframePose, this);
-    camera_pose_sub_ = nh.subscribe("pose", 5, &GaussianMappingNodelet::onCameraPose, this);
+    corrections_sub_ = nh.subscribe("keyframe_corrections", 100, &GaussianMappingNodelet::onCorrections, this);
+    status_sub_ = nh.subscribe("tracking_status", 20, &GaussianMappingNodelet::onTrackingStatus, this);
   }
 
  private:
@@ -139,17 +145,13 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     try {
       auto keyframe = std::make_shared<Keyframe>(rc::toKeyframe(*msg));
       {
-        std::lock_guard<std::mutex> lock(cloud_mutex_);
-        cloud_map_->addKeyframe(*keyframe);  // point cloud: cheap (strided unprojection)
-      }
-      {
         std::lock_guard<std::mutex> lock(render_mutex_);
         camera_ = keyframe->frame.camera;
         frame_id_ = msg->header.frame_id;
       }
-      if (!gaussians_->enqueueKeyframe(std::move(keyframe), /*block_when_full=*/false)) {
+      if (!stage_->addKeyframe(std::move(keyframe))) {
         NODELET_WARN_STREAM_THROTTLE(5.0, "Gaussian mapping is behind: dropped the oldest queued keyframe ("
-                                              << gaussians_->stats().dropped_keyframes << " so far); raise "
+                                              << stage_->stats().gaussians.dropped_keyframes << " so far); raise "
                                               << "~keyframe_queue_size or lower ~iterations_per_keyframe");
       }
       changed_ = true;
@@ -158,30 +160,23 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
   }
 
-  void onKeyframePose(const dypho_slam::KeyframePoseConstPtr& msg) {
-    const Eigen::Isometry3d T = rc::toIsometry(msg->T_world_camera);
-    if (!T.matrix().allFinite()) return;
-    {
-      std::lock_guard<std::mutex> lock(cloud_mutex_);
-      cloud_map_->updateKeyframePose(msg->id, T);
-    }
-    if (gaussians_->updateKeyframePose(msg->id, T)) changed_ = true;
+  void onCorrections(const dypho_slam::KeyframeCorrectionsConstPtr& msg) {
+    stage_->correctKeyframes(rc::toCorrections(*msg));
+    changed_ = true;
   }
 
-  void onCameraPose(const geometry_msgs::PoseStampedConstPtr& msg) {
-    const Eigen::Isometry3d T = rc::toIsometry(msg->pose);
-    if (!T.matrix().allFinite()) return;
+  void onTrackingStatus(const dypho_slam::TrackingStatusConstPtr& msg) {
+    const PoseUpdate update = rc::toPoseUpdate(*msg);
+    if (msg->restarted) {
+      NODELET_WARN_STREAM("tracking restarted (time went backwards): the map is cleared");
+      stage_->reset();
+      changed_ = true;
+    }
+    stage_->observePose(update);
+    if (!update.trusted) return;
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
-      RenderRequest r;
-      r.T_world_camera = T;
-      r.stamp = msg->header.stamp;
-      if (last_pose_ && msg->header.stamp > last_pose_->stamp) {
-        r.T_world_camera_prev = last_pose_->T_world_camera;
-        r.stamp_prev = last_pose_->stamp;
-      }
-      last_pose_ = r;
-      request_ = r;
+      request_ = RenderRequest{update.T_world_camera, msg->header.stamp};
     }
     render_cv_.notify_one();
   }
@@ -202,20 +197,26 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         camera = camera_;
         frame_id = frame_id_;
       }
-      if (!camera.valid() || gaussians_->stats().num_gaussians == 0) continue;
+      if (!camera.valid()) continue;
       try {
-        if (r.T_world_camera_prev && predicted_pub_.getNumSubscribers() > 0) {
-          // Constant velocity: the next step repeats the last one.
-          const Eigen::Isometry3d step = r.T_world_camera_prev->inverse() * r.T_world_camera;
-          std_msgs::Header header;
-          header.stamp = r.stamp + (r.stamp - r.stamp_prev);
-          header.frame_id = frame_id;
-          predicted_pub_.publish(rc::toImageMsg(gaussians_->renderDepth(r.T_world_camera * step, camera), "32FC1", header));
+        const std::optional<Timestamp> next_ns = stage_->expectedNextStamp();
+        if (next_ns && predicted_pub_.getNumSubscribers() > 0) {
+          const cv::Size working(static_cast<int>(std::lround(camera.width * params_.predicted_depth_scale)),
+                                 static_cast<int>(std::lround(camera.height * params_.predicted_depth_scale)));
+          const cv::Mat depth = stage_->predictedDepth(
+              *next_ns, resizedIntrinsics(camera, working, params_.predicted_depth_scale));
+          if (!depth.empty()) {
+            std_msgs::Header header;
+            header.stamp = rc::toRosTime(*next_ns);
+            header.frame_id = frame_id;
+            predicted_pub_.publish(rc::toImageMsg(depth, "32FC1", header));
+          }
         }
         const bool want_view = color_pub_.getNumSubscribers() > 0 || depth_pub_.getNumSubscribers() > 0;
         if (want_view && (ros::WallTime::now() - last_view).toSec() >= params_.render_period_s) {
           last_view = ros::WallTime::now();
-          const mapping::RenderedView v = gaussians_->render(r.T_world_camera, camera);
+          const mapping::RenderedView v = stage_->renderView(r.T_world_camera, camera);
+          if (v.bgr.empty()) continue;
           std_msgs::Header header;
           header.stamp = r.stamp;
           header.frame_id = frame_id;
@@ -229,25 +230,20 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   }
 
   void publishClouds() {
-    const std::int64_t iterations = gaussians_->stats().iterations;  // the optimiser changes the map too
+    const std::int64_t iterations = stage_->stats().gaussians.iterations;  // the optimiser changes the map too
     if (!changed_ && iterations == last_iterations_) return;
     changed_ = false;
     last_iterations_ = iterations;
     if (cloud_pub_.getNumSubscribers() > 0) {
-      pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud;
-      {
-        std::lock_guard<std::mutex> lock(cloud_mutex_);
-        cloud = cloud_map_->buildCloud();
-      }
       auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
-      pcl::toROSMsg(*cloud, *msg);
+      pcl::toROSMsg(*stage_->buildCloud(), *msg);
       msg->header.frame_id = params_.map_frame;
       msg->header.stamp = ros::Time::now();
       cloud_pub_.publish(msg);
     }
     if (gaussian_cloud_pub_.getNumSubscribers() > 0) {
       pcl::PointCloud<pcl::PointXYZRGB> cloud;
-      for (const mapping::GaussianCentre& c : gaussians_->centres()) {
+      for (const mapping::GaussianCentre& c : stage_->gaussianCentres()) {
         pcl::PointXYZRGB p(c.r, c.g, c.b);
         p.x = c.x;
         p.y = c.y;
@@ -266,17 +262,11 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     const std::string dir = req.directory.empty() ? (params_.output_dir.empty() ? "." : params_.output_dir)
                                                   : req.directory;
     try {
-      {
-        std::lock_guard<std::mutex> lock(cloud_mutex_);
-        cloud_map_->savePcd(dir + "/map.pcd");
-      }
-      if (params_.refine_before_save) gaussians_->finish();
-      gaussians_->savePly(dir + "/map.ply");
-      gaussians_->saveCentresPcd(dir + "/gaussian_centres.pcd");
+      res.files = stage_->save(dir, params_.refine_before_save);
+      const mapping::MappingStageStats stats = stage_->stats();
       res.success = true;
-      res.files = {dir + "/map.pcd", dir + "/map.ply", dir + "/gaussian_centres.pcd"};
-      res.message = "wrote " + std::to_string(gaussians_->stats().num_gaussians) + " Gaussians and " +
-                    std::to_string(cloud_map_->numKeyframes()) + " keyframe clouds to " + dir;
+      res.message = "wrote " + std::to_string(stats.gaussians.num_gaussians) + " Gaussians and " +
+                    std::to_string(stats.keyframes_received) + " keyframe clouds to " + dir;
     } catch (const std::exception& e) {
       res.success = false;
       res.message = e.what();
@@ -299,7 +289,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
     try {
       std::string note;
-      const std::size_t n = gaussians_->loadPly(path, &note);
+      const std::size_t n = stage_->loadMap(path, &note);
       r.success = true;
       r.message = "loaded " + std::to_string(n) + " Gaussians from " + path + (note.empty() ? "" : " (" + note + ")");
       changed_ = true;
@@ -322,11 +312,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   }
 
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
-    {
-      std::lock_guard<std::mutex> lock(cloud_mutex_);
-      cloud_map_->reset();
-    }
-    gaussians_->reset();
+    stage_->reset();
     changed_ = true;
     res.success = true;
     res.message = "map cleared";
@@ -334,21 +320,19 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   }
 
   MappingRosParams params_;
-  std::unique_ptr<mapping::KeyframeCloudMap> cloud_map_;
-  std::mutex cloud_mutex_;
-  std::unique_ptr<mapping::GaussianMapper> gaussians_;
+  std::unique_ptr<mapping::MappingStage> stage_;
   std::atomic<bool> changed_{false};
   std::int64_t last_iterations_ = -1;  ///< timer thread only
   // Render thread state (render_mutex_).
   std::mutex render_mutex_;
   std::condition_variable render_cv_;
-  std::optional<RenderRequest> request_, last_pose_;
+  std::optional<RenderRequest> request_;
   CameraIntrinsics camera_;
   std::string frame_id_;
   bool stop_ = false;
   std::thread render_thread_;
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
-  ros::Subscriber keyframe_sub_, pose_sub_, camera_pose_sub_;
+  ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
   ros::WallTimer timer_;
 };

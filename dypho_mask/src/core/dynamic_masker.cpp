@@ -35,15 +35,9 @@ MaskCleanerSettings smallCleaner(const DynamicMaskOptions& o) {
   return s;
 }
 
-/// Intrinsics of an image resized by `scale` (cv::resize pixel-centre convention).
+/// Intrinsics of the background model: the resized image, treated as pinhole.
 CameraIntrinsics scaled(const CameraIntrinsics& c, const cv::Size& small, double scale) {
-  CameraIntrinsics s = c;
-  s.fx *= scale;
-  s.fy *= scale;
-  s.cx = (c.cx + 0.5) * scale - 0.5;
-  s.cy = (c.cy + 0.5) * scale - 0.5;
-  s.width = small.width;
-  s.height = small.height;
+  CameraIntrinsics s = resizedIntrinsics(c, small, scale);
   s.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
   return s;
 }
@@ -80,6 +74,12 @@ void DynamicMasker::reset() {
 const std::string& DynamicMasker::segmentStatus() const { return segment_->status(); }
 bool DynamicMasker::segmentReady() const { return segment_->ready(); }
 
+cv::Size DynamicMasker::workingSize(const cv::Size& input) const {
+  const double s = options_.background.scale;
+  return cv::Size(std::max(1, static_cast<int>(std::lround(input.width * s))),
+                  std::max(1, static_cast<int>(std::lround(input.height * s))));
+}
+
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
   const auto t0 = Clock::now();
   MaskResult result;
@@ -90,8 +90,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
                           frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
   const bool run_background = options_.background.enabled && have_depth;
   const double s = options_.background.scale;
-  const cv::Size small(std::max(1, static_cast<int>(std::lround(size.width * s))),
-                       std::max(1, static_cast<int>(std::lround(size.height * s))));
+  const cv::Size small = workingSize(size);
   bool rendered_ignored = false;
   double test_ms = 0.0;
   // The consistency test of D_i against the prior (warped B_{i-1}, rendered depth) needs no flow:
@@ -101,7 +100,9 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
     rendered_small_.release();
     if (!prior.rendered_depth_m.empty()) {
-      if (prior.rendered_depth_m.size() == size && prior.rendered_depth_m.type() == CV_32FC1) {
+      if (prior.rendered_depth_m.type() == CV_32FC1 && prior.rendered_depth_m.size() == small) {
+        rendered_small_ = prior.rendered_depth_m;  // rendered at the working resolution already
+      } else if (prior.rendered_depth_m.type() == CV_32FC1 && prior.rendered_depth_m.size() == size) {
         cv::resize(prior.rendered_depth_m, rendered_small_, small, 0, 0, cv::INTER_NEAREST);
       } else {
         rendered_ignored = true;
@@ -135,7 +136,8 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   for (const std::exception_ptr& e : failure) {
     if (e) std::rethrow_exception(e);
   }
-  if (rendered_ignored) note("rendered depth ignored: must be CV_32FC1 of the colour size");
+  if (rendered_ignored) note("rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
+  result.rendered_depth_used = run_background && !rendered_small_.empty();
   result.flow_ms = flow.total_ms;
   result.ego_motion_from_pose = flow.ego_motion_from_pose;
   result.raw_flow_mask = flow.raw_flow_mask;

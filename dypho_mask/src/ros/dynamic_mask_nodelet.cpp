@@ -1,15 +1,14 @@
 /// DynamicMaskNodelet: synchronised rgb + depth + camera_info in, dynamic mask (mono8, 255 =
-/// dynamic) out. All the work is in dypho::mask::DynamicMasker. Optional inputs, never waited
-/// for: tracking `pose` (PoseStamped; the last two give the constant-velocity prediction
-/// T_prev_cur) and mapping `rendered/depth_predicted` (32FC1, the map's depth at the predicted
-/// pose; used when its stamp is within 0.1 s of the frame).
+/// dynamic) out. All the work and its policy are in dypho::mask::MaskStage (the same stage the
+/// in-process pipeline runs). Optional inputs, never waited for: `tracking_status` (the tracked
+/// pose with its jump flags, for the ego-motion prior) and `rendered/depth_predicted` (R_d, the
+/// map's depth at the predicted pose of the frame with the same stamp).
 
-#include <deque>
 #include <memory>
-#include <mutex>
-#include <optional>
 
+#include <dypho_slam/MaskStatus.h>
 #include <dypho_slam/StageTiming.h>
+#include <dypho_slam/TrackingStatus.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
@@ -18,11 +17,10 @@
 #include <message_filters/synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <geometry_msgs/PoseStamped.h>
 #include <sensor_msgs/image_encodings.h>
 
-#include "dypho/mask/dynamic_masker.h"
 #include "dypho/mask/mask_options_fields.h"
+#include "dypho/mask/mask_stage.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
@@ -46,24 +44,26 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     rc::RosParamReader reader(pnh);
     mask::DynamicMaskOptions options;
     mask::visitOptions(options, reader);
+    mask::MaskStageOptions stage_options;
     int queue_size = 10;
     bool approx_sync = true;
     double watchdog_s = 5.0;
     reader("queue_size", queue_size, "synchroniser queue length [messages]");
     reader("approx_sync", approx_sync, "approximate-time sync of rgb/depth/camera_info");
     reader("watchdog_s", watchdog_s, "warn when no input arrived for this long [s]; 0 = off");
+    reader("rendered_depth_tolerance_s", stage_options.rendered_depth_tolerance_s,
+           "R_d is used by the frame whose stamp is within this of its stamp [s]");
     reader.checkNoUnknownKeys();
     options.validate();
     NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary());
 
     // 2. Core.
-    masker_ = std::make_unique<mask::DynamicMasker>(options);
-    if (options.yolo.model_path.empty()) {
-      NODELET_INFO_STREAM(masker_->segmentStatus());
-    } else if (!masker_->segmentReady()) {
-      NODELET_WARN_STREAM(masker_->segmentStatus());  // once; flow + background keep working
+    stage_ = std::make_unique<mask::MaskStage>(options, stage_options);
+    const std::string& status = stage_->masker().segmentStatus();
+    if (!options.yolo.model_path.empty() && !stage_->masker().segmentReady()) {
+      NODELET_WARN_STREAM(status);  // once; flow + background keep working
     } else {
-      NODELET_INFO_STREAM(masker_->segmentStatus());
+      NODELET_INFO_STREAM(status);
     }
 
     // 3. Outputs.
@@ -73,13 +73,16 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     raw_segment_pub_ = it_->advertise("mask/raw_segment", 2);
     consistency_pub_ = it_->advertise("mask/raw_consistency", 2);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("mask/timing", 10);
+    status_pub_ = nh.advertise<dypho_slam::MaskStatus>("mask/status", 10);
 
     // 4. Inputs.
     rgb_sub_.subscribe(*it_, "rgb/image", queue_size);
     depth_sub_.subscribe(*it_, "depth/image", queue_size);
     info_sub_.subscribe(nh, "rgb/camera_info", queue_size);
-    pose_sub_ = nh.subscribe("pose", 10, &DynamicMaskNodelet::poseCallback, this);
-    rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
+    tracking_sub_ = nh.subscribe("tracking_status", 20, &DynamicMaskNodelet::trackingCallback, this);
+    if (stage_->wantsRenderedDepth()) {  // else mapping renders no R_d for us (no subscriber)
+      rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
+    }
     if (approx_sync) {
       approx_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
           ApproxPolicy(queue_size), rgb_sub_, depth_sub_, info_sub_);
@@ -107,7 +110,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
       NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
       return;
     }
-    const mask::MaskResult result = masker_->compute(frame, currentPrior(rgb->header.stamp));
+    const mask::MaskResult result = stage_->process(frame);
     if (result.degraded && !result.message.empty()) {
       NODELET_WARN_STREAM_THROTTLE(5.0, "mask degraded: " << result.message);
     }
@@ -115,13 +118,31 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     publishIfWanted(raw_pub_, result.raw_flow_mask, rgb->header);
     publishIfWanted(raw_segment_pub_, result.raw_segment_mask, rgb->header);
     publishIfWanted(consistency_pub_, result.consistency_mask, rgb->header);
-    dypho_slam::StageTiming timing;
-    timing.header = rgb->header;
-    timing.node = "mask";
-    timing.stages = {"flow", "segment", "background"};
-    timing.ms = {static_cast<float>(result.flow_ms), static_cast<float>(result.segment_ms),
-                 static_cast<float>(result.background_ms)};
-    timing.total_ms = static_cast<float>(result.total_ms);
+    publishStatus(result, rgb->header);
+  }
+
+  void publishStatus(const mask::MaskResult& result, const std_msgs::Header& header) {
+    const mask::MaskStageStats stats = stage_->stats();
+    auto status = boost::make_shared<dypho_slam::MaskStatus>();
+    status->header = header;
+    status->masked_fraction = static_cast<float>(result.masked_fraction);
+    status->degraded = result.degraded;
+    status->ego_motion_used = result.ego_motion_from_pose;
+    status->rendered_depth_used = result.rendered_depth_used;
+    status->frames = stats.frames;
+    status->frames_with_ego_motion = stats.frames_with_ego_motion;
+    status->frames_with_rendered_depth = stats.frames_with_rendered_depth;
+    status->rendered_depth_offered = stats.rendered_depth_offered;
+    status->rendered_depth_unmatched = stats.rendered_depth_unmatched;
+    status->message = result.message;
+    status_pub_.publish(status);
+    auto timing = boost::make_shared<dypho_slam::StageTiming>();
+    timing->header = header;
+    timing->node = "mask";
+    timing->stages = {"flow", "segment", "background"};
+    timing->ms = {static_cast<float>(result.flow_ms), static_cast<float>(result.segment_ms),
+                  static_cast<float>(result.background_ms)};
+    timing->total_ms = static_cast<float>(result.total_ms);
     timing_pub_.publish(timing);
   }
 
@@ -131,55 +152,25 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
-  /// Keeps the last two tracked poses (the callback never blocks the mask output).
-  void poseCallback(const geometry_msgs::PoseStampedConstPtr& msg) {
-    std::lock_guard<std::mutex> lock(prior_mutex_);
-    if (!poses_.empty() && msg->header.stamp <= poses_.back().first) poses_.clear();  // restart
-    poses_.emplace_back(msg->header.stamp, rc::toIsometry(msg->pose));
-    while (poses_.size() > 2) poses_.pop_front();
+  void trackingCallback(const dypho_slam::TrackingStatusConstPtr& msg) {
+    stage_->observePose(rc::toPoseUpdate(*msg));
   }
 
   void renderedCallback(const sensor_msgs::ImageConstPtr& msg) {
-    cv::Mat depth;
     try {
-      depth = rc::toDepthMetres(*msg);
+      stage_->setPredictedDepth(rc::toTimestamp(msg->header.stamp), rc::toDepthMetres(*msg).clone());
     } catch (const std::exception& e) {
       NODELET_WARN_STREAM_THROTTLE(10.0, "ignoring rendered/depth_predicted: " << e.what());
-      return;
     }
-    std::lock_guard<std::mutex> lock(prior_mutex_);
-    rendered_ = depth.clone();  // the conversion may share the message buffer
-    rendered_stamp_ = msg->header.stamp;
   }
 
-  /// Constant velocity: T_prev_cur = the last tracked step, when it is recent (< 1 s old).
-  mask::MaskPrior currentPrior(const ros::Time& stamp) {
-    mask::MaskPrior prior;
-    std::lock_guard<std::mutex> lock(prior_mutex_);
-    if (poses_.size() == 2 && std::abs((stamp - poses_.back().first).toSec()) < 1.0) {
-      prior.T_prev_cur = poses_.front().second.inverse() * poses_.back().second;
-    }
-    if (!rendered_.empty() && std::abs((stamp - rendered_stamp_).toSec()) < 0.1) {
-      prior.rendered_depth_m = rendered_;
-    }
-    return prior;
-  }
-
-  std::unique_ptr<mask::DynamicMasker> masker_;
-  std::mutex prior_mutex_;
-  std::deque<std::pair<ros::Time, Eigen::Isometry3d>> poses_;
-  cv::Mat rendered_;
-  ros::Time rendered_stamp_;
-  ros::Subscriber pose_sub_;
+  std::unique_ptr<mask::MaskStage> stage_;
+  ros::Subscriber tracking_sub_;
   image_transport::Subscriber rendered_sub_;
-  image_transport::Publisher raw_segment_pub_;
-  image_transport::Publisher consistency_pub_;
   std::unique_ptr<image_transport::ImageTransport> it_;
-  image_transport::Publisher mask_pub_;
-  image_transport::Publisher raw_pub_;
-  ros::Publisher timing_pub_;
-  image_transport::SubscriberFilter rgb_sub_;
-  image_transport::SubscriberFilter depth_sub_;
+  image_transport::Publisher mask_pub_, raw_pub_, raw_segment_pub_, consistency_pub_;
+  ros::Publisher timing_pub_, status_pub_;
+  image_transport::SubscriberFilter rgb_sub_, depth_sub_;
   message_filters::Subscriber<CameraInfo> info_sub_;
   std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_;

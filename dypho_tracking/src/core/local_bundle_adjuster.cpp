@@ -39,7 +39,7 @@ LocalBundleAdjuster::LocalBundleAdjuster(const TrackingOptions& options) : optio
   options_.validate();
 }
 
-LocalBaResult LocalBundleAdjuster::adjust(LocalMap* map, std::int64_t newest_keyframe_id,
+LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
                                           const Pinhole& pinhole) const {
   LocalBaResult result;
   if (options_.local_ba_keyframes <= 0) {

@@ -9,7 +9,7 @@ LoopCloser::LoopCloser(const TrackingOptions& options) : options_(options), opti
   options_.validate();
 }
 
-LoopCorrection LoopCloser::close(LocalMap* map, const LoopResult& loop) const {
+LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const {
   LoopCorrection out;
   if (map == nullptr || !loop.found || map->keyframe(loop.current_keyframe_id) == nullptr ||
       map->keyframe(loop.loop_keyframe_id) == nullptr) {

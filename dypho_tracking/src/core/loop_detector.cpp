@@ -10,7 +10,7 @@ LoopDetector::LoopDetector(const TrackingOptions& options) : options_(options), 
   options_.validate();
 }
 
-LoopResult LoopDetector::detect(const LocalMap& map, std::int64_t current_id,
+LoopResult LoopDetector::detect(const TrackerMap& map, std::int64_t current_id,
                                 const Pinhole& pinhole) const {
   LoopResult result;
   result.current_keyframe_id = current_id;

@@ -9,7 +9,7 @@ Relocalizer::Relocalizer(const TrackingOptions& options) : options_(options), al
   options_.validate();
 }
 
-RelocalizationResult Relocalizer::relocalize(const LocalMap& map, const FrameFeatures& frame,
+RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameFeatures& frame,
                                              const Pinhole& pinhole,
                                              TrackingTimesMs* times) const {
   RelocalizationResult result;

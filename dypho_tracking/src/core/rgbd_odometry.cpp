@@ -38,8 +38,8 @@ void RgbdOdometry::reset() {
   T_world_last_.setIdentity();
   T_world_odom_.setIdentity();
   last_loop_keyframe_id_ = -1;
-  velocity_.setIdentity();
-  has_velocity_ = false;
+  motion_.reset();
+  reported_poses_.clear();
   has_stamp_ = false;
   last_stamp_ns_ = 0;
   frames_since_keyframe_ = 0;
@@ -120,9 +120,12 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   t0 = Clock::now();
   closeLoops(id, pinhole, result);
   result->times.loop = msSince(t0);
+  if (result->loop_closed) result->discontinuous = true;  // consumers must not difference across it
 
+  collectCorrections(id, result);
   MapKeyframe* stored = map_.mutableKeyframe(id);
   T_world_last_ = stored->T_world_camera;  // after BA / loop correction
+  motion_.correctLast(T_world_last_);
   stored->keyframe =
       makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
   setReference(id);
@@ -131,6 +134,22 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   result->T_world_camera = T_world_last_;
   result->is_keyframe = true;
   result->keyframe = stored->keyframe;
+  reported_poses_[id] = stored->T_world_camera;  // what mapping receives with the keyframe
+}
+
+void RgbdOdometry::collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result) {
+  for (const auto& [id, keyframe] : map_.keyframes()) {
+    if (id == new_keyframe_id) continue;
+    auto reported = reported_poses_.find(id);
+    if (reported == reported_poses_.end()) continue;
+    const Eigen::Isometry3d delta = reported->second.inverse() * keyframe.T_world_camera;
+    const double moved_m = delta.translation().norm();
+    const double turned_rad = Eigen::AngleAxisd(delta.rotation()).angle();
+    if (moved_m > options_.correction_min_translation_m || turned_rad > options_.correction_min_rotation_rad) {
+      result->corrected_keyframes.emplace_back(id, keyframe.T_world_camera);
+      reported->second = keyframe.T_world_camera;
+    }
+  }
 }
 
 void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
@@ -151,7 +170,6 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
   last_loop_keyframe_id_ = keyframe_id;
   T_world_odom_ = correction.T_correction * T_world_odom_;
   result->loop_closed = true;
-  result->corrected_keyframes = correction.corrected_keyframes;
   result->message = "loop closed: keyframe " + std::to_string(keyframe_id) + " -> " +
                     std::to_string(loop.loop_keyframe_id) + " (" +
                     std::to_string(loop.num_inliers) + " inliers, " +
@@ -202,11 +220,12 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     result.message = "bad input: " + problem;
     if (reference_id_ >= 0) {
       ++lost_frames_;
-      has_velocity_ = false;
+      motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
     }
     return finish();
   }
   if (has_stamp_ && frame.stamp_ns <= last_stamp_ns_) {
+    result.discontinuous = true;
     std::ostringstream os;
     os << "stamp " << frame.stamp_ns << " ns is not after the previous " << last_stamp_ns_
        << " ns (time jumped backwards or repeated, e.g. a bag restarted): tracker reset, the next "
@@ -246,13 +265,14 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     }
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
     result.state = TrackingState::kOk;
+    result.discontinuous = true;  // a new world starts here
+    motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
     return finish();
   }
 
   AlignmentResult aligned;
   if (result.num_features >= options_.min_inliers) {
-    const Eigen::Isometry3d T_world_predicted =
-        has_velocity_ ? T_world_last_ * velocity_ : T_world_last_;
+    const Eigen::Isometry3d T_world_predicted = motion_.predict(frame.stamp_ns).value_or(T_world_last_);
     aligned = aligner_.align(local_view_, features, pinhole, T_world_predicted.inverse(),
                              &result.times, &own_view_);
   } else {
@@ -260,9 +280,8 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   }
   const Eigen::Isometry3d T_world_camera = aligned.T_camera_world.inverse();
   if (aligned.success && T_world_camera.matrix().allFinite()) {
-    // Velocity only from consecutive good frames.
-    has_velocity_ = lost_frames_ == 0;
-    velocity_ = T_world_last_.inverse() * T_world_camera;
+    // Velocity only from consecutive good frames (a lost frame reset the model).
+    motion_.observe({frame.stamp_ns, T_world_camera, /*trusted=*/true, /*discontinuous=*/false});
     T_world_last_ = T_world_camera;
     lost_frames_ = 0;
     ++frames_since_keyframe_;
@@ -280,7 +299,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     query.frames_since_keyframe = frames_since_keyframe_;
     // Inter-frame rotation; unknown (0) right after lost frames.
     query.frame_rotation_deg =
-        has_velocity_ ? Eigen::AngleAxisd(velocity_.rotation()).angle() * 180.0 / M_PI : 0.0;
+        motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI : 0.0;
     const KeyframeDecision decision = selector_.decide(query);
     if (decision.is_keyframe) {
       const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
@@ -303,13 +322,14 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     result.times.relocalization = msSince(t_reloc);
     if (reloc.success) {
       T_world_last_ = reloc.T_world_camera;
-      has_velocity_ = false;
+      motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
       lost_frames_ = 0;
       setReference(reloc.keyframe_id);
       frames_since_keyframe_ = 1;
       reference_inliers_ = reloc.num_inliers;
       result.state = TrackingState::kOk;
       result.relocalized = true;
+      result.discontinuous = true;
       result.T_world_camera = T_world_last_;
       result.num_inliers = reloc.num_inliers;
       result.message = "relocalised against keyframe " + std::to_string(reloc.keyframe_id) +
@@ -320,13 +340,15 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   }
 
   ++lost_frames_;
-  has_velocity_ = false;
+  motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
   result.state = TrackingState::kLost;
   result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
                    aligned.message;
   if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
     result.state = TrackingState::kOk;
+    result.discontinuous = true;
+    motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
     result.message += "; re-initialised after " + std::to_string(lost_frames_) +
                       " lost frames: new keyframe at the last good pose (motion while lost is "
                       "not recovered)";

@@ -81,6 +81,8 @@ void TrackingOptions::validate() const {
   requireRange("pose_graph_sigma_rot_deg", pose_graph_sigma_rot_deg, 0.0, 90.0, true);
   requireRange("pose_graph_sigma_trans_m", pose_graph_sigma_trans_m, 0.0, 10.0, true);
   requireRange("pose_graph_iterations", pose_graph_iterations, 1, 1000);
+  requireRange("correction_min_translation_m", correction_min_translation_m, 0.0, 1.0);
+  requireRange("correction_min_rotation_rad", correction_min_rotation_rad, 0.0, 1.0);
 }
 
 std::string TrackingOptions::toString() const {

@@ -14,7 +14,7 @@ void TrajectoryRecorder::add(const TrackingResult& result) {
 }
 
 std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPoses(
-    const LocalMap& map) const {
+    const TrackerMap& map) const {
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
   out.reserve(records_.size());
   for (const RecordedPose& r : records_) {

@@ -1,12 +1,13 @@
 /// TrackingNodelet: synchronised rgb + depth + camera_info (+ dynamic mask) in; pose, path, tf
-/// (map -> odom -> camera, REP-105), tracking status, keyframes and timing out. All the work is in
-/// dypho::tracking::RgbdOdometry.
+/// (map -> odom -> camera, REP-105), tracking status (with the pose and its jump flags, which the
+/// mask and mapping nodelets feed their motion models with), keyframes, keyframe correction
+/// batches and timing out. All the work and its policy are in dypho::tracking::TrackingStage (the
+/// same stage the in-process pipeline runs).
 
 #include <memory>
-#include <mutex>
 
 #include <dypho_slam/Keyframe.h>
-#include <dypho_slam/KeyframePose.h>
+#include <dypho_slam/KeyframeCorrections.h>
 #include <dypho_slam/Reset.h>
 #include <dypho_slam/SaveMap.h>
 #include <dypho_slam/StageTiming.h>
@@ -23,10 +24,8 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include "dypho/tools/trajectory_io.h"
-#include "dypho/tracking/trajectory_recorder.h"
-#include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/tracking_options_fields.h"
+#include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
@@ -46,7 +45,7 @@ struct TrackingRosParams {
   bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
   int queue_size = 10;              ///< synchroniser queue [messages]
   double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
-  std::string output_dir;           ///< where save_map writes trajectory.txt; empty = ~/.ros
+  std::string output_dir;           ///< where trajectory.txt is written on shutdown; empty = not on shutdown
   int max_path_length = 100000;     ///< path poses kept [poses]
 };
 
@@ -85,14 +84,14 @@ class TrackingNodelet : public nodelet::Nodelet {
     NODELET_INFO_STREAM("tracking parameters:" << reader.summary());
 
     // 2. Core.
-    odometry_ = std::make_unique<tracking::RgbdOdometry>(options);
+    stage_ = std::make_unique<tracking::TrackingStage>(options);
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
     path_pub_ = nh.advertise<nav_msgs::Path>("path", 2, true);
     status_pub_ = nh.advertise<dypho_slam::TrackingStatus>("tracking_status", 10);
     keyframe_pub_ = nh.advertise<dypho_slam::Keyframe>("keyframe", 10);
-    keyframe_pose_pub_ = nh.advertise<dypho_slam::KeyframePose>("keyframe_pose", 100);
+    corrections_pub_ = nh.advertise<dypho_slam::KeyframeCorrections>("keyframe_corrections", 100);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("tracking/timing", 10);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
@@ -122,7 +121,12 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   ~TrackingNodelet() override {
-    if (!params_.output_dir.empty()) saveTrajectory(params_.output_dir);
+    if (params_.output_dir.empty() || !stage_) return;
+    try {
+      saveTrajectory(params_.output_dir);
+    } catch (const std::exception& e) {
+      NODELET_ERROR_STREAM("could not write the trajectory on shutdown: " << e.what());
+    }
   }
 
  private:
@@ -143,27 +147,26 @@ class TrackingNodelet : public nodelet::Nodelet {
       NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
       return;
     }
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!recorder_.records().empty() && rc::toTimestamp(rgb->header.stamp) <= last_stamp_ns_) {
-      NODELET_WARN_STREAM("time jumped backwards (bag restarted?): clearing the path");
-      clearLocked();
-    }
-    last_stamp_ns_ = rc::toTimestamp(rgb->header.stamp);
-    const tracking::TrackingResult result = odometry_->track(frame, mask);
-    publish(result, rgb->header);
+    publish(stage_->process(frame, mask), rgb->header);
   }
 
-  void publish(const tracking::TrackingResult& result, const std_msgs::Header& header) {
+  void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header) {
+    const tracking::TrackingResult& result = out.result;
     const std::string camera_frame = params_.camera_frame.empty() ? header.frame_id : params_.camera_frame;
-    dypho_slam::TrackingStatus status;
-    status.header = header;
-    status.header.frame_id = camera_frame;
-    status.state = toStatusState(result.state);
-    status.is_keyframe = result.is_keyframe;
-    status.num_features = result.num_features;
-    status.num_inliers = result.num_inliers;
-    status.masked_fraction = static_cast<float>(result.masked_fraction);
-    status.message = result.message;
+    if (out.restarted) NODELET_WARN_STREAM("time jumped backwards (bag restarted?): tracking and path restart");
+    auto status = boost::make_shared<dypho_slam::TrackingStatus>();
+    status->header = header;
+    status->header.frame_id = camera_frame;
+    status->state = toStatusState(result.state);
+    status->is_keyframe = result.is_keyframe;
+    status->num_features = result.num_features;
+    status->num_inliers = result.num_inliers;
+    status->masked_fraction = static_cast<float>(result.masked_fraction);
+    status->message = result.message;
+    status->T_world_camera = rc::toPoseMsg(out.pose.T_world_camera);
+    status->trusted = out.pose.trusted;
+    status->discontinuous = out.pose.discontinuous;
+    status->restarted = out.restarted;
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {
       NODELET_WARN_STREAM_THROTTLE(2.0, "tracking " << tracking::toString(result.state) << ": "
@@ -172,28 +175,28 @@ class TrackingNodelet : public nodelet::Nodelet {
       NODELET_INFO_STREAM("tracking: " << result.message);
     }
     publishTiming(result, header);
-    publishCorrections(result, header.stamp);
-    if (result.state != tracking::TrackingState::kOk || !result.T_world_camera.matrix().allFinite()) {
-      return;  // never publish a pose we do not trust
-    }
-    geometry_msgs::PoseStamped pose;
-    pose.header.stamp = header.stamp;
-    pose.header.frame_id = params_.map_frame;
-    pose.pose = rc::toPoseMsg(result.T_world_camera);
+    publishCorrections(out.corrections(), header.stamp);
+    if (!out.pose.trusted) return;  // never publish a pose we do not trust
+    auto pose = boost::make_shared<geometry_msgs::PoseStamped>();
+    pose->header.stamp = header.stamp;
+    pose->header.frame_id = params_.map_frame;
+    pose->pose = rc::toPoseMsg(result.T_world_camera);
     pose_pub_.publish(pose);
-    recorder_.add(result);
-    path_.header.stamp = header.stamp;
-    if (result.is_keyframe || result.loop_closed) {
-      // Local BA and loop closure moved keyframes: redraw the path from the final poses.
+    publishPath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
+    if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
+    if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
+  }
+
+  /// The path of trusted poses; redrawn from the final poses when keyframes moved (local BA,
+  /// loop closure), else extended by `pose`.
+  void publishPath(const geometry_msgs::PoseStamped& pose, bool redraw) {
+    path_.header.stamp = pose.header.stamp;
+    if (redraw) {
       path_.poses.clear();
-      const auto final_poses = recorder_.finalPoses(odometry_->map());
-      const std::size_t first =
-          final_poses.size() > static_cast<std::size_t>(params_.max_path_length)
-              ? final_poses.size() - static_cast<std::size_t>(params_.max_path_length) : 0;
-      for (std::size_t i = first; i < final_poses.size(); ++i) {
+      for (const auto& [stamp_ns, T_world_camera] : stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length))) {
         geometry_msgs::PoseStamped p = pose;
-        p.header.stamp = rc::toRosTime(final_poses[i].first);
-        p.pose = rc::toPoseMsg(final_poses[i].second);
+        p.header.stamp = rc::toRosTime(stamp_ns);
+        p.pose = rc::toPoseMsg(T_world_camera);
         path_.poses.push_back(p);
       }
     } else {
@@ -201,21 +204,15 @@ class TrackingNodelet : public nodelet::Nodelet {
       if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
     }
     path_pub_.publish(path_);
-    if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
-    if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
   }
 
-  /// Corrected keyframe poses after a loop closure, for mapping to re-anchor its keyframes.
-  void publishCorrections(const tracking::TrackingResult& result, const ros::Time& stamp) {
-    for (const auto& kf : result.corrected_keyframes) {
-      if (!kf.second.matrix().allFinite()) continue;
-      dypho_slam::KeyframePose msg;
-      msg.header.stamp = stamp;
-      msg.header.frame_id = params_.map_frame;
-      msg.id = kf.first;
-      msg.T_world_camera = rc::toPoseMsg(kf.second);
-      keyframe_pose_pub_.publish(msg);
-    }
+  /// Keyframe poses moved by local BA or loop closure, one batch, for mapping to re-anchor.
+  void publishCorrections(const KeyframePoseCorrections& corrections, const ros::Time& stamp) {
+    if (corrections.empty()) return;
+    std_msgs::Header header;
+    header.stamp = stamp;
+    header.frame_id = params_.map_frame;
+    corrections_pub_.publish(rc::toCorrectionsMsg(corrections, header));
   }
 
   static geometry_msgs::TransformStamped toTransform(const Eigen::Isometry3d& T, const ros::Time& stamp,
@@ -255,16 +252,9 @@ class TrackingNodelet : public nodelet::Nodelet {
     timing_pub_.publish(timing);
   }
 
-  void clearLocked() {
-    odometry_->reset();
-    path_.poses.clear();
-    recorder_.clear();
-    last_stamp_ns_ = 0;
-  }
-
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    clearLocked();
+    stage_->reset();
+    path_.poses.clear();
     res.success = true;
     res.message = "tracking reset";
     return true;
@@ -284,26 +274,18 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   std::string saveTrajectory(const std::string& dir) {
-    std::lock_guard<std::mutex> lock(mutex_);
     // trajectory.txt: tracked frames following the final poses of their keyframes (after local BA
-    // and loop closure); trajectory_online.txt: the poses as published.
-    const auto final_trajectory = tools::toStampedPoses(recorder_.finalPoses(odometry_->map()));
-    const auto online_trajectory = tools::toStampedPoses(recorder_.onlinePoses());
-    const std::string path = dir + "/trajectory.txt";
-    tools::writeTumTrajectory(path, final_trajectory);
-    tools::writeTumTrajectory(dir + "/trajectory_online.txt", online_trajectory);
-    NODELET_INFO_STREAM("wrote " << final_trajectory.size() << " poses to " << path
-                                 << " (and trajectory_online.txt)");
-    return path;
+    // and loop closure); trajectory_online.txt: the poses as published; keyframes.txt.
+    const std::vector<std::string> paths = stage_->saveTrajectories(dir);
+    NODELET_INFO_STREAM("wrote " << stage_->numFrames() << " poses to " << paths.front()
+                                 << " (and trajectory_online.txt, keyframes.txt)");
+    return paths.front();
   }
 
   TrackingRosParams params_;
-  std::unique_ptr<tracking::RgbdOdometry> odometry_;
-  std::mutex mutex_;
-  nav_msgs::Path path_;
-  tracking::TrajectoryRecorder recorder_;  ///< tracked frames (kOk only), for path and trajectory
-  Timestamp last_stamp_ns_ = 0;
-  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, keyframe_pose_pub_, timing_pub_;
+  std::unique_ptr<tracking::TrackingStage> stage_;
+  nav_msgs::Path path_;  ///< the synchronised callback only
+  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;

@@ -5,6 +5,8 @@
 #include <array>
 #include <string>
 
+#include <opencv2/core/types.hpp>
+
 namespace dypho {
 
 /// Intrinsics of the colour camera that the depth image is registered to.
@@ -33,5 +35,18 @@ struct CameraIntrinsics {
     return false;
   }
 };
+
+/// Intrinsics of an image resized by `scale` to `width` x `height` (cv::resize pixel-centre
+/// convention); the distortion coefficients act on normalised coordinates and are kept.
+inline CameraIntrinsics resizedIntrinsics(const CameraIntrinsics& c, const cv::Size& size, double scale) {
+  CameraIntrinsics s = c;
+  s.fx *= scale;
+  s.fy *= scale;
+  s.cx = (c.cx + 0.5) * scale - 0.5;
+  s.cy = (c.cy + 0.5) * scale - 0.5;
+  s.width = size.width;
+  s.height = size.height;
+  return s;
+}
 
 }  // namespace dypho

@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -64,5 +65,9 @@ struct Keyframe {
 };
 
 using KeyframeConstPtr = std::shared_ptr<const Keyframe>;
+
+/// Keyframe poses changed after the keyframe was handed on (local BA, loop closure), as one
+/// batch: (keyframe id, new T_world_camera). Tracking emits them; mapping re-anchors.
+using KeyframePoseCorrections = std::vector<std::pair<std::int64_t, Eigen::Isometry3d>>;
 
 }  // namespace dypho

@@ -10,29 +10,39 @@
 /// and rendered in that pinhole camera. `render()`/`renderDepth()` map the result back into the
 /// distorted image of the requested camera, so their output lines up with the input images.
 ///
-/// Threads: every public function is thread-safe (one mutex guards the map). With `start()`, a
-/// worker thread takes keyframes from a bounded queue, seeds them and runs
-/// `iterations_per_keyframe` iterations after each (in order, so results do not depend on timing);
-/// the lock is released between iterations, so a render waits at most one iteration.
+/// Jobs, each in its own file: GaussianTrainer (seeding, iterations, re-anchoring; private),
+/// MappingWorker (thread + ordered job queue), MapRenderer (renders, also of snapshots outside the
+/// lock), keyframe_evaluation.h, gaussian_map_io.h (PLY/PCD). This class composes them.
+///
+/// Threads: every public function is thread-safe (one mutex guards the trainer). With `start()`,
+/// the worker takes jobs in order: a keyframe is seeded and trained on for
+/// `iterations_per_keyframe` iterations, then the map is copied into a snapshot tagged with that
+/// keyframe's id; a correction batch re-anchors its keyframes. Results do not depend on timing
+/// (the backward pass reduces in a fixed order). The lock is released between iterations, so a
+/// render waits at most one iteration; renders of a snapshot (MapRenderer) wait for nothing.
 
-#include <atomic>
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "dypho/common/types.h"
+#include "dypho/mapping/gaussian_map.h"
+#include "dypho/mapping/gaussian_map_io.h"
 #include "dypho/mapping/gaussian_mapper_options.h"
+#include "dypho/mapping/keyframe_evaluation.h"
+#include "dypho/mapping/map_renderer.h"
+#include "dypho/mapping/mapping_worker.h"
 
 namespace dypho::mapping {
+
+struct GaussianTrainer;
 
 /// Result of integrating one keyframe.
 struct AddKeyframeResult {
@@ -48,44 +58,26 @@ struct GaussianMapperStats {
   std::size_t num_keyframes = 0;        ///< keyframes integrated (poses kept)
   std::size_t num_stored_images = 0;    ///< keyframes whose images are kept
   std::int64_t iterations = 0;          ///< optimisation iterations run
-  std::size_t queued = 0;               ///< keyframes waiting for the worker
-  std::size_t dropped_keyframes = 0;    ///< dropped because the queue was full (non-blocking enqueue)
+  std::size_t queued = 0;               ///< jobs waiting for the worker
+  std::size_t dropped_keyframes = 0;    ///< dropped because the queue was full (live policy)
   std::size_t skipped_keyframes = 0;    ///< rejected (bad pose, no depth, ...)
   std::size_t capacity_hits = 0;        ///< times seeding or densification stopped at the cap
+  std::size_t corrected_keyframes = 0;  ///< keyframe re-anchorings applied (local BA, loop closure)
   double last_loss = 0.0;               ///< loss of the last iteration
 };
 
-/// PSNR and depth error of the map rendered at the stored keyframes (training resolution).
-struct KeyframeEvaluation {
-  std::size_t num_keyframes = 0;  ///< keyframes evaluated
-  /// Mean over keyframes of the PSNR on static pixels [dB]; with exposure_compensation the
-  /// rendered colour goes through the keyframe's exposure first (exp(k) * rendered + b).
-  double psnr_db = 0.0;
-  double psnr_without_exposure_db = 0.0;  ///< the same with the plain rendered colour [dB]
-  double depth_l1_m = 0.0;        ///< mean |Dr - D| over static pixels with valid depth [m]
-  std::vector<double> psnr_per_keyframe_db;  ///< in keyframe order
-};
-
-/// A rendered view.
-struct RenderedView {
-  cv::Mat bgr;      ///< CV_8UC3 BGR
-  /// CV_32FC1 [m]: D_r / alpha (D_r = sum d_i alpha_i T_i) where alpha >= 0.5, else 0 (no
-  /// measurement). The alpha term of the loss keeps alpha ~1 on measured surfaces, where this is D_r.
-  cv::Mat depth_m;
-  cv::Mat alpha;    ///< CV_32FC1 accumulated alpha in [0, 1]
-};
-
-/// One Gaussian centre with its colour (for point clouds).
-struct GaussianCentre {
-  float x, y, z;         ///< world [m]
-  std::uint8_t r, g, b;  ///< DC colour
+/// A copy of the map as it stood after a keyframe's job (integration and its iterations).
+struct MapSnapshot {
+  std::shared_ptr<const GaussianMap> map;  ///< null before the first keyframe's job finished
+  std::int64_t after_keyframe_id = -1;     ///< the keyframe whose job it follows
+  std::int64_t iterations = 0;             ///< optimisation iterations run by then
 };
 
 class GaussianMapper {
  public:
   /// Validates `options` (std::invalid_argument).
   explicit GaussianMapper(const GaussianMapperOptions& options);
-  ~GaussianMapper();  ///< stops the worker (pending keyframes are discarded)
+  ~GaussianMapper();  ///< stops the worker (pending jobs are discarded)
   GaussianMapper(const GaussianMapper&) = delete;
   GaussianMapper& operator=(const GaussianMapper&) = delete;
 
@@ -99,29 +91,40 @@ class GaussianMapper {
   double optimize(int iterations);
 
   // --- worker thread -----------------------------------------------------------------------
-  /// Starts the worker with a queue of `queue_capacity` keyframes (no-op when running).
+  /// Starts the worker with a queue of `queue_capacity` jobs (no-op when running).
   void start(std::size_t queue_capacity);
-  /// Hands a keyframe to the worker. When the queue is full: with `block_when_full` waits for
-  /// room (deterministic offline runs); otherwise drops the oldest queued keyframe and returns
-  /// false (ROS callbacks). Without a running worker, integrates and optimises synchronously.
+  /// Hands a keyframe to the worker (MappingWorker's policy: with `block_when_full` waits for
+  /// room, otherwise drops the oldest waiting keyframe and returns false). Without a running
+  /// worker, integrates and optimises synchronously.
   bool enqueueKeyframe(KeyframeConstPtr keyframe, bool block_when_full);
+  /// Hands a batch of keyframe pose corrections to the worker, after the jobs already queued
+  /// (never dropped). Without a running worker, applies it at once.
+  void enqueueCorrections(KeyframePoseCorrections corrections, bool block_when_full);
   /// Waits until the queue is empty and the worker has finished its iterations.
   void waitUntilIdle();
   /// End of a sequence: waitUntilIdle(), then `final_refine_iterations` iterations over all stored
   /// keyframes (shuffled passes, each keyframe equally often) on the calling thread. Call it once
   /// before the final map is saved or evaluated. Returns the mean loss of those iterations (0: none).
   double finish();
-  /// Stops and joins the worker (remaining queued keyframes are discarded).
+  /// Stops and joins the worker (remaining queued jobs are discarded).
   void stop();
   /// Receives one line per skipped keyframe or notable event from the worker (optional).
   void setMessageSink(std::function<void(const std::string&)> sink);
+
+  // --- snapshots (the map to render from without taking the lock) ---------------------------
+  /// The newest snapshot (map null before the first keyframe's job finished).
+  MapSnapshot latestSnapshot() const;
+  /// Waits until the job of keyframe `keyframe_id` (or a later one) has finished and returns the
+  /// newest snapshot; returns at once when the worker is not running.
+  MapSnapshot waitForSnapshot(std::int64_t keyframe_id) const;
 
   // --- queries (thread-safe) -----------------------------------------------------------------
   /// Re-anchors the Gaussians seeded from keyframe `id` after a pose correction; false when the
   /// id is unknown or the pose is not finite/rigid.
   bool updateKeyframePose(std::int64_t id, const Eigen::Isometry3d& T_world_camera);
-  /// Colour, depth and alpha seen from `T_world_camera` through `camera` (size and distortion of
-  /// `camera`). Throws std::invalid_argument for invalid intrinsics or a non-finite pose.
+  /// Colour, depth and alpha seen from `T_world_camera` through `camera` (MapRenderer::render on
+  /// the live map, under the lock). Throws std::invalid_argument for invalid intrinsics or a
+  /// non-finite pose.
   RenderedView render(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const;
   /// Depth only (CV_32FC1 [m], 0 = nothing rendered), same geometry as render().
   cv::Mat renderDepth(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const;
@@ -142,26 +145,33 @@ class GaussianMapper {
   /// Writes the centres as a binary PCD (x y z rgb), atomically.
   void saveCentresPcd(const std::string& path) const;
   GaussianMapperStats stats() const;
-  /// Removes every Gaussian and keyframe (the worker keeps running).
+  /// Poses of the integrated keyframes (after any corrections), in insertion order.
+  KeyframePoseCorrections keyframePoses() const;
+  /// Removes every Gaussian and keyframe (the worker keeps running; waiting jobs are discarded).
   void reset();
   const GaussianMapperOptions& options() const { return options_; }
 
  private:
-  struct Impl;
-  void workerLoop();
-  GaussianMapperOptions options_;
-  std::unique_ptr<Impl> impl_;  ///< map, optimiser, keyframes, rasterizers (guarded by mutex_)
-  mutable std::mutex mutex_;
+  /// Runs one job on the worker thread.
+  void runJob(const MappingJob& job);
+  /// Applies a correction batch under the lock; returns the keyframes moved.
+  std::size_t applyCorrections(const KeyframePoseCorrections& corrections);
+  void publishSnapshot(std::int64_t keyframe_id);
+  void report(const std::string& message) const;
 
-  mutable std::mutex queue_mutex_;
-  std::condition_variable queue_cv_;
-  std::deque<KeyframeConstPtr> queue_;
-  std::size_t queue_capacity_ = 1;
-  bool worker_busy_ = false;
-  bool stop_ = false;
-  std::thread worker_;
+  GaussianMapperOptions options_;
+  std::unique_ptr<GaussianTrainer> trainer_;  ///< guarded by mutex_
+  mutable std::unique_ptr<MapRenderer> renderer_;  ///< renders of the live map, guarded by mutex_
+  mutable std::mutex mutex_;
+  std::size_t corrected_ = 0;  ///< guarded by mutex_
+
+  std::unique_ptr<MappingWorker> worker_;
   std::function<void(const std::string&)> sink_;
-  std::atomic<std::size_t> dropped_{0};
+
+  mutable std::mutex snapshot_mutex_;
+  mutable std::condition_variable snapshot_cv_;
+  MapSnapshot snapshot_;
+  std::int64_t done_keyframe_id_ = -1;  ///< highest keyframe id whose job finished
 };
 
 }  // namespace dypho::mapping

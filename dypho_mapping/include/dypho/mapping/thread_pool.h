@@ -27,8 +27,13 @@ class ThreadPool {
   /// `chunk`; thread_index is in [0, numThreads()). Returns when all calls have returned. An
   /// exception thrown by fn is rethrown here (the first one).
   void parallelFor(int n, const std::function<void(int, int)>& fn, int chunk = 1);
+  /// The same with a fixed assignment: item i runs on thread i % numThreads(), each thread in
+  /// increasing i. Per-thread sums are then independent of timing, so a reduction over threads
+  /// in thread order is bit-for-bit repeatable (the backward pass uses it).
+  void parallelForStatic(int n, const std::function<void(int, int)>& fn);
 
  private:
+  void run(int n, const std::function<void(int, int)>& fn, int chunk, bool fixed);
   void workerLoop(int thread_index);
   void runItems(int thread_index);
 
@@ -39,6 +44,7 @@ class ThreadPool {
   const std::function<void(int, int)>* job_ = nullptr;
   int job_n_ = 0;
   int job_chunk_ = 1;
+  bool job_static_ = false;
   std::atomic<int> next_{0};
   int busy_ = 0;
   long generation_ = 0;

@@ -45,8 +45,9 @@ struct MaskPrior {
   /// Predicted pose of the current camera in the previous camera frame (constant velocity from
   /// tracking): p_prev = T_prev_cur * p_cur.
   std::optional<Eigen::Isometry3d> T_prev_cur;
-  /// CV_32FC1 depth [m] rendered from the map at the predicted current pose, input size; empty =
-  /// none (0/NaN pixels = no value).
+  /// R_d(G, T_{i-1} delta T): CV_32FC1 depth [m] rendered from the map at the predicted current
+  /// pose, at the input size or at workingSize() (no resampling then); empty = none (0/NaN
+  /// pixels = no value).
   cv::Mat rendered_depth_m;
 };
 
@@ -62,6 +63,7 @@ struct MaskResult {
   bool degraded = false;
   std::string message;             ///< why degraded, warnings, "first frame"
   bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
+  bool rendered_depth_used = false;   ///< R_d entered the background model B_i on this frame
   bool segment_fresh = false;      ///< the network ran on this frame
   int segment_age_frames = 0;      ///< frames the segment mask was carried
   std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
@@ -85,6 +87,10 @@ class DynamicMasker {
 
   /// Mask of `frame` (bgr CV_8UC3 or CV_8UC1; depth CV_32FC1 of the same size or empty).
   MaskResult compute(const RgbdFrame& frame, const MaskPrior& prior = {});
+
+  /// Size at which the background model B_i works (input size times background.scale): R_d is
+  /// best rendered at this size.
+  cv::Size workingSize(const cv::Size& input) const;
 
   /// Forgets all history (flow, carried segment mask, background model).
   void reset();

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/tracking_options.h"
 
@@ -40,7 +40,7 @@ class LocalBundleAdjuster {
 
   /// `map`: the map to adjust in place; `newest_keyframe_id`: the window's anchor. `pinhole` is
   /// the camera (all keyframes share it). Never throws on data.
-  LocalBaResult adjust(LocalMap* map, std::int64_t newest_keyframe_id,
+  LocalBaResult adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
                        const Pinhole& pinhole) const;
 
  private:

@@ -9,7 +9,7 @@
 
 #include <Eigen/Geometry>
 
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/loop_detector.h"
 #include "dypho/tracking/pose_graph_optimizer.h"
 #include "dypho/tracking/tracking_options.h"
@@ -32,7 +32,7 @@ struct LoopCorrection {
 /// Builds the essential graph (edges between consecutive keyframes, between keyframes sharing
 /// >= pose_graph_min_shared points, and the loop edge T_loop_current from the verification), all
 /// relative poses taken from the current estimates except the loop edge; fixes the loop keyframe;
-/// optimises (PoseGraphOptimizer); moves keyframes and their points (LocalMap::applyKeyframePoses);
+/// optimises (PoseGraphOptimizer); moves keyframes and their points (TrackerMap::applyKeyframePoses);
 /// then fuses the matched points of the loop (current ones into the old ones).
 class LoopCloser {
  public:
@@ -40,7 +40,7 @@ class LoopCloser {
   explicit LoopCloser(const TrackingOptions& options);
 
   /// Never throws on data.
-  LoopCorrection close(LocalMap* map, const LoopResult& loop) const;
+  LoopCorrection close(TrackerMap* map, const LoopResult& loop) const;
 
  private:
   TrackingOptions options_;

@@ -10,7 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/tracking/keyframe_aligner.h"
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/tracking_options.h"
 
@@ -47,7 +47,7 @@ class LoopDetector {
   explicit LoopDetector(const TrackingOptions& options);
 
   /// Never throws on data.
-  LoopResult detect(const LocalMap& map, std::int64_t current_keyframe_id,
+  LoopResult detect(const TrackerMap& map, std::int64_t current_keyframe_id,
                     const Pinhole& pinhole) const;
 
  private:

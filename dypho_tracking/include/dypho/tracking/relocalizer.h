@@ -9,7 +9,7 @@
 
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/keyframe_aligner.h"
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/tracking_options.h"
 #include "dypho/tracking/tracking_result.h"
@@ -39,7 +39,7 @@ class Relocalizer {
   explicit Relocalizer(const TrackingOptions& options);
 
   /// Never throws on data. `times` (may be null) accumulates matching/pnp/refine.
-  RelocalizationResult relocalize(const LocalMap& map, const FrameFeatures& frame,
+  RelocalizationResult relocalize(const TrackerMap& map, const FrameFeatures& frame,
                                   const Pinhole& pinhole, TrackingTimesMs* times) const;
 
  private:

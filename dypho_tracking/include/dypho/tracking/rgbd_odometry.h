@@ -5,18 +5,20 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "dypho/common/motion_prior.h"
 #include "dypho/common/types.h"
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/keyframe_aligner.h"
 #include "dypho/tracking/keyframe_points.h"
 #include "dypho/tracking/keyframe_selector.h"
 #include "dypho/tracking/local_bundle_adjuster.h"
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/loop_closer.h"
 #include "dypho/tracking/loop_detector.h"
 #include "dypho/tracking/orb_extractor.h"
@@ -35,7 +37,7 @@ namespace tracking {
 /// and its local_map_keyframes most covisible keyframes (KeyframeAligner: constant-velocity
 /// prediction, projection matching with scale prediction, PnP RANSAC fallback on the last
 /// keyframe's own points, Ceres motion-only BA with chi2 rounds) -> visibility bookkeeping ->
-/// KeyframeSelector. On a new keyframe (synchronously): LocalMap::addKeyframe (RGB-D points,
+/// KeyframeSelector. On a new keyframe (synchronously): TrackerMap::addKeyframe (RGB-D points,
 /// matched points get a new observation), LocalBundleAdjuster, map-point culling, LoopDetector +
 /// LoopCloser (pose graph; corrected keyframes in the result).
 ///
@@ -71,7 +73,7 @@ class RgbdOdometry {
   const TrackingOptions& options() const { return options_; }
 
   /// The tracker's map (keyframes with their current poses, map points).
-  const LocalMap& map() const { return map_; }
+  const TrackerMap& map() const { return map_; }
 
  private:
   /// Empty when the inputs are usable, otherwise what is wrong and how to fix it.
@@ -85,6 +87,10 @@ class RgbdOdometry {
                    const Eigen::Isometry3d& T_world_camera,
                    const std::vector<std::int64_t>& map_point_ids, const Pinhole& pinhole,
                    TrackingResult* result);
+  /// Keyframes (other than the new one) whose pose moved by more than the correction thresholds
+  /// since it was last reported, appended to result->corrected_keyframes; the pose mapping holds
+  /// thus never differs from the tracker's by more than those thresholds.
+  void collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result);
   /// Loop detection and correction for the newest keyframe.
   void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
@@ -97,7 +103,7 @@ class RgbdOdometry {
   OrbExtractor extractor_;
   KeyframeAligner aligner_;
   KeyframeSelector selector_;
-  LocalMap map_;
+  TrackerMap map_;
   LocalBundleAdjuster local_ba_;
   Relocalizer relocalizer_;
   LoopDetector loop_detector_;
@@ -107,9 +113,9 @@ class RgbdOdometry {
   KeyframePoints local_view_;       ///< map points of the reference's local map
   KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
-  Eigen::Isometry3d velocity_ = Eigen::Isometry3d::Identity();  ///< T_previous_last (camera motion)
+  ConstantVelocityModel motion_;
+  std::unordered_map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on  ///< the shared constant-velocity prediction (motion_prior.h)
   Eigen::Isometry3d T_world_odom_ = Eigen::Isometry3d::Identity();  ///< loop corrections so far
-  bool has_velocity_ = false;
   bool has_stamp_ = false;
   Timestamp last_stamp_ns_ = 0;
   int frames_since_keyframe_ = 0;

@@ -133,7 +133,7 @@ struct TrackingOptions {
   /// [frames]; default 5, range [1, 100000].
   int max_lost_frames = 5;
 
-  // --- local map (LocalMap) ---
+  // --- local map (TrackerMap) ---
   /// Frames are tracked against the map points of the last keyframe and of its this many most
   /// covisible keyframes [count]; default 10, range [0, 100]; 0 = the last keyframe only.
   int local_map_keyframes = 10;
@@ -199,6 +199,12 @@ struct TrackingOptions {
   void validate() const;
   /// One "name: value" line per field, in declaration order.
   std::string toString() const;
+  // --- corrections handed to mapping ---
+  /// A keyframe moved by local BA or loop closure by more than this is reported in
+  /// TrackingResult::corrected_keyframes [m]; default 0.001, range [0, 1].
+  double correction_min_translation_m = 0.001;
+  /// The same for rotation [rad]; default 0.001 (0.057 deg), range [0, 1].
+  double correction_min_rotation_rad = 0.001;
 };
 
 }  // namespace tracking

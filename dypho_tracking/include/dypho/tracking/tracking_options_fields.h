@@ -66,6 +66,8 @@ void visitOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("pose_graph_sigma_rot_deg", options.pose_graph_sigma_rot_deg, "Rotation standard deviation of a pose-graph edge [deg]; default 0.5, range (0, 90].");
   visitor("pose_graph_sigma_trans_m", options.pose_graph_sigma_trans_m, "Translation standard deviation of a pose-graph edge [m]; default 0.01, range (0, 10].");
   visitor("pose_graph_iterations", options.pose_graph_iterations, "Levenberg-Marquardt iterations of the pose graph [count]; default 20, range [1, 1000].");
+  visitor("correction_min_translation_m", options.correction_min_translation_m, "A keyframe moved by local BA or loop closure by more than this is sent to mapping, which re-anchors its Gaussians [m]; default 0.001, range [0, 1].");
+  visitor("correction_min_rotation_rad", options.correction_min_rotation_rad, "The same for rotation [rad]; default 0.001 (0.057 deg), range [0, 1].");
 }
 
 }  // namespace dypho::tracking

@@ -52,9 +52,14 @@ struct TrackingResult {
   std::string message;         ///< why LOST / NOT_INITIALIZED / reset; empty when all went well
   bool relocalized = false;    ///< this frame was found again against the map after being lost
   bool loop_closed = false;    ///< a loop was closed at this (key)frame; see corrected_keyframes
-  /// Keyframes moved by loop closure at this frame: (keyframe id, new T_world_camera). Consumers
-  /// (mapping) re-anchor those keyframes. Empty on most frames.
-  std::vector<std::pair<std::int64_t, Eigen::Isometry3d>> corrected_keyframes;
+  /// The pose jumped at this frame (first keyframe of a world, relocalised, re-initialised, reset
+  /// by a stamp going backwards): no velocity may be formed across it (motion_prior.h).
+  bool discontinuous = false;
+  /// Earlier keyframes moved at this (key)frame by local BA or loop closure, by more than
+  /// correction_min_translation_m / correction_min_rotation_rad: (keyframe id, new
+  /// T_world_camera), one batch. Consumers (mapping) re-anchor those keyframes. Empty on frames
+  /// that are not keyframes.
+  KeyframePoseCorrections corrected_keyframes;
   /// Accumulated loop-closure correction: T_world_camera = T_world_odom * T_odom_camera, where
   /// odom is the uncorrected odometry frame (REP-105 map -> odom). Identity until a loop closes.
   Eigen::Isometry3d T_world_odom = Eigen::Isometry3d::Identity();

@@ -10,7 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/common/types.h"
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/tracking_result.h"
 
 namespace dypho {
@@ -34,7 +34,7 @@ class TrajectoryRecorder {
   /// T_world_camera of every recorded frame, in order: T_world_reference (current, from `map`)
   /// * T_reference_camera. A frame that was not tracked, or whose keyframe is no longer in `map`
   /// (tracker reset since), keeps its online pose.
-  std::vector<std::pair<Timestamp, Eigen::Isometry3d>> finalPoses(const LocalMap& map) const;
+  std::vector<std::pair<Timestamp, Eigen::Isometry3d>> finalPoses(const TrackerMap& map) const;
 
   /// The poses as published at frame time, in order.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> onlinePoses() const;

@@ -10,7 +10,7 @@
 
 #include <Eigen/Geometry>
 
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 namespace dypho::tools {
 

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "dypho/common/types.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 namespace dypho::tools {
 

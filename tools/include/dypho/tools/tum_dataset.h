@@ -11,7 +11,7 @@
 
 #include "dypho/common/types.h"
 #include "dypho/tools/camera_config.h"
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 namespace dypho::tools {
 

@@ -1,5 +1,7 @@
 #pragma once
-/// Private state of GaussianMapper (guarded by GaussianMapper::mutex_).
+/// GaussianTrainer: the map, its optimiser and the training keyframes; seeds keyframes,
+/// runs optimisation iterations, re-anchors corrected keyframes. Not thread-safe: GaussianMapper
+/// holds its lock around every call.
 
 #include <cstdint>
 #include <random>
@@ -11,6 +13,7 @@
 #include "dypho/mapping/adam.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/gaussian_mapper.h"
+#include "dypho/mapping/keyframe_evaluation.h"
 #include "dypho/mapping/rasterizer.h"
 #include "dypho/mapping/ray_cache.h"
 #include "dypho/mapping/ssim_loss.h"
@@ -40,8 +43,13 @@ struct Undistorter {
   cv::Mat map1, map2;
 };
 
-struct GaussianMapper::Impl {
-  explicit Impl(const GaussianMapperOptions& o);
+struct GaussianTrainer {
+  explicit GaussianTrainer(const GaussianMapperOptions& o);
+  /// Re-anchors the Gaussians of each listed keyframe to its new pose (unknown ids and non-rigid
+  /// poses are ignored); returns how many keyframes moved.
+  std::size_t correctKeyframePoses(const KeyframePoseCorrections& corrections);
+  /// Removes every Gaussian and keyframe.
+  void clear();
 
   GaussianParamsView<float> params() const;
   /// Seeds a validated keyframe (see GaussianMapper::addKeyframe).
@@ -65,7 +73,7 @@ struct GaussianMapper::Impl {
   GaussianMap map;
   ThreadPool pool;
   Rasterizer<float> raster;         ///< training (forward + backward)
-  Rasterizer<float> render_raster;  ///< renders for callers and seeding
+  Rasterizer<float> render_raster;  ///< renders for seeding and evaluation
   Adam adam;
   std::mt19937 rng;
   std::vector<TrainingKeyframe> keyframes;  ///< insertion order
@@ -86,6 +94,13 @@ struct GaussianMapper::Impl {
   float exposure_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< dL/d exposure of the last loss
   std::vector<float> ssim_target;   ///< [3, H, W] the keyframe's colour, RGB in [0, 1]
 };
+
+/// PSNR on static pixels and depth L1 of `trainer`'s map at its stored keyframes; with
+/// `side_by_side_dir`, writes kf_<id>.png there (GaussianMapper::evaluateKeyframes).
+KeyframeEvaluation evaluateKeyframes(GaussianTrainer& trainer, const std::string& side_by_side_dir);
+
+/// True when the pose is finite and its rotation orthonormal (1e-3).
+bool isRigidPose(const Eigen::Isometry3d& T);
 
 /// Throws nothing; returns an empty string when the keyframe is usable, else why not.
 std::string checkKeyframe(const Keyframe& keyframe);

@@ -15,7 +15,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-namespace dypho::tools {
+namespace dypho::pipeline {
 
 /// Visitor that overwrites fields present in a YAML map. Unknown keys are an error
 /// (`checkNoUnknownKeys`), so a typo never silently keeps a default.
@@ -89,4 +89,4 @@ class YamlOptionsWriter {
   int indent_;
 };
 
-}  // namespace dypho::tools
+}  // namespace dypho::pipeline

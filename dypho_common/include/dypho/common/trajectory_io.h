@@ -10,7 +10,7 @@
 
 #include "dypho/common/types.h"
 
-namespace dypho::tools {
+namespace dypho {
 
 /// A camera pose at a time.
 struct StampedPose {
@@ -41,4 +41,4 @@ inline std::vector<StampedPose> toStampedPoses(
   return out;
 }
 
-}  // namespace dypho::tools
+}  // namespace dypho

@@ -1,4 +1,4 @@
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 
 #include <algorithm>
 #include <unordered_set>
@@ -12,14 +12,14 @@ constexpr int kCullMinVisible = 10;
 
 }  // namespace
 
-LocalMap::LocalMap(const TrackingOptions& options) : options_(options) { options_.validate(); }
+TrackerMap::TrackerMap(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
-void LocalMap::clear() {
+void TrackerMap::clear() {
   keyframes_.clear();
   points_.clear();
 }
 
-std::vector<std::int64_t> LocalMap::addKeyframe(MapKeyframe kf) {
+std::vector<std::int64_t> TrackerMap::addKeyframe(MapKeyframe kf) {
   const size_t n = kf.features.size();
   kf.map_point_ids.resize(n, -1);
   for (size_t i = 0; i < n; ++i) {
@@ -47,7 +47,7 @@ std::vector<std::int64_t> LocalMap::addKeyframe(MapKeyframe kf) {
   return ids;
 }
 
-int LocalMap::sharedPoints(std::int64_t a, std::int64_t b) const {
+int TrackerMap::sharedPoints(std::int64_t a, std::int64_t b) const {
   const MapKeyframe* ka = keyframe(a);
   if (ka == nullptr || keyframe(b) == nullptr) return 0;
   int count = 0;
@@ -58,7 +58,7 @@ int LocalMap::sharedPoints(std::int64_t a, std::int64_t b) const {
   return count;
 }
 
-std::vector<std::int64_t> LocalMap::covisibleKeyframes(std::int64_t keyframe_id,
+std::vector<std::int64_t> TrackerMap::covisibleKeyframes(std::int64_t keyframe_id,
                                                        int max_count) const {
   const MapKeyframe* kf = keyframe(keyframe_id);
   std::vector<std::int64_t> out;
@@ -85,11 +85,11 @@ std::vector<std::int64_t> LocalMap::covisibleKeyframes(std::int64_t keyframe_id,
   return out;
 }
 
-KeyframePoints LocalMap::keyframePoints(std::int64_t keyframe_id) const {
+KeyframePoints TrackerMap::keyframePoints(std::int64_t keyframe_id) const {
   return collectPoints(keyframe_id, {keyframe_id});
 }
 
-KeyframePoints LocalMap::localPoints(std::int64_t keyframe_id) const {
+KeyframePoints TrackerMap::localPoints(std::int64_t keyframe_id) const {
   std::vector<std::int64_t> kfs{keyframe_id};
   for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) {
     kfs.push_back(id);
@@ -97,7 +97,7 @@ KeyframePoints LocalMap::localPoints(std::int64_t keyframe_id) const {
   return collectPoints(keyframe_id, kfs);
 }
 
-KeyframePoints LocalMap::collectPoints(std::int64_t keyframe_id,
+KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
                                        const std::vector<std::int64_t>& kfs) const {
   KeyframePoints out;
   const MapKeyframe* kf = keyframe(keyframe_id);
@@ -128,7 +128,7 @@ KeyframePoints LocalMap::collectPoints(std::int64_t keyframe_id,
   return out;
 }
 
-void LocalMap::updateVisibility(const std::vector<std::int64_t>& visible,
+void TrackerMap::updateVisibility(const std::vector<std::int64_t>& visible,
                                 const std::vector<std::int64_t>& found) {
   for (std::int64_t id : visible) {
     auto it = points_.find(id);
@@ -140,7 +140,7 @@ void LocalMap::updateVisibility(const std::vector<std::int64_t>& visible,
   }
 }
 
-int LocalMap::cullPoints() {
+int TrackerMap::cullPoints() {
   int removed = 0;
   for (auto it = points_.begin(); it != points_.end();) {
     const MapPoint& p = it->second;
@@ -162,7 +162,7 @@ int LocalMap::cullPoints() {
   return removed;
 }
 
-bool LocalMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {
+bool TrackerMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {
   if (keep_id == remove_id) return false;
   MapPoint* keep = mutablePoint(keep_id);
   auto remove = points_.find(remove_id);
@@ -185,7 +185,7 @@ bool LocalMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {
   return true;
 }
 
-void LocalMap::applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe) {
+void TrackerMap::applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe) {
   std::unordered_map<std::int64_t, Eigen::Isometry3d> correction;
   for (const auto& kv : T_world_keyframe) {
     auto kf = keyframes_.find(kv.first);
@@ -199,23 +199,23 @@ void LocalMap::applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d
   }
 }
 
-const MapKeyframe* LocalMap::keyframe(std::int64_t id) const {
+const MapKeyframe* TrackerMap::keyframe(std::int64_t id) const {
   auto it = keyframes_.find(id);
   return it == keyframes_.end() ? nullptr : &it->second;
 }
 
-const MapPoint* LocalMap::point(std::int64_t id) const {
+const MapPoint* TrackerMap::point(std::int64_t id) const {
   if (id < 0) return nullptr;
   auto it = points_.find(id);
   return it == points_.end() ? nullptr : &it->second;
 }
 
-MapKeyframe* LocalMap::mutableKeyframe(std::int64_t id) {
+MapKeyframe* TrackerMap::mutableKeyframe(std::int64_t id) {
   auto it = keyframes_.find(id);
   return it == keyframes_.end() ? nullptr : &it->second;
 }
 
-MapPoint* LocalMap::mutablePoint(std::int64_t id) {
+MapPoint* TrackerMap::mutablePoint(std::int64_t id) {
   if (id < 0) return nullptr;
   auto it = points_.find(id);
   return it == points_.end() ? nullptr : &it->second;

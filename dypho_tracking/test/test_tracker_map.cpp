@@ -1,11 +1,11 @@
-/// LocalMap: point creation and observations, covisibility, local view, culling, fusion, pose
+/// TrackerMap: point creation and observations, covisibility, local view, culling, fusion, pose
 /// correction.
 
 #include <set>
 
 #include <gtest/gtest.h>
 
-#include "dypho/tracking/local_map.h"
+#include "dypho/tracking/tracker_map.h"
 
 namespace dypho {
 namespace tracking {
@@ -28,8 +28,8 @@ MapKeyframe makeKf(std::int64_t id, const std::vector<std::int64_t>& ids, double
   return kf;
 }
 
-TEST(LocalMap, NewPointsAndObservations) {
-  LocalMap map{TrackingOptions()};
+TEST(TrackerMap, NewPointsAndObservations) {
+  TrackerMap map{TrackingOptions()};
   const auto ids0 = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(20, -1)));
   ASSERT_EQ(ids0.size(), 20u);
   EXPECT_EQ(map.points().size(), 20u);
@@ -45,11 +45,11 @@ TEST(LocalMap, NewPointsAndObservations) {
   EXPECT_NEAR(map.point(out1[19])->p_world_m.x(), 0.5 + 1.9, 1e-12);
 }
 
-TEST(LocalMap, CovisibilityOrderAndLocalView) {
+TEST(TrackerMap, CovisibilityOrderAndLocalView) {
   TrackingOptions o;
   o.covisibility_min_shared = 5;
   o.local_map_keyframes = 1;
-  LocalMap map(o);
+  TrackerMap map(o);
   const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(20, -1)));
   std::vector<std::int64_t> b_ids(a.begin(), a.begin() + 6);  // 6 shared with 0
   b_ids.resize(20, -1);
@@ -63,7 +63,7 @@ TEST(LocalMap, CovisibilityOrderAndLocalView) {
   EXPECT_EQ(cov[1], 0);
   // Below the minimum: 4 shared points do not count.
   o.covisibility_min_shared = 7;
-  LocalMap strict(o);
+  TrackerMap strict(o);
   strict.addKeyframe(makeKf(0, std::vector<std::int64_t>(20, -1)));
   EXPECT_TRUE(strict.covisibleKeyframes(0, 10).empty());
   // Local view of 2 with local_map_keyframes = 1: points of keyframes 2 and 1, no duplicates.
@@ -75,10 +75,10 @@ TEST(LocalMap, CovisibilityOrderAndLocalView) {
   EXPECT_EQ(map.keyframePoints(2).size(), 20u);
 }
 
-TEST(LocalMap, CullsPointsRarelyFound) {
+TEST(TrackerMap, CullsPointsRarelyFound) {
   TrackingOptions o;
   o.cull_min_found_ratio = 0.25;
-  LocalMap map(o);
+  TrackerMap map(o);
   const auto ids = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(4, -1)));
   for (int f = 0; f < 12; ++f) {
     std::vector<std::int64_t> found{ids[0]};
@@ -93,8 +93,8 @@ TEST(LocalMap, CullsPointsRarelyFound) {
   EXPECT_EQ(map.keyframe(0)->map_point_ids[1], -1);
 }
 
-TEST(LocalMap, MergeAndPoseCorrection) {
-  LocalMap map{TrackingOptions()};
+TEST(TrackerMap, MergeAndPoseCorrection) {
+  TrackerMap map{TrackingOptions()};
   const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));
   const auto b = map.addKeyframe(makeKf(5, std::vector<std::int64_t>(3, -1), 1.0));
   ASSERT_TRUE(map.mergePoints(a[0], b[0]));

@@ -1,5 +1,5 @@
 #pragma once
-/// \file local_map.h
+/// \file tracker_map.h
 /// Keyframes and map points with their observations and covisibility: the map tracking works on.
 
 #include <cstdint>
@@ -43,7 +43,9 @@ struct MapKeyframe {
   KeyframeConstPtr keyframe;                ///< the published keyframe (images, mask)
 };
 
-/// Stores keyframes and map points. Map points are created from the keyframe's depth (RGB-D: each
+/// The tracker's global map: every keyframe and map point of the run (the sparse counterpart of
+/// the Gaussian map). Tracking works on views of it: the local map of the reference keyframe
+/// (localPoints) and one keyframe's own points (keyframePoints). Map points are created from the keyframe's depth (RGB-D: each
 /// feature with valid depth is a metric point at once); a feature matched to an existing map point
 /// as a pose inlier adds an observation to that point instead (ids passed in map_point_ids).
 ///
@@ -54,10 +56,10 @@ struct MapKeyframe {
 ///
 /// Culling (ORB-SLAM style): a point is removed once it was predicted visible in >= 10 frames
 /// but found in fewer than cull_min_found_ratio of them; observations pointing to it are cleared.
-class LocalMap {
+class TrackerMap {
  public:
   /// Uses local_map_keyframes, covisibility_min_shared, cull_min_found_ratio, scale_factor.
-  explicit LocalMap(const TrackingOptions& options);
+  explicit TrackerMap(const TrackingOptions& options);
 
   /// Adds a keyframe. map_point_ids[i] >= 0 and known -> observation of that point; otherwise a
   /// new point with the id `map_point_ids[i]` (or a new id when -1) at T_world_camera * p_camera.

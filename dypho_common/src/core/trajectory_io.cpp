@@ -1,4 +1,4 @@
-#include "dypho/tools/trajectory_io.h"
+#include "dypho/common/trajectory_io.h"
 
 #include <cmath>
 #include <cstdio>
@@ -8,7 +8,7 @@
 
 #include "dypho/common/atomic_file.h"
 
-namespace dypho::tools {
+namespace dypho {
 
 std::vector<StampedPose> readTumTrajectory(const std::string& path) {
   std::ifstream in(path);
@@ -69,4 +69,4 @@ void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
   });
 }
 
-}  // namespace dypho::tools
+}  // namespace dypho

@@ -1,0 +1,116 @@
+#pragma once
+/// \file motion_prior.h
+/// The constant-velocity camera model of the paper (delta T in B_i's R_d(G, T_{i-1} delta T)),
+/// written once and used by every stage that predicts the next camera pose: tracking (the pose
+/// its matching starts from), the mask (the camera's own motion removed from the flow, and the
+/// pose R_d is rendered at) and mapping (the pose it renders R_d at for the mask).
+///
+/// Reset rules, the same for every user (a stage never keeps a velocity across a jump):
+///  - an untrusted pose (tracking lost or not initialised) forgets both poses;
+///  - a discontinuous pose (relocalised, loop closed, re-initialised, map reset) becomes the new
+///    last pose with no velocity, so no ego-motion is computed from two poses that straddle it;
+///  - a stamp not after the last one (bag restarted, duplicate) starts over from that pose;
+///  - a gap longer than `max_gap_s` between two poses is treated as a jump.
+/// The step is repeated once per elapsed frame interval (rounded), so a dropped frame does not
+/// halve the predicted motion while stamp jitter does not scale it.
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include <Eigen/Geometry>
+
+#include "dypho/common/types.h"
+
+namespace dypho {
+
+/// A tracked camera pose as the stages exchange it (tracking -> mask, mapping).
+struct PoseUpdate {
+  Timestamp stamp_ns = 0;  ///< stamp of the frame [ns]
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< camera optical frame in world
+  bool trusted = false;        ///< tracking was OK on this frame
+  bool discontinuous = false;  ///< the pose jumped here (relocalised, loop closed, re-initialised, reset)
+};
+
+/// Constant-velocity prediction from the last two trusted, continuous poses.
+class ConstantVelocityModel {
+ public:
+  /// `max_gap_s` [s]: two poses further apart are not used for a velocity (default 1 s).
+  explicit ConstantVelocityModel(double max_gap_s = 1.0) : max_gap_ns_(secondsToTimestamp(max_gap_s)) {}
+
+  /// Takes the pose of the newest frame (rules in the file comment).
+  void observe(const PoseUpdate& update) {
+    if (!update.trusted || !update.T_world_camera.matrix().allFinite()) {
+      reset();
+      return;
+    }
+    const bool continuous = last_ && !update.discontinuous && update.stamp_ns > last_stamp_ns_ &&
+                            update.stamp_ns - last_stamp_ns_ <= max_gap_ns_;
+    if (continuous) {
+      step_ = last_->inverse() * update.T_world_camera;
+      step_ns_ = update.stamp_ns - last_stamp_ns_;
+    } else {
+      step_.reset();
+      step_ns_ = 0;
+    }
+    last_ = update.T_world_camera;
+    last_stamp_ns_ = update.stamp_ns;
+  }
+
+  /// The last pose changed after it was observed (e.g. local BA moved the keyframe it is): keeps
+  /// the velocity, replaces the pose it is applied to.
+  void correctLast(const Eigen::Isometry3d& T_world_camera) {
+    if (last_ && T_world_camera.matrix().allFinite()) last_ = T_world_camera;
+  }
+
+  /// Forgets everything.
+  void reset() {
+    last_.reset();
+    step_.reset();
+    last_stamp_ns_ = 0;
+    step_ns_ = 0;
+  }
+
+  /// True when a velocity is known (two continuous trusted poses).
+  bool hasVelocity() const { return step_.has_value(); }
+  /// The last trusted pose, if any.
+  const std::optional<Eigen::Isometry3d>& last() const { return last_; }
+  Timestamp lastStamp() const { return last_stamp_ns_; }
+  /// Time between the last two poses [ns] (0 without a velocity).
+  Timestamp stepNs() const { return step_ns_; }
+  /// The last observed step T_prev_last (between the last two poses), if any.
+  const std::optional<Eigen::Isometry3d>& lastStep() const { return step_; }
+
+  /// Motion from the last pose to the camera at `stamp_ns`, T_last_predicted = delta T. With no
+  /// usable velocity (none yet, stamp not after the last, or further than max_gap_s ahead): empty.
+  std::optional<Eigen::Isometry3d> motionTo(Timestamp stamp_ns) const {
+    if (!step_ || step_ns_ <= 0 || stamp_ns <= last_stamp_ns_ || stamp_ns - last_stamp_ns_ > max_gap_ns_) {
+      return std::nullopt;
+    }
+    // Whole frame intervals: camera stamps jitter by several ms (TUM: 29-39 ms at 30 Hz) while the
+    // frames themselves are regular, so the step is repeated once per elapsed interval.
+    const double s = std::max(1.0, std::round(static_cast<double>(stamp_ns - last_stamp_ns_) /
+                                              static_cast<double>(step_ns_)));
+    const Eigen::AngleAxisd rotation(step_->rotation());
+    Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
+    scaled.linear() = Eigen::AngleAxisd(rotation.angle() * s, rotation.axis()).toRotationMatrix();
+    scaled.translation() = step_->translation() * s;
+    return scaled;
+  }
+
+  /// Predicted T_world_camera at `stamp_ns` (T_{i-1} delta T); empty as motionTo().
+  std::optional<Eigen::Isometry3d> predict(Timestamp stamp_ns) const {
+    const std::optional<Eigen::Isometry3d> delta = motionTo(stamp_ns);
+    if (!delta) return std::nullopt;
+    return *last_ * *delta;
+  }
+
+ private:
+  Timestamp max_gap_ns_;
+  std::optional<Eigen::Isometry3d> last_;
+  std::optional<Eigen::Isometry3d> step_;  ///< T_prev_last
+  Timestamp last_stamp_ns_ = 0;
+  Timestamp step_ns_ = 0;  ///< time between prev and last [ns]
+};
+
+}  // namespace dypho

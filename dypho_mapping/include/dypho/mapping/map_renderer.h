@@ -1,0 +1,59 @@
+#pragma once
+/// \file map_renderer.h
+/// Renders a Gaussian map (usually a snapshot, GaussianMapper::latestSnapshot) at a pose through
+/// a camera: colour, depth and alpha. It has its own rasterizer and thread pool, so it renders
+/// outside the mapper's lock and never holds up training. This is the paper's R_d(G, T) when only
+/// the depth is taken.
+///
+/// Cameras with plumb_bob distortion: the map is rendered in the pinhole with the same fx fy cx cy
+/// and mapped back into the distorted image, so the output lines up with the input images.
+/// Not thread-safe: one renderer per thread.
+
+#include <memory>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "dypho/common/camera.h"
+#include "dypho/mapping/gaussian_map.h"
+#include "dypho/mapping/rasterizer.h"
+#include "dypho/mapping/ray_cache.h"
+#include "dypho/mapping/thread_pool.h"
+
+namespace dypho::mapping {
+
+/// A rendered view.
+struct RenderedView {
+  cv::Mat bgr;      ///< CV_8UC3 BGR
+  /// CV_32FC1 [m]: D_r / alpha (D_r = sum d_i alpha_i T_i) where alpha >= 0.5, else 0 (no
+  /// measurement). The alpha term of the loss keeps alpha ~1 on measured surfaces, where this is D_r.
+  cv::Mat depth_m;
+  cv::Mat alpha;    ///< CV_32FC1 accumulated alpha in [0, 1]
+};
+
+class MapRenderer {
+ public:
+  /// `num_threads` >= 1 (the caller included).
+  explicit MapRenderer(int num_threads = 1);
+
+  /// Colour, depth and alpha of `map` seen from `T_world_camera` through `camera` (its size and
+  /// distortion). Throws std::invalid_argument for invalid intrinsics or a non-finite pose.
+  RenderedView render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
+                      const CameraIntrinsics& camera);
+  /// Depth only (CV_32FC1 [m], 0 = nothing rendered): R_d(G, T). Pixels whose accumulated alpha
+  /// is below `min_alpha` (in [0.5, 1]) are 0: where the map covers a pixel only partly (edges,
+  /// thin or half-trained surfaces) D_r / alpha mixes surfaces and is not a depth to trust.
+  cv::Mat renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
+                      const CameraIntrinsics& camera, float min_alpha = 0.5f);
+
+ private:
+  ThreadPool pool_;
+  Rasterizer<float> raster_;
+  RenderResult<float> out_;
+  UndistortedRayCache rays_;
+};
+
+/// The parameter view the rasterizer reads (no copy).
+GaussianParamsView<float> paramsView(const GaussianMap& map);
+
+}  // namespace dypho::mapping

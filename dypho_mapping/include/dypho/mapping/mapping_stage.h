@@ -1,0 +1,122 @@
+#pragma once
+/// \file mapping_stage.h
+/// The mapping module's stage: the Gaussian map (GaussianMapper) and the keyframe point cloud plus
+/// the policy around them, shared by the in-process pipeline and GaussianMappingNodelet (which
+/// only converts and publishes).
+///
+/// Policy, in one place:
+///  - Keyframes and correction batches go to the mapper's worker in arrival order (MappingWorker).
+///    kDeterministic (offline runner): a full queue blocks the producer; kLive (ROS graph): the
+///    oldest waiting keyframe is dropped and counted, corrections are never dropped.
+///  - R_d, the depth the mask's background model B_i blends in: rendered from a snapshot of the
+///    map (never under the map's lock, so training is not held up) at the constant-velocity
+///    prediction of the frame's pose (motion_prior.h, fed with tracked poses), through the mask's
+///    working camera. Which snapshot: kDeterministic uses the map as it stood after the job of the
+///    keyframe *before* the newest one (waited for when the newest is added), so a run is
+///    bit-for-bit repeatable while the worker trains one keyframe ahead; kLive uses the newest.
+///  - Final refinement (`final_refine_iterations` over all keyframes): finish(), called by
+///    whoever saves the final map (the runner at the end, the nodelet's save_map and shutdown).
+/// Thread-safe.
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/common/motion_prior.h"
+#include "dypho/common/types.h"
+#include "dypho/mapping/gaussian_mapper.h"
+#include "dypho/mapping/keyframe_cloud_map.h"
+#include "dypho/mapping/map_renderer.h"
+
+namespace dypho::mapping {
+
+/// How the stage trades timing for repeatability (see the file comment).
+enum class MappingMode { kDeterministic, kLive };
+
+/// Settings of the stage's policy (not of the mapping algorithms).
+struct MappingStageOptions {
+  /// Jobs (keyframes, correction batches) waiting for the worker [count]; default 8, >= 1.
+  int keyframe_queue_size = 8;
+  /// Poses further apart than this give no velocity for the R_d prediction [s]; default 1.0.
+  double motion_max_gap_s = 1.0;
+  /// R_d keeps only pixels the map covers with at least this accumulated alpha, in [0.5, 1];
+  /// default 0.95 (partly covered pixels mix surfaces in D_r / alpha).
+  float predicted_depth_min_alpha = 0.95f;
+};
+
+/// Counters of the stage.
+struct MappingStageStats {
+  GaussianMapperStats gaussians;            ///< the mapper's counters
+  std::size_t keyframes_received = 0;       ///< keyframes handed to the stage
+  std::size_t correction_batches = 0;       ///< correction batches handed to the stage
+  std::size_t predicted_depth_rendered = 0;  ///< R_d images rendered
+  std::int64_t render_snapshot_keyframe = -1;  ///< keyframe of the snapshot R_d is rendered from
+};
+
+class MappingStage {
+ public:
+  /// Validates the options (std::invalid_argument) and starts the mapper's worker.
+  MappingStage(const MappingOptions& options, MappingMode mode, const MappingStageOptions& stage = {});
+  ~MappingStage();  ///< stops the worker
+
+  /// A new keyframe: into the point cloud and onto the worker's queue. Returns false when the
+  /// live policy dropped an older keyframe to make room.
+  bool addKeyframe(KeyframeConstPtr keyframe);
+  /// Keyframe poses changed by local BA or loop closure: point cloud now, Gaussians in order on
+  /// the worker.
+  void correctKeyframes(const KeyframePoseCorrections& corrections);
+  /// The tracked pose of a frame, for the R_d prediction.
+  void observePose(const PoseUpdate& update);
+  /// Stamp of the next frame, expected one frame interval after the last pose (the graph renders
+  /// R_d ahead of the frame); empty without a velocity.
+  std::optional<Timestamp> expectedNextStamp() const;
+  /// R_d for the frame stamped `stamp_ns`, through `camera` (MaskStage::workingCamera): CV_32FC1
+  /// [m]. Empty when the pose cannot be predicted or there is no map yet.
+  cv::Mat predictedDepth(Timestamp stamp_ns, const CameraIntrinsics& camera);
+  /// The newest snapshot rendered at `T_world_camera` (rviz views). Empty view when no map yet.
+  RenderedView renderView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
+
+  /// Waits for the worker, then runs the final refinement unless it already ran for the current
+  /// keyframes; returns its mean loss (0 when skipped).
+  double finish();
+  /// finish(), then map.ply (3DGS), map.pcd (keyframe cloud) and gaussian_centres.pcd in `dir`,
+  /// each atomically; returns the paths. `refine` = false skips finish().
+  std::vector<std::string> save(const std::string& dir, bool refine = true);
+  /// Replaces the Gaussian map with a 3DGS PLY (GaussianMapper::loadPly); returns the count.
+  std::size_t loadMap(const std::string& path, std::string* note = nullptr);
+  /// Clears both maps and the motion prior.
+  void reset();
+
+  MappingStageStats stats() const;
+  /// The coloured keyframe cloud (voxel filtered).
+  KeyframeCloudMap::Cloud::Ptr buildCloud() const;
+  std::vector<GaussianCentre> gaussianCentres() const { return gaussians_.centres(); }
+  /// The Gaussian mapper (evaluation, direct queries).
+  GaussianMapper& gaussians() { return gaussians_; }
+  const GaussianMapper& gaussians() const { return gaussians_; }
+  std::size_t numCloudPoints() const;
+  MappingMode mode() const { return mode_; }
+
+ private:
+  MappingMode mode_;
+  MappingStageOptions stage_options_;
+  GaussianMapper gaussians_;
+
+  mutable std::mutex mutex_;  ///< guards everything below
+  KeyframeCloudMap cloud_;
+  ConstantVelocityModel motion_;
+  std::int64_t newest_keyframe_id_ = -1;
+  MapSnapshot render_snapshot_;  ///< kDeterministic: the map R_d is rendered from
+  std::int64_t refined_after_keyframes_ = -1;  ///< keyframes_received when finish() last refined
+  MappingStageStats counters_;
+
+  std::mutex render_mutex_;  ///< one render at a time
+  MapRenderer renderer_;
+};
+
+}  // namespace dypho::mapping

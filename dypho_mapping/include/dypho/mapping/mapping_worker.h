@@ -1,0 +1,65 @@
+#pragma once
+/// \file mapping_worker.h
+/// The mapping worker thread and its bounded job queue. Jobs (a keyframe to integrate and train
+/// on, or a batch of keyframe pose corrections) run one after the other in arrival order, so the
+/// map's history does not depend on timing.
+///
+/// Queue policy when `capacity` jobs wait (one place, chosen per push):
+///  - block_when_full: the producer waits for room (deterministic offline runs);
+///  - otherwise the oldest waiting *keyframe* job is dropped and counted (live input must not
+///    pile up); correction batches are never dropped (they are small, and a lost correction
+///    would leave a keyframe's Gaussians at a stale pose for good).
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+#include "dypho/common/types.h"
+
+namespace dypho::mapping {
+
+/// One unit of mapping work.
+struct MappingJob {
+  KeyframeConstPtr keyframe;            ///< integrate this keyframe, then train (may be null)
+  KeyframePoseCorrections corrections;  ///< re-anchor these keyframes (may be empty)
+};
+
+class MappingWorker {
+ public:
+  /// Runs `handler` on the worker thread for every job. `capacity` >= 1 waiting jobs.
+  MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler);
+  ~MappingWorker();  ///< stop()
+  MappingWorker(const MappingWorker&) = delete;
+  MappingWorker& operator=(const MappingWorker&) = delete;
+
+  /// Queues a job (policy in the file comment). Returns false when a keyframe had to be dropped.
+  bool push(MappingJob job, bool block_when_full);
+  /// Waits until no job waits or runs.
+  void waitUntilIdle();
+  /// True when stop() was called (the handler may poll it to end a long job early).
+  bool stopping() const;
+  /// Discards the waiting jobs (the running one finishes).
+  void clear();
+  /// Stops and joins the thread; waiting jobs are discarded.
+  void stop();
+  std::size_t queued() const;   ///< jobs waiting
+  std::size_t dropped() const;  ///< keyframe jobs dropped by the live policy so far
+
+ private:
+  void loop();
+
+  std::function<void(const MappingJob&)> handler_;
+  std::size_t capacity_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<MappingJob> queue_;
+  bool busy_ = false;
+  bool stop_ = false;
+  std::size_t dropped_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace dypho::mapping

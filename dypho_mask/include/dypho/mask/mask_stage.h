@@ -1,0 +1,90 @@
+#pragma once
+/// \file mask_stage.h
+/// The mask module's stage: DynamicMasker plus the policy around it, shared by the in-process
+/// pipeline and DynamicMaskNodelet (which only converts and publishes).
+///
+/// Policy, in one place:
+///  - Ego-motion prior T_prev_cur: from the shared constant-velocity model (motion_prior.h) fed
+///    with the tracked poses; it is the motion between the previous *masked* frame and this one
+///    (poses predicted at both stamps when tracking has not caught up), and absent across a jump
+///    (relocalisation, loop closure, reset) or a gap.
+///  - R_d: depth rendered from the Gaussian map at the predicted pose of a frame, offered with the
+///    frame's stamp; used only by the frame with that stamp (within rendered_depth_tolerance_s),
+///    never by a later one whose pose it does not show.
+///  - A frame stamp not after the previous one (bag looped, duplicate) restarts the masker: the
+///    flow, the background model B_i and the motion prior are forgotten.
+/// Thread-safe: poses and R_d may arrive on other threads than process().
+
+#include <cstddef>
+#include <mutex>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/common/camera.h"
+#include "dypho/common/motion_prior.h"
+#include "dypho/common/types.h"
+#include "dypho/mask/dynamic_masker.h"
+
+namespace dypho::mask {
+
+/// Settings of the stage's policy (not of the mask algorithm).
+struct MaskStageOptions {
+  /// R_d offered for stamp t is used by the frame whose stamp is within this of t [s]; default
+  /// 0.005 (a sixth of a 30 Hz frame interval: only that frame's own render qualifies).
+  double rendered_depth_tolerance_s = 0.005;
+  /// Poses further apart than this give no velocity (motion_prior.h) [s]; default 1.0.
+  double motion_max_gap_s = 1.0;
+};
+
+/// Counters since construction or reset() (the graph test and diagnostics read them).
+struct MaskStageStats {
+  std::size_t frames = 0;                 ///< frames masked
+  std::size_t frames_with_ego_motion = 0;  ///< frames given a T_prev_cur from tracked poses
+  std::size_t frames_with_rendered_depth = 0;  ///< frames whose B_i update used R_d
+  std::size_t rendered_depth_offered = 0;  ///< R_d images received
+  std::size_t rendered_depth_unmatched = 0;  ///< R_d images no frame used (stamp did not match)
+  std::size_t degraded_frames = 0;        ///< MaskResult::degraded
+  std::size_t restarts = 0;               ///< restarts after a stamp went backwards
+};
+
+class MaskStage {
+ public:
+  /// Validates the options (std::invalid_argument); loads the network when configured.
+  explicit MaskStage(const DynamicMaskOptions& options, const MaskStageOptions& stage = {});
+
+  /// The tracked pose of a frame (tracking -> mask).
+  void observePose(const PoseUpdate& update);
+  /// R_d for the frame stamped `stamp_ns`: CV_32FC1 [m], at workingCamera() or the input size.
+  void setPredictedDepth(Timestamp stamp_ns, cv::Mat depth_m);
+  /// True when R_d can enter the mask: the background model is on and its weight tau > 0. The
+  /// pipeline renders R_d, and the nodelet subscribes to it, only then.
+  bool wantsRenderedDepth() const;
+  /// Camera at which the background model works: render R_d through this.
+  CameraIntrinsics workingCamera(const CameraIntrinsics& input) const;
+
+  /// The mask of `frame` (DynamicMasker::compute with the prior described above).
+  MaskResult process(const RgbdFrame& frame);
+
+  /// Forgets the masker's history, the motion prior and any waiting R_d.
+  void reset();
+  MaskStageStats stats() const;
+  const DynamicMasker& masker() const { return masker_; }
+
+ private:
+  /// Pose at `stamp_ns` from the motion model (the last pose itself or a prediction).
+  std::optional<Eigen::Isometry3d> poseAt(Timestamp stamp_ns) const;
+
+  MaskStageOptions stage_options_;
+  std::mutex process_mutex_;  ///< one process() at a time (the masker is not thread-safe)
+  DynamicMasker masker_;
+
+  mutable std::mutex prior_mutex_;  ///< guards everything below
+  ConstantVelocityModel motion_;
+  std::optional<Timestamp> previous_frame_ns_;
+  cv::Mat rendered_depth_m_;
+  Timestamp rendered_stamp_ns_ = 0;
+  MaskStageStats stats_;
+};
+
+}  // namespace dypho::mask

@@ -1,0 +1,99 @@
+/// MaskStage: the mask core with its motion prior, R_d hand-over and restart policy.
+#include "dypho/mask/mask_stage.h"
+
+#include <cstdlib>
+
+namespace dypho::mask {
+
+MaskStage::MaskStage(const DynamicMaskOptions& options, const MaskStageOptions& stage)
+    : stage_options_(stage), masker_(options), motion_(stage.motion_max_gap_s) {}
+
+void MaskStage::observePose(const PoseUpdate& update) {
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  motion_.observe(update);
+}
+
+void MaskStage::setPredictedDepth(Timestamp stamp_ns, cv::Mat depth_m) {
+  if (depth_m.empty() || depth_m.type() != CV_32FC1) return;
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  if (!rendered_depth_m_.empty()) ++stats_.rendered_depth_unmatched;  // superseded unused
+  rendered_depth_m_ = std::move(depth_m);
+  rendered_stamp_ns_ = stamp_ns;
+  ++stats_.rendered_depth_offered;
+}
+
+bool MaskStage::wantsRenderedDepth() const {
+  const BackgroundOptions& b = masker_.options().background;
+  return b.enabled && b.tau > 0.0;
+}
+
+CameraIntrinsics MaskStage::workingCamera(const CameraIntrinsics& input) const {
+  const cv::Size small = masker_.workingSize(cv::Size(input.width, input.height));
+  return resizedIntrinsics(input, small, masker_.options().background.scale);
+}
+
+std::optional<Eigen::Isometry3d> MaskStage::poseAt(Timestamp stamp_ns) const {
+  if (motion_.last() && stamp_ns == motion_.lastStamp()) return motion_.last();
+  return motion_.predict(stamp_ns);
+}
+
+MaskResult MaskStage::process(const RgbdFrame& frame) {
+  std::lock_guard<std::mutex> process_lock(process_mutex_);
+  MaskPrior prior;
+  bool restarted = false;
+  {
+    std::lock_guard<std::mutex> lock(prior_mutex_);
+    if (previous_frame_ns_ && frame.stamp_ns <= *previous_frame_ns_) {
+      motion_.reset();
+      rendered_depth_m_.release();
+      previous_frame_ns_.reset();
+      ++stats_.restarts;
+      restarted = true;
+    }
+    if (previous_frame_ns_) {
+      const std::optional<Eigen::Isometry3d> T_world_prev = poseAt(*previous_frame_ns_);
+      const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
+      if (T_world_prev && T_world_cur) prior.T_prev_cur = T_world_prev->inverse() * *T_world_cur;
+    }
+    if (!rendered_depth_m_.empty()) {
+      const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));
+      if (offset_s <= stage_options_.rendered_depth_tolerance_s) {
+        prior.rendered_depth_m = rendered_depth_m_;
+        rendered_depth_m_.release();
+      } else if (rendered_stamp_ns_ < frame.stamp_ns) {
+        rendered_depth_m_.release();  // rendered for an earlier frame: never used for this one
+        ++stats_.rendered_depth_unmatched;
+      }
+    }
+    previous_frame_ns_ = frame.stamp_ns;
+  }
+  if (restarted) masker_.reset();
+  MaskResult result = masker_.compute(frame, prior);
+  if (restarted) {
+    result.message = "stamp not after the previous frame (bag looped?): mask history restarted" +
+                     std::string(result.message.empty() ? "" : "; ") + result.message;
+  }
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  ++stats_.frames;
+  if (prior.T_prev_cur) ++stats_.frames_with_ego_motion;
+  if (result.rendered_depth_used) ++stats_.frames_with_rendered_depth;
+  if (result.degraded) ++stats_.degraded_frames;
+  return result;
+}
+
+void MaskStage::reset() {
+  std::lock_guard<std::mutex> process_lock(process_mutex_);
+  masker_.reset();
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  motion_.reset();
+  previous_frame_ns_.reset();
+  rendered_depth_m_.release();
+  stats_ = MaskStageStats();
+}
+
+MaskStageStats MaskStage::stats() const {
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  return stats_;
+}
+
+}  // namespace dypho::mask

@@ -1,0 +1,46 @@
+#pragma once
+/// \file pipeline_options.h
+/// Settings of the in-process pipeline: the three modules' options (config/*.yaml) and the
+/// stages' policies.
+
+#include <ostream>
+#include <string>
+
+#include "dypho/mapping/gaussian_mapper_options.h"
+#include "dypho/mapping/mapping_stage.h"
+#include "dypho/mask/dynamic_mask_options.h"
+#include "dypho/mask/mask_stage.h"
+#include "dypho/tracking/tracking_options.h"
+
+namespace dypho::pipeline {
+
+/// Where the dynamic mask of each frame comes from.
+enum class MaskSource {
+  kFlow,      ///< the mask stage (default, what the ROS graph does)
+  kExternal,  ///< given by the caller (e.g. ground-truth masks of a synthetic sequence)
+  kNone,      ///< no mask: every pixel static
+};
+
+/// Parses "flow", "external"/"gt", "none"; throws listing the valid names.
+MaskSource parseMaskSource(const std::string& name);
+
+/// All settings of the in-process pipeline.
+struct PipelineOptions {
+  mask::DynamicMaskOptions mask;         ///< mask core (config/mask.yaml)
+  tracking::TrackingOptions tracking;    ///< tracking core (config/tracking.yaml)
+  mapping::MappingOptions mapping;       ///< mapping cores: point cloud + Gaussian map (config/mapping.yaml)
+  MaskSource mask_source = MaskSource::kFlow;  ///< where masks come from
+  mask::MaskStageOptions mask_stage;     ///< R_d hand-over and motion prior of the mask stage
+  mapping::MappingStageOptions mapping_stage;  ///< queue of the mapping stage
+};
+
+/// Loads `<config_dir>/{mask,tracking,mapping}.yaml`, then applies `override_yaml` (a file with
+/// optional top-level maps `mask:`, `tracking:`, `mapping:`) when not empty. Missing keys keep
+/// the built-in defaults; unknown keys and bad values throw std::runtime_error naming the file.
+PipelineOptions loadPipelineOptions(const std::string& config_dir, const std::string& override_yaml);
+
+/// Writes the effective options as one YAML document with `mask:`, `tracking:`, `mapping:` maps
+/// (usable as `--config`).
+void writePipelineOptionsYaml(std::ostream& out, PipelineOptions options);
+
+}  // namespace dypho::pipeline

@@ -1,0 +1,71 @@
+#pragma once
+/// \file slam_pipeline.h
+/// The in-process composition: the mask, tracking and mapping stages chained with direct calls,
+/// in the order the ROS graph moves their inputs and outputs over topics. Used by
+/// `dypho_run_dataset`, the benches and the tests; the nodelets wrap the same stages one each.
+///
+/// Per frame i:
+///  1. R_d: the mapping stage renders the depth of the map at the constant-velocity prediction of
+///     frame i's pose, at the mask's working resolution (MappingStage::predictedDepth; the map as
+///     it stood after the job of the keyframe before the newest, so runs are repeatable), and
+///     offers it to the mask stage for frame i (graph: mapping publishes it on
+///     rendered/depth_predicted when it receives pose i-1).
+///  2. The mask stage masks frame i (graph: mask nodelet, topic mask).
+///  3. The tracking stage tracks frame i (graph: tracking nodelet, topics pose/tracking_status).
+///  4. The pose goes to the mask and mapping stages' motion models (graph: tracking_status).
+///  5. Corrections of earlier keyframes, then the new keyframe, go to mapping (graph: topics
+///     keyframe_corrections, keyframe).
+/// R_d is rendered only when MaskStage::wantsRenderedDepth() (background model on, tau > 0).
+/// Not thread-safe: call process() from one thread.
+
+#include <memory>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/common/types.h"
+#include "dypho/mapping/mapping_stage.h"
+#include "dypho/mask/mask_stage.h"
+#include "dypho/pipeline/pipeline_options.h"
+#include "dypho/tracking/tracking_stage.h"
+
+namespace dypho::pipeline {
+
+/// What happened to one frame.
+struct FrameReport {
+  tracking::TrackingResult tracking;  ///< pose, state, keyframe, tracking stage times
+  double render_ms = 0.0;             ///< rendering R_d for this frame [ms] (0 when none)
+  double mask_ms = 0.0;               ///< time of the mask stage [ms]
+  double mapping_ms = 0.0;            ///< handing a keyframe / corrections to mapping [ms]
+  double masked_fraction = 0.0;       ///< share of the image the mask excluded [0, 1]
+  bool mask_degraded = false;         ///< the mask core could not trust its mask this frame
+  bool rendered_depth_used = false;   ///< R_d entered the background model on this frame
+};
+
+class SlamPipeline {
+ public:
+  /// `mode`: kDeterministic for repeatable offline runs (see MappingStage).
+  explicit SlamPipeline(const PipelineOptions& options,
+                        mapping::MappingMode mode = mapping::MappingMode::kDeterministic);
+
+  /// Processes one frame. `external_mask` (CV_8UC1, 255 = dynamic) is used only with
+  /// MaskSource::kExternal; an empty one means "all static".
+  FrameReport process(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat());
+
+  /// End of the sequence: the mapping stage finishes its queue and runs the final refinement.
+  void finish() { mapping_.finish(); }
+
+  mask::MaskStage& mask() { return mask_; }
+  tracking::TrackingStage& tracking() { return tracking_; }
+  mapping::MappingStage& mapping() { return mapping_; }
+  const PipelineOptions& options() const { return options_; }
+
+ private:
+  bool wantsRenderedDepth() const;
+
+  PipelineOptions options_;
+  mask::MaskStage mask_;
+  tracking::TrackingStage tracking_;
+  mapping::MappingStage mapping_;
+};
+
+}  // namespace dypho::pipeline

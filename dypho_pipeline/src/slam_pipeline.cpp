@@ -1,0 +1,59 @@
+/// SlamPipeline: the three stages chained with direct calls.
+#include "dypho/pipeline/slam_pipeline.h"
+
+#include <chrono>
+
+namespace dypho::pipeline {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+SlamPipeline::SlamPipeline(const PipelineOptions& options, mapping::MappingMode mode)
+    : options_(options),
+      mask_(options.mask, options.mask_stage),
+      tracking_(options.tracking),
+      mapping_(options.mapping, mode, options.mapping_stage) {}
+
+bool SlamPipeline::wantsRenderedDepth() const {
+  return options_.mask_source == MaskSource::kFlow && mask_.wantsRenderedDepth();
+}
+
+FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& external_mask) {
+  FrameReport report;
+  cv::Mat mask;
+  if (wantsRenderedDepth() && frame.camera.valid()) {
+    const auto t_render = std::chrono::steady_clock::now();
+    cv::Mat rendered = mapping_.predictedDepth(frame.stamp_ns, mask_.workingCamera(frame.camera));
+    if (!rendered.empty()) mask_.setPredictedDepth(frame.stamp_ns, std::move(rendered));
+    report.render_ms = msSince(t_render);
+  }
+  const auto t_mask = std::chrono::steady_clock::now();
+  if (options_.mask_source == MaskSource::kFlow) {
+    const mask::MaskResult result = mask_.process(frame);
+    mask = result.mask;
+    report.masked_fraction = result.degraded ? 0.0 : result.masked_fraction;
+    report.mask_degraded = result.degraded;
+    report.rendered_depth_used = result.rendered_depth_used;
+  } else if (options_.mask_source == MaskSource::kExternal && !external_mask.empty()) {
+    mask = external_mask;
+    report.masked_fraction = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
+  }
+  report.mask_ms = msSince(t_mask);
+
+  tracking::TrackingOutput out = tracking_.process(frame, mask);
+  mask_.observePose(out.pose);
+  mapping_.observePose(out.pose);
+  const auto t_map = std::chrono::steady_clock::now();
+  if (out.restarted) mapping_.reset();  // a new world: the old map does not belong to it
+  mapping_.correctKeyframes(out.corrections());
+  if (out.result.keyframe) mapping_.addKeyframe(out.result.keyframe);
+  report.mapping_ms = msSince(t_map);
+  report.tracking = std::move(out.result);
+  return report;
+}
+
+}  // namespace dypho::pipeline

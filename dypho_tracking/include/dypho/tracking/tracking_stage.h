@@ -1,0 +1,82 @@
+#pragma once
+/// \file tracking_stage.h
+/// The tracking module's stage: RgbdOdometry plus the policy around it, shared by the in-process
+/// pipeline and TrackingNodelet (which only converts and publishes).
+///
+/// Policy, in one place:
+///  - Every frame is recorded (TrajectoryRecorder): the final trajectory follows the later
+///    local-BA and loop corrections of each frame's keyframe; a frame that was not tracked keeps
+///    the pose it was published with.
+///  - A stamp not after the previous frame's (bag looped, duplicate) resets the tracker and clears
+///    the recorded trajectory: the next frame starts a new world.
+///  - The pose handed to the other stages (PoseUpdate) is trusted only when tracking is OK, and
+///    marked discontinuous where it jumps (first keyframe, relocalisation, re-initialisation, loop
+///    closure), so no stage forms a velocity across a jump (motion_prior.h).
+///  - Keyframe poses moved by local BA or loop closure leave as one batch per frame
+///    (TrackingOutput::corrections), for mapping to re-anchor.
+/// Thread-safe: process(), the trajectory queries and save run under one lock.
+
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "dypho/common/motion_prior.h"
+#include "dypho/common/types.h"
+#include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/trajectory_recorder.h"
+
+namespace dypho::tracking {
+
+/// What one frame gave.
+struct TrackingOutput {
+  TrackingResult result;               ///< the tracker's result (pose, state, keyframe, timings)
+  PoseUpdate pose;                     ///< for the mask and mapping stages
+  const KeyframePoseCorrections& corrections() const { return result.corrected_keyframes; }
+  bool restarted = false;              ///< the stamp went backwards: tracker and trajectory reset
+};
+
+/// Trajectory as (stamp [ns], T_world_camera) pairs.
+using PoseList = std::vector<std::pair<Timestamp, Eigen::Isometry3d>>;
+
+class TrackingStage {
+ public:
+  /// Validates the options (std::invalid_argument).
+  explicit TrackingStage(const TrackingOptions& options);
+
+  /// Tracks `frame` against the map outside `mask` (CV_8UC1 255 = dynamic, empty = all static).
+  /// Never throws on bad data (RgbdOdometry::track).
+  TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask);
+
+  /// Final trajectory: every recorded frame, following its keyframe's current pose.
+  PoseList finalTrajectory() const;
+  /// The poses as published at frame time.
+  PoseList onlineTrajectory() const;
+  /// The tracked frames only (not lost, not before initialisation) of the final trajectory,
+  /// at most the newest `max_poses`.
+  PoseList trackedPath(std::size_t max_poses) const;
+  /// Current keyframe poses, in stamp order.
+  PoseList keyframePoses() const;
+  /// Frames recorded.
+  std::size_t numFrames() const;
+  /// Writes `dir`/trajectory.txt (final), trajectory_online.txt and keyframes.txt as TUM text,
+  /// each atomically; returns the paths. Throws std::runtime_error naming a file it cannot write.
+  std::vector<std::string> saveTrajectories(const std::string& dir) const;
+
+  /// Forgets map, pose and trajectory.
+  void reset();
+  /// The tracker (read it only from the thread that calls process()).
+  const RgbdOdometry& odometry() const { return odometry_; }
+  const TrackingOptions& options() const { return odometry_.options(); }
+
+ private:
+  mutable std::mutex mutex_;
+  RgbdOdometry odometry_;
+  TrajectoryRecorder recorder_;
+  Timestamp last_stamp_ns_ = 0;
+  bool has_stamp_ = false;
+};
+
+}  // namespace dypho::tracking

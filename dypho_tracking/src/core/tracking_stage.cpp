@@ -1,0 +1,83 @@
+/// TrackingStage: the tracker with its trajectory, restart rule and hand-over to the other stages.
+#include "dypho/tracking/tracking_stage.h"
+
+#include <algorithm>
+
+#include "dypho/common/trajectory_io.h"
+
+namespace dypho::tracking {
+
+TrackingStage::TrackingStage(const TrackingOptions& options) : odometry_(options) {}
+
+TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  TrackingOutput out;
+  if (has_stamp_ && frame.stamp_ns <= last_stamp_ns_) {
+    recorder_.clear();  // the tracker resets itself on this frame (RgbdOdometry::track)
+    out.restarted = true;
+  }
+  has_stamp_ = true;
+  last_stamp_ns_ = frame.stamp_ns;
+  out.result = odometry_.track(frame, mask);
+  recorder_.add(out.result);
+  const TrackingResult& r = out.result;
+  out.pose.stamp_ns = r.stamp_ns;
+  out.pose.T_world_camera = r.T_world_camera;
+  out.pose.trusted = r.state == TrackingState::kOk && r.T_world_camera.matrix().allFinite();
+  out.pose.discontinuous = r.discontinuous || out.restarted;
+  return out;
+}
+
+PoseList TrackingStage::finalTrajectory() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return recorder_.finalPoses(odometry_.map());
+}
+
+PoseList TrackingStage::onlineTrajectory() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return recorder_.onlinePoses();
+}
+
+PoseList TrackingStage::trackedPath(std::size_t max_poses) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const PoseList all = recorder_.finalPoses(odometry_.map());
+  const std::vector<RecordedPose>& records = recorder_.records();
+  PoseList path;
+  for (std::size_t i = 0; i < all.size() && i < records.size(); ++i) {
+    if (records[i].reference_keyframe_id >= 0) path.push_back(all[i]);
+  }
+  if (path.size() > max_poses) path.erase(path.begin(), path.end() - static_cast<std::ptrdiff_t>(max_poses));
+  return path;
+}
+
+PoseList TrackingStage::keyframePoses() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  PoseList poses;
+  for (const auto& [id, keyframe] : odometry_.map().keyframes()) poses.emplace_back(keyframe.stamp_ns, keyframe.T_world_camera);
+  std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return poses;
+}
+
+std::size_t TrackingStage::numFrames() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return recorder_.records().size();
+}
+
+std::vector<std::string> TrackingStage::saveTrajectories(const std::string& dir) const {
+  const std::vector<std::string> paths{dir + "/trajectory.txt", dir + "/trajectory_online.txt",
+                                       dir + "/keyframes.txt"};
+  writeTumTrajectory(paths[0], toStampedPoses(finalTrajectory()));
+  writeTumTrajectory(paths[1], toStampedPoses(onlineTrajectory()));
+  writeTumTrajectory(paths[2], toStampedPoses(keyframePoses()));
+  return paths;
+}
+
+void TrackingStage::reset() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  odometry_.reset();
+  recorder_.clear();
+  has_stamp_ = false;
+  last_stamp_ns_ = 0;
+}
+
+}  // namespace dypho::tracking
