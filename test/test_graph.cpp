@@ -47,7 +47,8 @@ struct InProcessRun {
 InProcessRun runInProcess(const std::string& dataset) {
   using namespace dypho;
   const std::string config_dir = tools::defaultConfigDir();
-  const pipeline::PipelineOptions options = pipeline::loadPipelineOptions(config_dir, "");
+  pipeline::PipelineOptions options = pipeline::loadPipelineOptions(config_dir, "");
+  options.mask.background.tau = 0.1;  // R_d on, as graph.test sets it for the mask nodelet
   const auto source = tools::openFrameSource(dataset, "", config_dir);
   pipeline::SlamPipeline slam(options);
   InProcessRun run;

@@ -83,6 +83,7 @@ RunResult runSynthetic(int frames, bool loop_closure) {
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
   options.tracking.loop_closure = loop_closure;
+  options.mask.background.tau = 0.1;  // R_d on (the paper's weight; off by default)
   options.mapping.gaussian.iterations_per_keyframe = 10;  // keeps the test short; R_d needs a map only
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);

@@ -63,10 +63,8 @@ RenderedView MapRenderer::render(const GaussianMap& map, const Eigen::Isometry3d
 }
 
 cv::Mat MapRenderer::renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
-                                 const CameraIntrinsics& camera, float min_alpha) {
-  RenderedView view = render(map, T_world_camera, camera);
-  if (min_alpha > 0.5f) view.depth_m.setTo(0.f, view.alpha < min_alpha);
-  return view.depth_m;
+                                 const CameraIntrinsics& camera) {
+  return render(map, T_world_camera, camera).depth_m;
 }
 
 }  // namespace dypho::mapping

@@ -73,7 +73,7 @@ cv::Mat MappingStage::predictedDepth(Timestamp stamp_ns, const CameraIntrinsics&
   cv::Mat depth;
   {
     std::lock_guard<std::mutex> lock(render_mutex_);
-    depth = renderer_.renderDepth(*snapshot.map, *T_world_predicted, camera, stage_options_.predicted_depth_min_alpha);
+    depth = renderer_.renderDepth(*snapshot.map, *T_world_predicted, camera);
   }
   std::lock_guard<std::mutex> lock(mutex_);
   ++counters_.predicted_depth_rendered;

@@ -40,11 +40,9 @@ class MapRenderer {
   /// distortion). Throws std::invalid_argument for invalid intrinsics or a non-finite pose.
   RenderedView render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
                       const CameraIntrinsics& camera);
-  /// Depth only (CV_32FC1 [m], 0 = nothing rendered): R_d(G, T). Pixels whose accumulated alpha
-  /// is below `min_alpha` (in [0.5, 1]) are 0: where the map covers a pixel only partly (edges,
-  /// thin or half-trained surfaces) D_r / alpha mixes surfaces and is not a depth to trust.
+  /// Depth only (CV_32FC1 [m], 0 = nothing rendered): R_d(G, T).
   cv::Mat renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
-                      const CameraIntrinsics& camera, float min_alpha = 0.5f);
+                      const CameraIntrinsics& camera);
 
  private:
   ThreadPool pool_;

@@ -44,9 +44,6 @@ struct MappingStageOptions {
   int keyframe_queue_size = 8;
   /// Poses further apart than this give no velocity for the R_d prediction [s]; default 1.0.
   double motion_max_gap_s = 1.0;
-  /// R_d keeps only pixels the map covers with at least this accumulated alpha, in [0.5, 1];
-  /// default 0.95 (partly covered pixels mix surfaces in D_r / alpha).
-  float predicted_depth_min_alpha = 0.95f;
 };
 
 /// Counters of the stage.

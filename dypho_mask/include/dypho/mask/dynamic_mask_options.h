@@ -51,8 +51,11 @@ struct BackgroundOptions {
   bool enabled = true;
   /// Resolution of the model as a fraction of the input, in (0, 1]. Default 0.5.
   double scale = 0.5;
-  /// tau: weight of the depth rendered from the map at the predicted pose, in [0, 1). Default 0.1.
-  double tau = 0.1;
+  /// tau: weight of R_d, the depth rendered from the Gaussian map at the predicted pose, in
+  /// [0, 1); 0 = R_d off (nothing is rendered for the mask). Default 0 until R_d helps on real
+  /// data: with 0.1 (the paper's term on) the Bonn crowd frames give 2.1 cm ATE against 1.4 cm
+  /// without (docs/benchmarks.md, "Prior-image ablation").
+  double tau = 0.0;
   /// rho: weight of the current depth on pixels the raw masks call static, in (0, 1). Default 0.3.
   double rho = 0.3;
   /// sigma_m: a neighbour's depth agrees with the background when it is not nearer than this [m],
