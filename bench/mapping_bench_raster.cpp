@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "dypho/mapping/gaussian_map.h"
+#include "dypho/mapping/map_renderer.h"
 #include "dypho/mapping/rasterizer.h"
 
 using namespace dypho;
@@ -97,14 +98,7 @@ int main(int argc, char** argv) {
       GaussianMap map(degree, n);
       std::mt19937 rng(42);
       fillRoom(map, n, sigma_m, rng);
-      GaussianParamsView<float> params;
-      params.position = map.data(kParamPosition);
-      params.log_scale = map.data(kParamLogScale);
-      params.rotation = map.data(kParamRotation);
-      params.opacity_logit = map.data(kParamOpacity);
-      params.sh = map.data(kParamSh);
-      params.count = static_cast<int>(map.size());
-      params.sh_degree = degree;
+      const GaussianParamsView<float> params = paramsView(map);
       Eigen::Isometry3d T_wc = Eigen::Isometry3d::Identity();
       T_wc.translation() = Eigen::Vector3d(0, 0, -1.0);
       const auto view = makePinholeView<float>(T_wc, cam);
