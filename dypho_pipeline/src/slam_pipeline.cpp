@@ -48,7 +48,6 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
   mask_.observePose(out.pose);
   mapping_.observePose(out.pose);
   const auto t_map = std::chrono::steady_clock::now();
-  if (out.restarted) mapping_.reset();  // a new world: the old map does not belong to it
   mapping_.correctKeyframes(out.corrections());
   if (out.result.keyframe) mapping_.addKeyframe(out.result.keyframe);
   report.mapping_ms = msSince(t_map);

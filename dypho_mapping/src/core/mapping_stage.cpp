@@ -51,6 +51,7 @@ void MappingStage::correctKeyframes(const KeyframePoseCorrections& corrections) 
 }
 
 void MappingStage::observePose(const PoseUpdate& update) {
+  if (update.restarted) reset();  // a new world: the old map does not belong to it
   std::lock_guard<std::mutex> lock(mutex_);
   motion_.observe(update);
 }
@@ -79,6 +80,12 @@ cv::Mat MappingStage::predictedDepth(Timestamp stamp_ns, const CameraIntrinsics&
   ++counters_.predicted_depth_rendered;
   counters_.render_snapshot_keyframe = snapshot.after_keyframe_id;
   return depth;
+}
+
+std::pair<Timestamp, cv::Mat> MappingStage::predictedDepthForNextFrame(const CameraIntrinsics& camera) {
+  const std::optional<Timestamp> next_ns = expectedNextStamp();
+  if (!next_ns) return {0, cv::Mat()};
+  return {*next_ns, predictedDepth(*next_ns, camera)};
 }
 
 RenderedView MappingStage::renderView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {

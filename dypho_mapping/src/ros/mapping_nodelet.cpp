@@ -165,12 +165,9 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
 
   void onTrackingStatus(const dypho_slam::TrackingStatusConstPtr& msg) {
     const PoseUpdate update = rc::toPoseUpdate(*msg);
-    if (msg->restarted) {
-      NODELET_WARN_STREAM("tracking restarted (time went backwards): the map is cleared");
-      stage_->reset();
-      changed_ = true;
-    }
+    if (update.restarted) NODELET_WARN_STREAM("tracking restarted (time went backwards): the map is cleared");
     stage_->observePose(update);
+    if (update.restarted) changed_ = true;
     if (!update.trusted) return;
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
@@ -197,15 +194,12 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       }
       if (!camera.valid()) continue;
       try {
-        const std::optional<Timestamp> next_ns = stage_->expectedNextStamp();
-        if (next_ns && predicted_pub_.getNumSubscribers() > 0) {
-          const cv::Size working(static_cast<int>(std::lround(camera.width * params_.predicted_depth_scale)),
-                                 static_cast<int>(std::lround(camera.height * params_.predicted_depth_scale)));
-          const cv::Mat depth = stage_->predictedDepth(
-              *next_ns, resizedIntrinsics(camera, working, params_.predicted_depth_scale));
+        if (predicted_pub_.getNumSubscribers() > 0) {
+          const auto [stamp_ns, depth] =
+              stage_->predictedDepthForNextFrame(scaledCamera(camera, params_.predicted_depth_scale));
           if (!depth.empty()) {
             std_msgs::Header header;
-            header.stamp = rc::toRosTime(*next_ns);
+            header.stamp = rc::toRosTime(stamp_ns);
             header.frame_id = frame_id;
             predicted_pub_.publish(rc::toImageMsg(depth, "32FC1", header));
           }

@@ -75,9 +75,7 @@ const std::string& DynamicMasker::segmentStatus() const { return segment_->statu
 bool DynamicMasker::segmentReady() const { return segment_->ready(); }
 
 cv::Size DynamicMasker::workingSize(const cv::Size& input) const {
-  const double s = options_.background.scale;
-  return cv::Size(std::max(1, static_cast<int>(std::lround(input.width * s))),
-                  std::max(1, static_cast<int>(std::lround(input.height * s))));
+  return scaledImageSize(input.width, input.height, options_.background.scale);
 }
 
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {

@@ -28,8 +28,7 @@ bool MaskStage::wantsRenderedDepth() const {
 }
 
 CameraIntrinsics MaskStage::workingCamera(const CameraIntrinsics& input) const {
-  const cv::Size small = masker_.workingSize(cv::Size(input.width, input.height));
-  return resizedIntrinsics(input, small, masker_.options().background.scale);
+  return scaledCamera(input, masker_.options().background.scale);  // the size of workingSize()
 }
 
 std::optional<Eigen::Isometry3d> MaskStage::poseAt(Timestamp stamp_ns) const {

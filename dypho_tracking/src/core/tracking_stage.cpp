@@ -25,6 +25,7 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
   out.pose.T_world_camera = r.T_world_camera;
   out.pose.trusted = r.state == TrackingState::kOk && r.T_world_camera.matrix().allFinite();
   out.pose.discontinuous = r.discontinuous || out.restarted;
+  out.pose.restarted = out.restarted;
   return out;
 }
 

@@ -2,7 +2,9 @@
 /// \file camera.h
 /// Pinhole camera with optional radial-tangential distortion, shared by all modules.
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 
 #include <opencv2/core/types.hpp>
@@ -36,6 +38,12 @@ struct CameraIntrinsics {
   }
 };
 
+/// Size of an image of `width` x `height` resized by `scale` (rounded, at least 1 x 1).
+inline cv::Size scaledImageSize(int width, int height, double scale) {
+  return cv::Size(std::max(1, static_cast<int>(std::lround(width * scale))),
+                  std::max(1, static_cast<int>(std::lround(height * scale))));
+}
+
 /// Intrinsics of an image resized by `scale` to `width` x `height` (cv::resize pixel-centre
 /// convention); the distortion coefficients act on normalised coordinates and are kept.
 inline CameraIntrinsics resizedIntrinsics(const CameraIntrinsics& c, const cv::Size& size, double scale) {
@@ -47,6 +55,11 @@ inline CameraIntrinsics resizedIntrinsics(const CameraIntrinsics& c, const cv::S
   s.width = size.width;
   s.height = size.height;
   return s;
+}
+
+/// `c` resized by `scale` (scaledImageSize, resizedIntrinsics).
+inline CameraIntrinsics scaledCamera(const CameraIntrinsics& c, double scale) {
+  return resizedIntrinsics(c, scaledImageSize(c.width, c.height, scale), scale);
 }
 
 }  // namespace dypho

@@ -30,6 +30,9 @@ struct PoseUpdate {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< camera optical frame in world
   bool trusted = false;        ///< tracking was OK on this frame
   bool discontinuous = false;  ///< the pose jumped here (relocalised, loop closed, re-initialised, reset)
+  /// Tracking restarted at this frame (its stamp went backwards): a new world begins, the maps
+  /// built so far do not belong to it. Implies discontinuous.
+  bool restarted = false;
 };
 
 /// Constant-velocity prediction from the last two trusted, continuous poses.

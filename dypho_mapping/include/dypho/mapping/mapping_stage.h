@@ -14,6 +14,7 @@
 ///    working camera. Which snapshot: kDeterministic uses the map as it stood after the job of the
 ///    keyframe *before* the newest one (waited for when the newest is added), so a run is
 ///    bit-for-bit repeatable while the worker trains one keyframe ahead; kLive uses the newest.
+///  - Tracking restarted (stamp went backwards): both maps are cleared (observePose).
 ///  - Final refinement (`final_refine_iterations` over all keyframes): finish(), called by
 ///    whoever saves the final map (the runner at the end, the nodelet's save_map and shutdown).
 /// Thread-safe.
@@ -23,6 +24,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -67,7 +69,8 @@ class MappingStage {
   /// Keyframe poses changed by local BA or loop closure: point cloud now, Gaussians in order on
   /// the worker.
   void correctKeyframes(const KeyframePoseCorrections& corrections);
-  /// The tracked pose of a frame, for the R_d prediction.
+  /// The tracked pose of a frame, for the R_d prediction. A restart (PoseUpdate::restarted)
+  /// clears both maps first.
   void observePose(const PoseUpdate& update);
   /// Stamp of the next frame, expected one frame interval after the last pose (the graph renders
   /// R_d ahead of the frame); empty without a velocity.
@@ -75,6 +78,10 @@ class MappingStage {
   /// R_d for the frame stamped `stamp_ns`, through `camera` (MaskStage::workingCamera): CV_32FC1
   /// [m]. Empty when the pose cannot be predicted or there is no map yet.
   cv::Mat predictedDepth(Timestamp stamp_ns, const CameraIntrinsics& camera);
+  /// R_d for the next frame, rendered ahead of it (the graph: the mask needs it when that frame
+  /// arrives): predictedDepth(expectedNextStamp(), camera) with that stamp; empty depth when
+  /// there is no velocity or no map.
+  std::pair<Timestamp, cv::Mat> predictedDepthForNextFrame(const CameraIntrinsics& camera);
   /// The newest snapshot rendered at `T_world_camera` (rviz views). Empty view when no map yet.
   RenderedView renderView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
 
