@@ -316,7 +316,10 @@ TEST(FlowMotionMasker, GreyInputIsAcceptedAndNotModified) {
   EXPECT_EQ(cv::norm(grey, copy, cv::NORM_INF), 0.0);
 }
 
-TEST(FlowMotionMasker, ReportTimingAt640x480) {
+// The stage times are parts of the whole: flow <= total on every frame, and the first frame (no
+// flow yet) spends nothing in the flow. Speed itself is measured by bench/, not asserted here;
+// the mean times are printed for the record.
+TEST(FlowMotionMasker, StageTimesArePartsOfTheTotalAt640x480) {
   FlowMotionMasker masker{FlowMaskOptions()};
   const cv::Mat texture = makeTexture(cv::Size(1000, 800), 12);
   const cv::Mat sq = makeTexture(cv::Size(160, 160), 13);
@@ -326,13 +329,18 @@ TEST(FlowMotionMasker, ReportTimingAt640x480) {
     cv::Mat frame = rotatedView(texture, rotation(0.1 * k, 0.3 * k, 0.1 * k));
     sq(cv::Rect(0, 0, 100, 100)).copyTo(frame(cv::Rect(100 + 6 * k, 200, 100, 100)));
     const FlowMaskResult r = masker.compute(frameOf(frame));
-    if (k == 0) continue;
+    ASSERT_GE(r.flow_ms, 0.0) << "frame " << k;
+    ASSERT_LE(r.flow_ms, r.total_ms) << "frame " << k;
+    if (k == 0) {
+      EXPECT_TRUE(r.raw_flow_mask.empty());  // nothing to compare with yet
+      continue;
+    }
+    EXPECT_GT(r.flow_ms, 0.0) << "frame " << k;  // a flow was computed on every later frame
     flow_ms += r.flow_ms;
     total_ms += r.total_ms;
   }
   std::printf("[ report ] 640x480, flow_scale 0.25: flow %.2f ms/frame, total %.2f ms/frame\n",
               flow_ms / n, total_ms / n);
-  EXPECT_GT(total_ms, 0.0);  // timing was measured (no timed assertion by design)
 }
 
 }  // namespace

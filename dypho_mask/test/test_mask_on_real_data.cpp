@@ -82,8 +82,12 @@ TEST(FlowMaskRealData, BonnCrowdPeopleVersusEmptyRoom) {
   print("bonn crowd, first 30 (person enters ~19)", first_30);
   print("bonn crowd, people (idx 60-90)", people_a);
   print("bonn crowd, people (idx 120-150)", people_b);
-  // Coarse sanity: with people walking, far more of the image is masked than in the empty room.
+  // Coarse sanity: with people walking, far more of the image is masked than in the empty room,
+  // in both stretches with people; and more once the first person has entered (from ~19).
   EXPECT_GT(people_a.mean_fraction, 3.0 * empty_room.mean_fraction);
+  EXPECT_GT(people_b.mean_fraction, 3.0 * empty_room.mean_fraction);
+  EXPECT_GT(first_30.mean_fraction, empty_room.mean_fraction);
+  EXPECT_GT(first_30.max_fraction, empty_room.max_fraction);
   // In the empty room every masked pixel is a false positive; the camera moves slowly there, so
   // on average less than 5 % of the image may be masked.
   EXPECT_LT(empty_room.mean_fraction, 0.05);
