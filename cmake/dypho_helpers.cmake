@@ -7,8 +7,10 @@ function(dypho_set_warnings target)
 endfunction()
 
 # dypho_add_gtest(<name> SOURCES <files...> LIBS <targets...> [TIMEOUT <s>])
-# A gtest executable linking only core libraries; registered with catkin (run_tests) when
-# catkin is used, with CTest otherwise. Tests get DYPHO_SOURCE_DIR and DYPHO_SHARED_DIR.
+# A gtest executable linking only core libraries, registered with CTest through
+# scripts/run_gtest.sh: a test that skips itself (GTEST_SKIP) makes ctest report the executable as
+# skipped (SKIP_RETURN_CODE 77), never as passed; a failure is still a failure. With catkin the
+# executable is built by the `tests` target. Tests get DYPHO_SOURCE_DIR and DYPHO_SHARED_DIR.
 function(dypho_add_gtest name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS" ${ARGN})
   if(NOT DYPHO_TESTING)
@@ -18,30 +20,29 @@ function(dypho_add_gtest name)
     set(ARG_TIMEOUT 300)
   endif()
   if(DYPHO_WITH_ROS)
-    catkin_add_gtest(${name} ${ARG_SOURCES} WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
-    if(TEST _ctest_${PROJECT_NAME}_gtest_${name})
-      set_tests_properties(_ctest_${PROJECT_NAME}_gtest_${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
-    endif()
+    catkin_add_executable_with_gtest(${name} ${ARG_SOURCES})
   else()
     add_executable(${name} ${ARG_SOURCES})
     target_link_libraries(${name} GTest::gtest_main)
-    add_test(NAME ${name} COMMAND ${name})
-    set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
   endif()
-  if(TARGET ${name})
-    target_link_libraries(${name} ${ARG_LIBS})
-    if(DYPHO_WITH_ROS)  # catkin_add_gtest links gtest without main()
-      if(TARGET GTest::gtest_main)
-        target_link_libraries(${name} GTest::gtest_main)
-      elseif(TARGET gtest_main)
-        target_link_libraries(${name} gtest_main)
-      endif()
+  if(NOT TARGET ${name})
+    return()
+  endif()
+  add_test(NAME ${name} COMMAND bash ${DYPHO_REAL_SOURCE_DIR}/scripts/run_gtest.sh $<TARGET_FILE:${name}>
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} SKIP_RETURN_CODE 77)
+  target_link_libraries(${name} ${ARG_LIBS})
+  if(DYPHO_WITH_ROS)  # catkin's gtest target links gtest without main()
+    if(TARGET GTest::gtest_main)
+      target_link_libraries(${name} GTest::gtest_main)
+    elseif(TARGET gtest_main)
+      target_link_libraries(${name} gtest_main)
     endif()
-    target_compile_definitions(${name} PRIVATE
-      DYPHO_SOURCE_DIR="${DYPHO_REAL_SOURCE_DIR}"
-      DYPHO_SHARED_DIR="${DYPHO_SHARED_DIR}")
-    dypho_set_warnings(${name})
   endif()
+  target_compile_definitions(${name} PRIVATE
+    DYPHO_SOURCE_DIR="${DYPHO_REAL_SOURCE_DIR}"
+    DYPHO_SHARED_DIR="${DYPHO_SHARED_DIR}")
+  dypho_set_warnings(${name})
 endfunction()
 
 # dypho_add_nodelet(<module>): the thin ROS adapter library dypho_<module>_nodelet built from

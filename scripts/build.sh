@@ -7,6 +7,8 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${1:-$ROOT/build}"
 JOBS="${DYPHO_JOBS:-$(nproc)}"
 CONFIG=(-DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3)
+# DYPHO_STRICT=1 (set by test.sh when CI=true): catkin and the generated test models are required.
+if [ "${DYPHO_STRICT:-0}" = "1" ]; then CONFIG+=(-DDYPHO_STRICT=ON); fi
 if [ -x /usr/local/cuda/bin/nvcc ]; then CONFIG+=(-DCMAKE_CUDA_COMPILER=/usr/local/cuda/bin/nvcc); fi
 # Configure twice: catkin caches an empty PYTHONPATH in setup_cached.sh on the first configure.
 mkdir -p "$BUILD"

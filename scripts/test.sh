@@ -5,9 +5,29 @@ set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${DYPHO_BUILD_DIR:-$ROOT/build}"
+# In CI (CI=true) nothing may be quietly left out: the shared real data must be there, and the
+# build is strict (DYPHO_STRICT: catkin/ROS and the generated test models are required).
+if [ "${CI:-}" = "true" ]; then
+  SHARED="${DYPHO_SHARED_DIR:-$ROOT/../shared}"
+  for needed in "$SHARED/data/tum_fr1_rpy_first150" "$SHARED/data/rgbd_bonn_crowd_frames200to399" \
+                "$SHARED/models/yolox_nano.onnx"; do
+    if [ ! -e "$needed" ]; then
+      echo "test.sh: CI=true but $needed is missing (../shared must sit beside the repository)" >&2
+      exit 1
+    fi
+  done
+  export DYPHO_STRICT=1
+fi
 bash "$ROOT/scripts/install_deps.sh"
 bash "$ROOT/scripts/build.sh" "$BUILD"
 cd "$BUILD"
 # rostest starts its own roscore on a free port; ROS_HOME keeps logs inside the build folder.
 export ROS_HOME="$BUILD/ros_home"
-ctest --output-on-failure -j 1 --timeout 1200
+status=0
+ctest --output-on-failure -j 1 --timeout 1200 || status=$?
+# Skipped tests (ctest lists them as "Not Run"/"Skipped"): show why, from the test output.
+if grep -q ": Skipped$" Testing/Temporary/LastTest.log 2>/dev/null; then
+  echo "test.sh: tests that skipped themselves, and why:"
+  grep -h -A1 ": Skipped$" Testing/Temporary/LastTest.log | grep -v -- "^--$" | sed 's/^/  /'
+fi
+exit "$status"

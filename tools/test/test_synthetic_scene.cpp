@@ -1,7 +1,6 @@
 // Unit tests of SyntheticScene: determinism, ground-truth consistency, depth noise, people
 // coverage, trackable texture and render cost.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -182,16 +181,20 @@ TEST(SyntheticScene, OrbFindsPlentyOfStaticFeatures) {
   }
 }
 
-TEST(SyntheticScene, RendersQuickly) {
+// render() is const and may be called in any order (the tests and benches jump around in a
+// sequence): the same index gives the same images whatever was rendered before. (Its speed is
+// measured by bench/, not asserted here.)
+TEST(SyntheticScene, RenderIsRepeatableInAnyOrder) {
   const SyntheticScene scene(SynthOptions{});
-  scene.render(0);  // warm-up (thread pool)
-  const int n = 10;
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < n; ++i) scene.render(i * 7);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / n;
-  std::printf("render: %.1f ms per 640x480 frame (cv::getNumThreads() = %d)\n", ms, cv::getNumThreads());
-  // Target < 50 ms on 2 free cores; CI machines are shared, so only a 4x regression fails.
-  EXPECT_LT(ms, 200.0);
+  const SynthFrame first = scene.render(14);
+  scene.render(3);
+  scene.render(200);
+  const SynthFrame again = scene.render(14);
+  EXPECT_EQ(cv::norm(first.frame.bgr, again.frame.bgr, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(first.frame.depth_m, again.frame.depth_m, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(first.mask_gt, again.mask_gt, cv::NORM_INF), 0.0);
+  EXPECT_TRUE(first.T_world_camera.isApprox(again.T_world_camera, 0.0));
+  EXPECT_EQ(first.frame.stamp_ns, again.frame.stamp_ns);
 }
 
 TEST(SyntheticScene, RejectsBadOptionsWithClearErrors) {
