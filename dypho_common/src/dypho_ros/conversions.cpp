@@ -1,6 +1,7 @@
 #include "dypho_ros/conversions.h"
 
 #include <cmath>
+#include <limits>
 
 #include <boost/make_shared.hpp>
 #include <cv_bridge/cv_bridge.h>
@@ -28,6 +29,15 @@ CameraIntrinsics toCameraIntrinsics(const sensor_msgs::CameraInfo& info) {
   if (!model.empty() && model != "plumb_bob" && model != "rational_polynomial") {
     throw ConversionError("camera_info distortion_model '" + model +
                           "' is not supported (use plumb_bob, or publish rectified images)");
+  }
+  // plumb_bob has k1 k2 p1 p2 k3; rational_polynomial adds k4 k5 k6, which the cores do not model:
+  // accepted only when they are zero (then it is plumb_bob), never cut off silently.
+  for (std::size_t i = camera.distortion.size(); i < info.D.size(); ++i) {
+    if (info.D[i] != 0.0) {
+      throw ConversionError("camera_info distortion_model '" + model + "' has D[" + std::to_string(i) + "] = " +
+                            std::to_string(info.D[i]) + "; only the plumb_bob coefficients k1 k2 p1 p2 k3 are "
+                            "supported: publish rectified images (image_proc) or a plumb_bob calibration");
+    }
   }
   for (std::size_t i = 0; i < info.D.size() && i < camera.distortion.size(); ++i) {
     camera.distortion[i] = info.D[i];
@@ -128,7 +138,13 @@ Eigen::Isometry3d toIsometry(const geometry_msgs::Pose& pose) {
   Eigen::Quaterniond q(pose.orientation.w, pose.orientation.x, pose.orientation.y,
                        pose.orientation.z);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  if (q.norm() > 0.0) T.linear() = q.normalized().toRotationMatrix();
+  if (!(q.norm() > 1e-9)) {
+    // A zero (or NaN) quaternion is no rotation: the pose is marked non-finite, which every
+    // caller rejects, instead of silently becoming identity.
+    T.matrix().setConstant(std::numeric_limits<double>::quiet_NaN());
+    return T;
+  }
+  T.linear() = q.normalized().toRotationMatrix();
   T.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
   return T;
 }

@@ -54,6 +54,8 @@ sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encodi
 
 /// Pose conversions.
 geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);
+/// Pose message to isometry (quaternion normalised). A zero or non-finite quaternion gives a
+/// non-finite isometry (all NaN), which callers reject with allFinite().
 Eigen::Isometry3d toIsometry(const geometry_msgs::Pose& pose);
 
 /// Stamps.

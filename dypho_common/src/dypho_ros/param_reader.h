@@ -26,19 +26,20 @@ class RosParamReader {
     known_.insert(key);
     if constexpr (std::is_same_v<T, std::size_t>) {
       int v = static_cast<int>(value);
-      pnh_.param(key, v, v);
+      read(key, v);
       if (v < 0) throw std::invalid_argument("~" + key + " must be >= 0");
       value = static_cast<std::size_t>(v);
     } else if constexpr (std::is_same_v<T, float>) {
       double v = value;
-      pnh_.param(key, v, v);
+      read(key, v);
       value = static_cast<float>(v);
     } else if constexpr (std::is_same_v<T, std::uint32_t>) {
       int v = static_cast<int>(value);
-      pnh_.param(key, v, v);
+      read(key, v);
+      if (v < 0) throw std::invalid_argument("~" + key + " must be >= 0");
       value = static_cast<std::uint32_t>(v);
     } else {
-      pnh_.param(key, value, value);
+      read(key, value);
     }
     std::ostringstream s;
     s << value;
@@ -67,6 +68,18 @@ class RosParamReader {
   const std::string& summary() const { return summary_; }
 
  private:
+  /// Reads ~key into `value` when it is set; a value of the wrong type is an error, as in the
+  /// YAML reader (it never silently keeps the default).
+  template <typename V>
+  void read(const std::string& key, V& value) const {
+    if (!pnh_.hasParam(key)) return;
+    V v = value;
+    if (!pnh_.getParam(key, v)) {
+      throw std::invalid_argument("~" + key + " has a value of the wrong type (check config/*.yaml and the launch file)");
+    }
+    value = v;
+  }
+
   ros::NodeHandle pnh_;
   std::set<std::string> known_;
   std::string summary_;

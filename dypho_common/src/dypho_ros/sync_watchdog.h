@@ -14,10 +14,12 @@ namespace dypho::ros_conversions {
 class SyncWatchdog {
  public:
   /// Starts a timer on `nh` that warns (through ROS_WARN with the nodelet's name) every
-  /// `timeout_s` seconds while no set was received. `topics` are the resolved topic names.
+  /// `timeout_s` seconds while no set was received. `topics` are the resolved topic names;
+  /// `has_approx_sync`: the nodelet has an ~approx_sync parameter to suggest (else only
+  /// ~queue_size is suggested).
   SyncWatchdog(ros::NodeHandle& nh, const std::string& name, std::vector<std::string> topics,
-               double timeout_s)
-      : name_(name), topics_(std::move(topics)), timeout_s_(timeout_s) {
+               double timeout_s, bool has_approx_sync)
+      : name_(name), topics_(std::move(topics)), timeout_s_(timeout_s), has_approx_sync_(has_approx_sync) {
     if (timeout_s_ > 0.0) {
       timer_ = nh.createWallTimer(ros::WallDuration(timeout_s_),
                                   [this](const ros::WallTimerEvent&) { check(); });
@@ -36,12 +38,14 @@ class SyncWatchdog {
     ROS_WARN_STREAM("[" << name_ << "] no synchronised input for " << timeout_s_
                         << " s. Waiting for:" << list
                         << "\nCheck the topics with 'rostopic hz', the remaps in the launch file, "
-                           "and raise ~queue_size or set ~approx_sync true if stamps differ.");
+                        << (has_approx_sync_ ? "and raise ~queue_size or set ~approx_sync true if stamps differ."
+                                             : "and raise ~queue_size if the stamps of the inputs differ a lot."));
   }
 
   std::string name_;
   std::vector<std::string> topics_;
   double timeout_s_;
+  bool has_approx_sync_ = false;
   ros::WallTimer timer_;
   std::atomic<std::int64_t> last_ns_{0};  // wall time of the last set [ns]; 0 = none yet
 };

@@ -96,7 +96,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
         nh, getName(),
         std::vector<std::string>{nh.resolveName("rgb/image"), nh.resolveName("depth/image"),
                                  nh.resolveName("rgb/camera_info")},
-        watchdog_s);
+        watchdog_s, /*has_approx_sync=*/true);
   }
 
  private:
@@ -110,7 +110,13 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
       NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
       return;
     }
-    const mask::MaskResult result = stage_->process(frame);
+    mask::MaskResult result;
+    try {
+      result = stage_->process(frame);
+    } catch (const std::exception& e) {  // never let a core error reach the manager's thread
+      NODELET_ERROR_STREAM_THROTTLE(5.0, "mask failed on this frame, dropped: " << e.what());
+      return;
+    }
     if (result.degraded && !result.message.empty()) {
       NODELET_WARN_STREAM_THROTTLE(5.0, "mask degraded: " << result.message);
     }

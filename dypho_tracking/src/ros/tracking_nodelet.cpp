@@ -117,7 +117,8 @@ class TrackingNodelet : public nodelet::Nodelet {
                                                                         depth_sub_, info_sub_);
       sync3_->registerCallback(&TrackingNodelet::callbackNoMask, this);
     }
-    watchdog_ = std::make_unique<rc::SyncWatchdog>(nh, getName(), topics, params_.watchdog_s);
+    watchdog_ = std::make_unique<rc::SyncWatchdog>(nh, getName(), topics, params_.watchdog_s,
+                                                   /*has_approx_sync=*/false);
   }
 
   ~TrackingNodelet() override {
@@ -147,7 +148,14 @@ class TrackingNodelet : public nodelet::Nodelet {
       NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
       return;
     }
-    publish(stage_->process(frame, mask), rgb->header);
+    tracking::TrackingOutput out;
+    try {
+      out = stage_->process(frame, mask);
+    } catch (const std::exception& e) {  // never let a core error reach the manager's thread
+      NODELET_ERROR_STREAM_THROTTLE(5.0, "tracking failed on this frame, dropped: " << e.what());
+      return;
+    }
+    publish(out, rgb->header);
   }
 
   void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header) {
