@@ -3,10 +3,12 @@
 /// the tests are skipped with a message saying so (never silently passed).
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -114,6 +116,78 @@ TEST(DatasetRun, SyntheticBagInput) {
   EXPECT_LT(ate, DYPHO_SYNTH_ATE_BOUND_M);
 }
 #endif
+
+/// A fresh 150-frame synthetic sequence in DYPHO_TEST_OUT/<name> (no bag).
+std::string makeSynthetic(const std::string& name) {
+  const std::string data = std::string(DYPHO_TEST_OUT) + "/" + name;
+  const std::string cmd = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data +
+                          "' --frames 150 --motion halfsphere --people 1 --seed 5 --no-bag > /dev/null";
+  EXPECT_EQ(std::system(cmd.c_str()), 0);
+  return data;
+}
+
+std::vector<std::string> listedFiles(const std::string& list) {
+  std::vector<std::string> files;
+  std::ifstream in(list);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    files.push_back(line.substr(line.find(' ') + 1));
+  }
+  return files;
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// A recording with one truncated PNG and one garbage line in rgb.txt: the run goes on, skips that
+// frame and that line, names both, and writes every other frame's pose.
+TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
+  const std::string data = makeSynthetic("synth_damaged");
+  const std::vector<std::string> rgb = listedFiles(data + "/rgb.txt");
+  ASSERT_EQ(rgb.size(), 150u);
+  const std::string damaged = data + "/" + rgb[70];
+  ASSERT_EQ(::truncate(damaged.c_str(), 100), 0);  // a PNG cut off after 100 bytes
+  const std::size_t garbage_line = [&] {  // the line the garbage is appended as
+    std::ifstream in(data + "/rgb.txt");
+    std::size_t lines = 0;
+    for (std::string line; std::getline(in, line);) ++lines;
+    return lines + 1;
+  }();
+  std::ofstream(data + "/rgb.txt", std::ios::app) << "this line is garbage\n";
+  const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_damaged_run";
+  ASSERT_EQ(runDataset(data, out), 0);
+  EXPECT_EQ(dypho::readTumTrajectory(out + "/trajectory.txt").size(), 149u);
+  const std::string log = readText(out + "/log.txt");
+  EXPECT_NE(log.find("1 unreadable and skipped"), std::string::npos);
+  EXPECT_NE(log.find(rgb[70]), std::string::npos);          // the frame's file is named
+  EXPECT_NE(log.find("rgb.txt:" + std::to_string(garbage_line)), std::string::npos);  // the garbage line is named
+  EXPECT_TRUE(exists(out + "/map.ply"));
+}
+
+// SIGINT (Ctrl-C) in the middle of a run: the processed frames' trajectory and map are written,
+// and the exit status says the run was stopped (130).
+TEST(DatasetRun, SigintWritesWhatWasProcessed) {
+  const std::string data = makeSynthetic("synth_sigint");
+  const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_sigint_run";
+  // Start the run, wait until its progress line reports frame 21, then send SIGINT.
+  const std::string log = out + "/log.txt";
+  ASSERT_EQ(std::system(("mkdir -p '" + out + "'").c_str()), 0);
+  const std::string script = "mkdir -p '" + out + "'; '" + std::string(DYPHO_RUN_DATASET) + "' --dataset '" + data +
+                             "' --out '" + out + "' > '" + log + "' 2>&1 & pid=$!; "
+                             "for i in $(seq 600); do grep -q '21/150' '" + log + "' && break; sleep 0.1; done; "
+                             "kill -INT $pid; wait $pid";
+  std::ofstream(out + "_sigint.sh") << script << "\n";
+  const int status = std::system(("bash '" + out + "_sigint.sh'").c_str());
+  std::cout << readText(log) << std::endl;
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run was not stopped by SIGINT (finished, or failed)";
+  const auto poses = dypho::readTumTrajectory(out + "/trajectory.txt");
+  EXPECT_GT(poses.size(), 0u);
+  EXPECT_LT(poses.size(), 150u);
+  EXPECT_TRUE(exists(out + "/map.ply"));
+  EXPECT_NE(readText(log).find("stopped by a signal"), std::string::npos);
+}
 
 TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   const std::string out = std::string(DYPHO_TEST_OUT) + "/bad";

@@ -7,7 +7,10 @@
 ///
 /// This command line is stable: scripts depend on it.
 
+#include <signal.h>
 #include <sys/stat.h>
+
+#include <atomic>
 
 #include <algorithm>
 #include <cstdio>
@@ -32,6 +35,10 @@
 namespace {
 
 using namespace dypho;
+
+/// Set by SIGINT/SIGTERM: the frame loop stops and everything processed so far is written.
+std::atomic<bool> g_stop{false};
+void onStopSignal(int) { g_stop = true; }
 using namespace dypho::tools;
 using namespace dypho::pipeline;
 
@@ -153,6 +160,12 @@ int run(const Args& args) {
   makeDirs(args.out);
   std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size()
             << " frames, camera " << source->cameraName() << ", mask " << args.mask << "\n";
+  for (const std::string& w : source->warnings()) std::cerr << "warning: " << w << "\n";
+  // Ctrl-C / SIGTERM: stop after the current frame and write what was processed.
+  struct sigaction stop_action{};
+  stop_action.sa_handler = onStopSignal;
+  sigaction(SIGINT, &stop_action, nullptr);
+  sigaction(SIGTERM, &stop_action, nullptr);
 
   SlamPipeline pipeline(options);  // deterministic: the same run gives the same bits
   std::size_t num_keyframes = 0;
@@ -161,9 +174,20 @@ int run(const Args& args) {
   std::size_t n = source->size();
   if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
   std::size_t lost = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  std::vector<std::string> unreadable;  // frames skipped because their files could not be read
+  std::size_t processed = 0;
+  for (std::size_t i = 0; i < n && !g_stop; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
-    SourceFrame sf = source->load(i);
+    SourceFrame sf;
+    try {
+      sf = source->load(i);
+    } catch (const std::exception& e) {
+      // One bad file must not cost the run: skip the frame, name it in the summary, go on.
+      unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
+      std::cerr << "\nwarning: skipping " << unreadable.back() << "\n";
+      continue;
+    }
+    ++processed;
     const double load_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const auto t1 = std::chrono::steady_clock::now();
@@ -183,6 +207,7 @@ int run(const Args& args) {
     }
   }
   if (!args.quiet) std::cerr << "\n";
+  if (g_stop) std::cerr << "dypho_run_dataset: stopped by a signal after " << processed << " frames; writing what was processed\n";
 
   // trajectory.txt: every frame re-expressed with the final pose of the keyframe it was tracked
   // against (after local BA and loop closure; what ORB-SLAM saves); trajectory_online.txt: the
@@ -197,8 +222,11 @@ int run(const Args& args) {
   const mapping::KeyframeEvaluation map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
   const mapping::MappingStageStats map_stats = pipeline.mapping().stats();
   const mask::MaskStageStats mask_stats = pipeline.mask().stats();
-  std::cout << "frames:       " << n << " (" << lost << " not tracked), " << num_final_keyframes
-            << " keyframes\n"
+  std::cout << "frames:       " << processed << " of " << n << " processed (" << lost << " not tracked, "
+            << unreadable.size() << " unreadable and skipped" << (g_stop ? ", stopped early by a signal" : "")
+            << "), " << num_final_keyframes << " keyframes\n";
+  for (const std::string& u : unreadable) std::cout << "  skipped " << u << "\n";
+  std::cout
             << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion\n"
@@ -223,14 +251,23 @@ int run(const Args& args) {
       gt_note = "Bonn marker-to-camera correction applied";
     }
     const AteResult ate = computeAte(final_trajectory, gt);
-    const RpeResult rpe = computeRpe(final_trajectory, gt, 1.0);
+    // RPE needs pose pairs 1 s apart; a short (or interrupted) run may have none: say so.
+    std::string rpe_line;
+    try {
+      const RpeResult rpe = computeRpe(final_trajectory, gt, 1.0);
+      std::ostringstream r;
+      r << std::fixed << std::setprecision(2) << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg
+        << " deg (" << rpe.num_pairs << " pairs)";
+      rpe_line = r.str();
+    } catch (const std::exception& e) {
+      rpe_line = std::string("n/a (") + e.what() + ")";
+    }
     const AteResult ate_online = computeAte(trajectory, gt);
     std::ostringstream ev;
     ev << std::fixed << std::setprecision(2) << "ATE RMSE:     " << ate.rmse_m * 100 << " cm (mean "
        << ate.mean_m * 100 << ", median " << ate.median_m * 100 << ", max " << ate.max_m * 100
        << ", " << ate.num_pairs << " poses; " << gt_note << ")\n"
-       << "RPE (1 s):    " << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg << " deg ("
-       << rpe.num_pairs << " pairs)\n"
+       << "RPE (1 s):    " << rpe_line << "\n"
        << "ATE online:   " << ate_online.rmse_m * 100
        << " cm (trajectory_online.txt, poses as published at frame time)\n";
     writeFileAtomically(args.out + "/evaluation.txt", [&](std::ostream& os) { os << ev.str(); });
@@ -238,7 +275,7 @@ int run(const Args& args) {
     std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out
               << "/trajectory.png\n";
   }
-  return 0;
+  return g_stop ? 130 : 0;  // 130: stopped by SIGINT, outputs written
 }
 
 }  // namespace

@@ -48,6 +48,7 @@ class FolderFrameSource : public FrameSource {
   std::string cameraName() const override { return camera_name_; }
   bool hasMasks() const override { return has_masks_; }
   std::string description() const override { return "folder " + dataset_.directory(); }
+  std::vector<std::string> warnings() const override { return dataset_.skippedLines(); }
 
  private:
   TumDataset dataset_;

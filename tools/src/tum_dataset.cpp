@@ -58,7 +58,7 @@ bool parseSecondsToNs(const std::string& text, Timestamp* stamp_ns) {
   return true;
 }
 
-std::vector<StampedFile> readStampedFileList(const std::string& list_path) {
+std::vector<StampedFile> readStampedFileList(const std::string& list_path, std::vector<std::string>* skipped) {
   std::ifstream in(list_path);
   if (!in) {
     throw DatasetError("cannot open '" + list_path +
@@ -79,9 +79,12 @@ std::vector<StampedFile> readStampedFileList(const std::string& list_path) {
     while (!path.empty() && std::isspace(static_cast<unsigned char>(path.back()))) path.pop_back();
     StampedFile f;
     if (path.empty() || !parseSecondsToNs(stamp_text, &f.stamp_ns)) {
-      throw DatasetError(list_path + ":" + std::to_string(line_no) +
-                         ": expected \"timestamp filename\" (e.g. \"1305031229.528748 "
-                         "rgb/1305031229.528748.png\"), got '" + line + "'");
+      const std::string message = list_path + ":" + std::to_string(line_no) +
+                                  ": expected \"timestamp filename\" (e.g. \"1305031229.528748 "
+                                  "rgb/1305031229.528748.png\"), got '" + line + "'";
+      if (skipped == nullptr) throw DatasetError(message);
+      skipped->push_back(message + " (line skipped)");
+      continue;
     }
     f.stamp_s = std::stod(stamp_text);
     f.path = path;
@@ -145,8 +148,9 @@ TumDataset TumDataset::open(const std::string& dir, const CameraConfig& camera, 
     throw DatasetError("association window max_dt_s must be > 0 (TUM uses 0.02 s)");
   }
   const fs::path root(dir);
-  const auto rgb = readStampedFileList((root / "rgb.txt").string());
-  const auto depth = readStampedFileList((root / "depth.txt").string());
+  std::vector<std::string> skipped;
+  const auto rgb = readStampedFileList((root / "rgb.txt").string(), &skipped);
+  const auto depth = readStampedFileList((root / "depth.txt").string(), &skipped);
   if (rgb.empty()) throw DatasetError((root / "rgb.txt").string() + " lists no images");
   if (depth.empty()) throw DatasetError((root / "depth.txt").string() + " lists no images");
 
@@ -158,6 +162,7 @@ TumDataset TumDataset::open(const std::string& dir, const CameraConfig& camera, 
   ds.dir_ = dir;
   ds.camera_ = camera;
   ds.num_rgb_lines_ = rgb.size();
+  ds.skipped_lines_ = std::move(skipped);
   for (const auto& [i, j] : associateStamps(rgb_stamps, depth_stamps, max_dt_s)) {
     DatasetEntry e;
     e.stamp_s = rgb[i].stamp_s;

@@ -31,6 +31,8 @@ class FrameSource {
   virtual bool hasMasks() const = 0;
   /// For logs: what is being read.
   virtual std::string description() const = 0;
+  /// Problems met while opening that did not stop it (e.g. malformed list lines skipped).
+  virtual std::vector<std::string> warnings() const { return {}; }
 };
 
 /// Opens a TUM-layout folder or (when built with ROS) a .bag. `camera` = "" (detect from the

@@ -38,7 +38,10 @@ struct StampedFile {
 };
 
 /// Reads a TUM "timestamp filename" list ('#' comments). Throws DatasetError naming file:line.
-std::vector<StampedFile> readStampedFileList(const std::string& list_path);
+/// With `skipped` (not null) a malformed line is skipped and described there ("file:line: ...")
+/// instead of throwing: a recording with one bad line must not cost the whole run.
+std::vector<StampedFile> readStampedFileList(const std::string& list_path,
+                                             std::vector<std::string>* skipped = nullptr);
 
 /// TUM associate.py rule: all (a, b) pairs with |a - b| < max_dt_s, taken greedily by smallest
 /// difference (ties: smaller a, then smaller b), each element used at most once. Returns index
@@ -76,6 +79,8 @@ class TumDataset {
   const std::vector<StampedPose>& groundtruth() const { return groundtruth_; }
   /// The dataset folder as given to open().
   const std::string& directory() const { return dir_; }
+  /// Malformed rgb.txt / depth.txt lines that open() skipped, one message each ("file:line: ...").
+  const std::vector<std::string>& skippedLines() const { return skipped_lines_; }
   /// The camera given to open().
   const CameraConfig& camera() const { return camera_; }
 
@@ -87,6 +92,7 @@ class TumDataset {
   std::vector<DatasetEntry> entries_;
   std::vector<StampedPose> groundtruth_;
   std::size_t num_rgb_lines_ = 0;
+  std::vector<std::string> skipped_lines_;
 };
 
 }  // namespace dypho::tools
