@@ -1,4 +1,4 @@
-/// Each YAML in config/ lists every option of its module with the built-in default: the same set
+/// Configuration and output paths. Each YAML in config/ lists every option of its module with the built-in default: the same set
 /// of keys, and each value equal to the default. (The YAML is what roslaunch loads and what
 /// dypho_run_dataset reads first; a drift would make the ROS graph and the README disagree with
 /// the code.)
@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include "dypho/common/output_path.h"
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mask/mask_options_fields.h"
 #include "dypho/tracking/tracking_options_fields.h"
@@ -74,6 +75,26 @@ TEST(ConfigDefaults, TrackingYamlEqualsBuiltInDefaults) {
 TEST(ConfigDefaults, MappingYamlEqualsBuiltInDefaults) {
   using dypho::mapping::visitOptions;
   expectYamlEqualsDefaults<dypho::mapping::MappingOptions>("mapping.yaml");
+}
+
+}  // namespace
+
+// Services write only under the configured output directory.
+
+namespace {
+
+TEST(OutputDirectory, RequestsStayInsideTheOutputDirectory) {
+  const std::string base = "/tmp/dypho_output_test/base";
+  EXPECT_EQ(dypho::resolveOutputDirectory(base, ""), base);
+  EXPECT_EQ(dypho::resolveOutputDirectory(base, "run1"), base + "/run1");
+  EXPECT_EQ(dypho::resolveOutputDirectory(base, "run1/../run2"), base + "/run2");
+  EXPECT_EQ(dypho::resolveOutputDirectory(base, base + "/abs"), base + "/abs");
+  EXPECT_THROW(dypho::resolveOutputDirectory(base, ".."), std::invalid_argument);
+  EXPECT_THROW(dypho::resolveOutputDirectory(base, "../base_sibling"), std::invalid_argument);
+  EXPECT_THROW(dypho::resolveOutputDirectory(base, "run1/../../x"), std::invalid_argument);
+  EXPECT_THROW(dypho::resolveOutputDirectory(base, "/etc"), std::invalid_argument);
+  EXPECT_THROW(dypho::resolveOutputDirectory(base, "/tmp/dypho_output_test/basement"), std::invalid_argument);
+  EXPECT_THROW(dypho::resolveOutputDirectory("", "x"), std::invalid_argument);
 }
 
 }  // namespace

@@ -2,9 +2,12 @@
 /// (30 Hz, played at rate 1.0) must publish pose, path, tf and keyframes at the input rate.
 
 #include <atomic>
+#include <fstream>
 #include <mutex>
+#include <string>
 
 #include <dypho_slam/Keyframe.h>
+#include <dypho_slam/SaveMap.h>
 #include <dypho_slam/TrackingStatus.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
@@ -68,6 +71,31 @@ TEST(TrackingNodelet, PublishesPosePathTfAndKeyframesAtTheInputRate) {
   EXPECT_GE(path_length, static_cast<std::size_t>(frames * 9 / 10));
   EXPECT_TRUE(tf_buffer.canTransform("map", "odom", ros::Time(0)));
   EXPECT_TRUE(tf_buffer.canTransform("odom", "dypho_camera", ros::Time(0)));
+}
+
+// ~save_trajectory writes inside ~output_dir only: a folder name is taken from there; a path
+// that leaves it is refused with a message and nothing is written.
+TEST(TrackingNodelet, SaveServiceWritesOnlyInsideTheOutputDirectory) {
+  ros::NodeHandle pnh("~");
+  std::string output_dir;
+  ASSERT_TRUE(pnh.getParam("output_dir", output_dir));
+  ASSERT_TRUE(ros::service::waitForService("/dypho/tracking/save_trajectory", ros::Duration(10.0)));
+  dypho_slam::SaveMap inside;
+  inside.request.directory = "run1";
+  ASSERT_TRUE(ros::service::call("/dypho/tracking/save_trajectory", inside));
+  EXPECT_TRUE(inside.response.success) << inside.response.message;
+  ASSERT_FALSE(inside.response.files.empty());
+  EXPECT_EQ(inside.response.files.front(), output_dir + "/run1/trajectory.txt");
+  EXPECT_TRUE(std::ifstream(output_dir + "/run1/trajectory.txt").good());
+  for (const std::string outside : {std::string("../escaped"), std::string("/tmp/dypho_escaped")}) {
+    dypho_slam::SaveMap srv;
+    srv.request.directory = outside;
+    ASSERT_TRUE(ros::service::call("/dypho/tracking/save_trajectory", srv));
+    EXPECT_FALSE(srv.response.success) << outside;
+    EXPECT_NE(srv.response.message.find("outside the output directory"), std::string::npos) << srv.response.message;
+  }
+  EXPECT_FALSE(std::ifstream(output_dir + "/../escaped/trajectory.txt").good());
+  EXPECT_FALSE(std::ifstream("/tmp/dypho_escaped/trajectory.txt").good());
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "dypho_ros/conversions.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include <boost/make_shared.hpp>
@@ -232,6 +233,14 @@ KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg
     if (T.matrix().allFinite()) corrections.emplace_back(pose.id, T);
   }
   return corrections;
+}
+
+std::string outputBaseDirectory(const std::string& output_dir) {
+  if (!output_dir.empty()) return output_dir;
+  const char* ros_home = std::getenv("ROS_HOME");
+  if (ros_home != nullptr && *ros_home != '\0') return std::string(ros_home) + "/dypho";
+  const char* home = std::getenv("HOME");
+  return std::string(home != nullptr ? home : ".") + "/.ros/dypho";
 }
 
 }  // namespace dypho::ros_conversions

@@ -77,4 +77,7 @@ dypho_slam::KeyframeCorrectionsPtr toCorrectionsMsg(const KeyframePoseCorrection
 /// A correction batch from a message (poses that are not finite are left out).
 KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg);
 
+/// The folder services write into: `output_dir` when set, else $ROS_HOME/dypho (~/.ros/dypho).
+std::string outputBaseDirectory(const std::string& output_dir);
+
 }  // namespace dypho::ros_conversions

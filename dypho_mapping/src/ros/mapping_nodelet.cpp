@@ -12,6 +12,7 @@
 /// Services: ~save_map (final refinement first with ~refine_before_save), ~load_map, ~reset.
 
 #include <atomic>
+#include <filesystem>
 #include <condition_variable>
 #include <memory>
 #include <mutex>
@@ -29,6 +30,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 
+#include "dypho/common/output_path.h"
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mapping/mapping_stage.h"
@@ -47,7 +49,9 @@ struct MappingRosParams {
   int keyframe_queue_size = 8;       ///< jobs waiting for the worker before the oldest keyframe is dropped
   /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
   double predicted_depth_scale = 0.5;
-  std::string output_dir;            ///< where save_map writes when the request names no folder
+  /// where save_map writes (requests name folders inside it) and the map is saved on shutdown
+  /// (empty: not on shutdown; save_map then writes inside $ROS_HOME/dypho, default ~/.ros/dypho)
+  std::string output_dir;
   std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   bool use_gpu = true;               ///< use CUDA when built with it and a device exists
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
@@ -251,14 +255,15 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   }
 
   bool onSave(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
-    const std::string dir = req.directory.empty() ? (params_.output_dir.empty() ? "." : params_.output_dir)
-                                                  : req.directory;
     try {
+      // Only under the output directory: a ROS 1 service can be called by anyone on the network.
+      const std::string dir = resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory);
+      std::filesystem::create_directories(dir);
       res.files = stage_->save(dir, params_.refine_before_save);
       const mapping::MappingStageStats stats = stage_->stats();
       res.success = true;
       res.message = "wrote " + std::to_string(stats.gaussians.num_gaussians) + " Gaussians and " +
-                    std::to_string(stats.keyframes_received) + " keyframe clouds to " + dir;
+                    std::to_string(stats.keyframes_received) + " keyframe clouds to " + res.files.front();
     } catch (const std::exception& e) {
       res.success = false;
       res.message = e.what();

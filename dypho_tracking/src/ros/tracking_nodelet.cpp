@@ -4,6 +4,7 @@
 /// batches and timing out. All the work and its policy are in dypho::tracking::TrackingStage (the
 /// same stage the in-process pipeline runs).
 
+#include <filesystem>
 #include <memory>
 
 #include <dypho_slam/Keyframe.h>
@@ -24,6 +25,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include "dypho/common/output_path.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
@@ -45,7 +47,9 @@ struct TrackingRosParams {
   bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
   int queue_size = 10;              ///< synchroniser queue [messages]
   double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
-  std::string output_dir;           ///< where trajectory.txt is written on shutdown; empty = not on shutdown
+  /// where trajectory.txt is written on shutdown (empty = not on shutdown); ~save_trajectory
+  /// writes only inside it (empty: inside $ROS_HOME/dypho, default ~/.ros/dypho)
+  std::string output_dir;
   int max_path_length = 100000;     ///< path poses kept [poses]
 };
 
@@ -269,9 +273,11 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   bool onSave(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
-    const std::string dir = req.directory.empty() ? params_.output_dir : req.directory;
     try {
-      res.files.push_back(saveTrajectory(dir.empty() ? "." : dir));
+      // Only under the output directory: a ROS 1 service can be called by anyone on the network.
+      const std::string dir = resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory);
+      std::filesystem::create_directories(dir);
+      res.files.push_back(saveTrajectory(dir));
       res.success = true;
       res.message = "trajectory written";
     } catch (const std::exception& e) {
