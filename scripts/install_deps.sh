@@ -15,6 +15,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libceres-dev libgtest-dev libyaml-cpp-dev
   librostest-dev python3-rostest ros-core rosbash python3-rosbag
   rviz xvfb imagemagick
+  clang libclang-rt-14-dev
   python3-onnx python3-numpy
   opencv-doc
 )

@@ -1,6 +1,7 @@
 #!/bin/bash
-# Installs what is needed, builds, and runs the whole test suite (unit tests, the rostest graph
-# test, the dataset runs on ../shared when present). Exit code 0 only when every test passed.
+# Installs what is needed, builds, and runs the whole test suite: unit tests, rostests, the
+# dataset runs on ../shared; then the cores' unit tests again under ASan + UBSan (plain CMake, no
+# ROS) and a short run of the libFuzzer targets. Exit code 0 only when every part passed.
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -30,4 +31,8 @@ if grep -q ": Skipped$" Testing/Temporary/LastTest.log 2>/dev/null; then
   echo "test.sh: tests that skipped themselves, and why:"
   grep -h -A1 ": Skipped$" Testing/Temporary/LastTest.log | grep -v -- "^--$" | sed 's/^/  /'
 fi
+# The ROS-free cores and unit tests again, built with plain CMake under ASan + UBSan (leaks too),
+# then a short run of each libFuzzer target on its seed corpus (longer runs: scripts/fuzz.sh).
+bash "$ROOT/scripts/test_sanitized.sh" "$BUILD-sanitized" || status=1
+bash "$ROOT/scripts/fuzz.sh" "${DYPHO_FUZZ_SECONDS:-20}" "$BUILD-fuzz" || status=1
 exit "$status"

@@ -37,7 +37,7 @@ bool parseSecondsToNs(const std::string& text, Timestamp* stamp_ns) {
   int int_digits = 0;
   int frac_digits = 0;
   for (; i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])); ++i, ++int_digits) {
-    if (int_digits >= 10) return false;  // > 1e10 s does not fit the ns range comfortably
+    if (int_digits >= 10) return false;  // >= 1e10 s cannot be int64 nanoseconds
     whole = whole * 10 + (text[i] - '0');
   }
   if (i < text.size() && text[i] == '.') {
@@ -53,6 +53,9 @@ bool parseSecondsToNs(const std::string& text, Timestamp* stamp_ns) {
   }
   if (i != text.size() || (int_digits == 0 && frac_digits == 0)) return false;
   for (int d = std::min(frac_digits, 9); d < 9; ++d) frac *= 10;
+  // int64 nanoseconds reach 9223372036.854775807 s (year 2262); later stamps do not fit.
+  constexpr Timestamp kMaxWholeSeconds = 9223372035;
+  if (whole > kMaxWholeSeconds) return false;
   const Timestamp ns = whole * 1000000000LL + frac;
   *stamp_ns = negative ? -ns : ns;
   return true;

@@ -123,6 +123,10 @@ TEST(ParseSeconds, ExactNanoseconds) {
   EXPECT_FALSE(parseSecondsToNs("1.2e3", &ns));
   EXPECT_FALSE(parseSecondsToNs("abc", &ns));
   EXPECT_FALSE(parseSecondsToNs("", &ns));
+  // Beyond int64 nanoseconds (found by fuzz_tum_lists: used to overflow): rejected.
+  EXPECT_FALSE(parseSecondsToNs("9600000000.000001", &ns));
+  ASSERT_TRUE(parseSecondsToNs("9223372035.5", &ns));
+  EXPECT_EQ(ns, 9223372035500000000LL);
 }
 
 TEST(Associate, GreedyBySmallestDifference) {

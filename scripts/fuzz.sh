@@ -1,0 +1,30 @@
+#!/bin/bash
+# Builds the libFuzzer targets (fuzz/, clang) and runs each for SECONDS on a copy of its seed
+# corpus (fuzz/corpus/<name>; new inputs land in the copy, not in the repository). Exit 0 only
+# when no target crashed, leaked or tripped a sanitizer (the crashing input is kept in OUT).
+# Usage: fuzz.sh [SECONDS_PER_TARGET] [OUT_DIR]        (default 20 s, build-fuzz/)
+set -euo pipefail
+export PATH=/usr/bin:/bin:$PATH
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+SECONDS_PER_TARGET="${1:-20}"
+OUT="${2:-$ROOT/build-fuzz}"
+mkdir -p "$OUT"
+CC=clang CXX=clang++ cmake -S "$ROOT/fuzz" -B "$OUT" -DCMAKE_BUILD_TYPE=None > "$OUT/configure.log" 2>&1 \
+  || { cat "$OUT/configure.log"; exit 1; }
+cmake --build "$OUT" -j "${DYPHO_JOBS:-$(nproc)}"
+status=0
+for pair in gaussian_ply:ply tum_lists:tum_lists camera_yaml:camera_yaml options_yaml:options_yaml; do
+  target="fuzz_${pair%%:*}"
+  corpus="$OUT/corpus_${pair##*:}"
+  rm -rf "$corpus" && cp -r "$ROOT/fuzz/corpus/${pair##*:}" "$corpus"
+  echo "fuzz.sh: $target for ${SECONDS_PER_TARGET} s"
+  if ! (cd "$OUT" && "./$target" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 -timeout=10 \
+          -print_final_stats=1 "$corpus" > "$OUT/$target.log" 2>&1); then
+    echo "fuzz.sh: $target FOUND A PROBLEM (input saved in $OUT, log $OUT/$target.log):" >&2
+    tail -40 "$OUT/$target.log" >&2
+    status=1
+  else
+    grep -E "^stat::number_of_executed_units|^Done" "$OUT/$target.log" | tr '\n' ' '; echo
+  fi
+done
+exit "$status"
