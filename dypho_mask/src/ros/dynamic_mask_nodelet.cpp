@@ -24,6 +24,7 @@
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
+#include "dypho_ros/throttled_log.h"
 
 namespace dypho::mask_ros {
 
@@ -107,18 +108,20 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     try {
       frame = rc::toRgbdFrame(*rgb, *depth, *info);
     } catch (const std::exception& e) {
-      NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
+      const std::string message = std::string("dropping frame: ") + e.what();
+      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
     mask::MaskResult result;
     try {
       result = stage_->process(frame);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
-      NODELET_ERROR_STREAM_THROTTLE(5.0, "mask failed on this frame, dropped: " << e.what());
+      const std::string message = std::string("mask failed on this frame, dropped: ") + e.what();
+      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
-    if (result.degraded && !result.message.empty()) {
-      NODELET_WARN_STREAM_THROTTLE(5.0, "mask degraded: " << result.message);
+    if (result.degraded && !result.message.empty() && degraded_log_.pass(result.message)) {
+      NODELET_WARN_STREAM("mask degraded: " << result.message);
     }
     mask_pub_.publish(rc::toImageMsg(result.mask, sensor_msgs::image_encodings::MONO8, rgb->header));
     publishIfWanted(raw_pub_, result.raw_flow_mask, rgb->header);
@@ -171,6 +174,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   }
 
   std::unique_ptr<mask::MaskStage> stage_;
+  rc::ThrottledLog input_log_, degraded_log_;  ///< each kind of problem is named at once, then every 5 s
   ros::Subscriber tracking_sub_;
   image_transport::Subscriber rendered_sub_;
   std::unique_ptr<image_transport::ImageTransport> it_;

@@ -31,6 +31,7 @@
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
+#include "dypho_ros/throttled_log.h"
 
 namespace dypho::tracking_ros {
 
@@ -149,14 +150,16 @@ class TrackingNodelet : public nodelet::Nodelet {
       frame = rc::toRgbdFrame(*rgb, *depth, *info);
       if (mask_msg) mask = rc::toMask(*mask_msg);
     } catch (const std::exception& e) {
-      NODELET_ERROR_STREAM_THROTTLE(5.0, "dropping frame: " << e.what());
+      const std::string message = std::string("dropping frame: ") + e.what();
+      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
     tracking::TrackingOutput out;
     try {
       out = stage_->process(frame, mask);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
-      NODELET_ERROR_STREAM_THROTTLE(5.0, "tracking failed on this frame, dropped: " << e.what());
+      const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
+      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
     publish(out, rgb->header);
@@ -181,8 +184,8 @@ class TrackingNodelet : public nodelet::Nodelet {
     status->restarted = out.restarted;
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {
-      NODELET_WARN_STREAM_THROTTLE(2.0, "tracking " << tracking::toString(result.state) << ": "
-                                                     << result.message);
+      const std::string message = std::string("tracking ") + tracking::toString(result.state) + ": " + result.message;
+      if (state_log_.pass(message)) NODELET_WARN_STREAM(message);
     } else if (result.relocalized || result.loop_closed) {
       NODELET_INFO_STREAM("tracking: " << result.message);
     }
@@ -298,6 +301,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
   TrackingRosParams params_;
   std::unique_ptr<tracking::TrackingStage> stage_;
+  rc::ThrottledLog input_log_, state_log_;  ///< each kind of problem is named at once, then every 5 s
   nav_msgs::Path path_;  ///< the synchronised callback only
   ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
