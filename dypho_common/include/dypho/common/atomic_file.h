@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 namespace dypho {
@@ -31,6 +32,13 @@ inline void writeFileAtomically(const std::string& path,
       std::remove(tmp.c_str());
       throw std::runtime_error("writing '" + tmp + "' failed (disk full?)");
     }
+  }
+  // On disk before it replaces the old file (a crash or power cut after the rename then finds the
+  // new content, not an empty file).
+  const int fd = ::open(tmp.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());
