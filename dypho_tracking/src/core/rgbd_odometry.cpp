@@ -126,14 +126,13 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   MapKeyframe* stored = map_.mutableKeyframe(id);
   T_world_last_ = stored->T_world_camera;  // after BA / loop correction
   motion_.correctLast(T_world_last_);
-  stored->keyframe =
+  result->keyframe =
       makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
   setReference(id);
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   result->T_world_camera = T_world_last_;
   result->is_keyframe = true;
-  result->keyframe = stored->keyframe;
   reported_poses_[id] = stored->T_world_camera;  // what mapping receives with the keyframe
 }
 

@@ -102,7 +102,6 @@ KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
   KeyframePoints out;
   const MapKeyframe* kf = keyframe(keyframe_id);
   if (kf == nullptr) return out;
-  out.keyframe = kf->keyframe;
   std::unordered_set<std::int64_t> seen;
   std::vector<const MapPoint*> selected;
   for (std::int64_t k : kfs) {

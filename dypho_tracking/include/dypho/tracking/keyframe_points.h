@@ -19,7 +19,9 @@ namespace tracking {
 /// Reference keyframe as tracking needs it: per point its world position, keypoint (level,
 /// angle) and descriptor. All vectors have the same length; index i is one point.
 struct KeyframePoints {
-  KeyframeConstPtr keyframe;                   ///< the published keyframe (frame, mask, pose)
+  /// the published keyframe (frame, mask, pose) when built by makeKeyframePoints; views of the
+  /// tracker's map (TrackerMap::localPoints) leave it null, the map keeps no images
+  KeyframeConstPtr keyframe;
   std::vector<Eigen::Vector3d> p_world_m;      ///< 3D point in the world [m]
   std::vector<cv::KeyPoint> keypoints;         ///< keypoint in the keyframe image (level-0 px)
   cv::Mat descriptors;                         ///< row i = ORB descriptor of point i, CV_8UC1

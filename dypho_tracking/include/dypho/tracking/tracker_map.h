@@ -40,7 +40,8 @@ struct MapKeyframe {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();     ///< pose (changed by BA / loops)
   FrameFeatures features;                  ///< keypoints, undistorted px, depth, 3D in camera
   std::vector<std::int64_t> map_point_ids;  ///< per feature: its map point id (-1 = culled)
-  KeyframeConstPtr keyframe;                ///< the published keyframe (images, mask)
+  // The keyframe's images are handed to mapping and not kept here: nothing in tracking reads
+  // them, and a long run would otherwise hold every keyframe's images (2.4 MB each at 640x480).
 };
 
 /// The tracker's global map: every keyframe and map point of the run (the sparse counterpart of
