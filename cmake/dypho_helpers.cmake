@@ -19,6 +19,11 @@ function(dypho_add_gtest name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  # Instrumented builds (ASan + UBSan, scripts/test_sanitized.sh) run several times slower: their
+  # wall-clock limits scale with DYPHO_TEST_TIMEOUT_SCALE; the assertions do not change.
+  if(DYPHO_TEST_TIMEOUT_SCALE)
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * ${DYPHO_TEST_TIMEOUT_SCALE}")
+  endif()
   if(DYPHO_WITH_ROS)
     catkin_add_executable_with_gtest(${name} ${ARG_SOURCES})
   else()

@@ -12,6 +12,7 @@ JOBS="${DYPHO_JOBS:-$(nproc)}"
 FLAGS="-O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
 mkdir -p "$BUILD"
 cmake -S "$ROOT" -B "$BUILD" -DDYPHO_WITH_ROS=OFF -DDYPHO_WITH_CUDA=OFF -DCMAKE_BUILD_TYPE=None \
+      -DDYPHO_TEST_TIMEOUT_SCALE=4 \
       -DCMAKE_CXX_FLAGS="$FLAGS" -DCMAKE_C_FLAGS="$FLAGS" \
       -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
       -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > "$BUILD/configure.log" 2>&1 \
@@ -26,4 +27,4 @@ cmake --build "$BUILD" -j "$JOBS"
 cd "$BUILD"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-ctest --output-on-failure -j 1 --timeout 1200 -E "^test_datasets$"
+ctest --output-on-failure -j 1 --timeout 4800 -E "^test_datasets$"
