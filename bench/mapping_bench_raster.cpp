@@ -3,6 +3,7 @@
 ///
 ///   mapping_bench_raster [--threads 2] [--repeats 10] [--counts 10000,100000,300000]
 ///                        [--sizes 640x480,320x240] [--sh-degree 1] [--stages 0|1]
+///                        [--isa auto|generic|avx2]
 ///
 /// Scene: Gaussians spread uniformly on the walls and floor of a 6 x 3 x 8 m room seen from inside,
 /// flat (one axis 10x thinner), screen size chosen so that the visible ones cover the image about
@@ -67,6 +68,7 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   int threads = 2, repeats = 10, degree = 1, stages = 0;
   std::string counts = "10000,100000,300000", sizes = "640x480,320x240";
+  RasterSettings settings;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--threads") threads = std::stoi(v);
@@ -75,11 +77,15 @@ int main(int argc, char** argv) {
     else if (k == "--sizes") sizes = v;
     else if (k == "--sh-degree") degree = std::stoi(v);
     else if (k == "--stages") stages = std::stoi(v);
+    else if (k == "--isa" && v == "auto") settings.isa = RasterIsa::kAuto;
+    else if (k == "--isa" && v == "generic") settings.isa = RasterIsa::kGeneric;
+    else if (k == "--isa" && v == "avx2") settings.isa = RasterIsa::kAvx2;
     else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 1; }
   }
   ThreadPool pool(threads);
-  Rasterizer<float> raster(&pool);
-  std::printf("threads %d, SH degree %d, %d repeats (median)\n", threads, degree, repeats);
+  Rasterizer<float> raster(&pool, settings);
+  std::printf("threads %d, SH degree %d, %d repeats (median), tile kernels %s\n", threads, degree, repeats,
+              rasterIsaName(raster.isa()));
   std::printf("%9s %9s %9s %11s %10s %10s %10s\n", "gaussians", "size", "visible", "tile_pairs", "fwd_ms", "bwd_ms", "total_ms");
   for (const std::string& cs : split(counts)) {
     const int n = std::stoi(cs);

@@ -1,6 +1,8 @@
 /// Rasterizer: projection, binning and the forward compositing pass.
 #include "dypho/mapping/rasterizer.h"
 
+#include "raster_tile_kernels.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,6 +11,28 @@
 #include <type_traits>
 
 namespace dypho::mapping {
+
+const char* rasterIsaName(RasterIsa isa) {
+  switch (isa) {
+    case RasterIsa::kAuto: return "auto";
+    case RasterIsa::kGeneric: return "generic";
+    case RasterIsa::kAvx2: return "avx2";
+  }
+  return "unknown";
+}
+
+bool rasterAvx2Available() {
+#if DYPHO_RASTER_HAVE_AVX2 && (defined(__x86_64__) || defined(__i386__))
+  // libgcc's CPU model also checks that the OS saves the AVX registers (XGETBV).
+  static const bool available = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  }();
+  return available;
+#else
+  return false;
+#endif
+}
 
 template <typename T>
 gs::PinholeView<T> makePinholeView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
@@ -35,6 +59,22 @@ Rasterizer<T>::Rasterizer(ThreadPool* pool, const RasterSettings& settings) : po
   if (pool_ == nullptr) throw std::invalid_argument("Rasterizer: thread pool is null");
   if (!(settings.radius_sigma > 0) || !(settings.min_alpha >= 0) || !(settings.min_transmittance >= 0)) {
     throw std::invalid_argument("Rasterizer: radius_sigma must be > 0, min_alpha and min_transmittance >= 0");
+  }
+  isa_ = settings.isa;
+  if (isa_ == RasterIsa::kAuto) isa_ = rasterAvx2Available() ? RasterIsa::kAvx2 : RasterIsa::kGeneric;
+  if (isa_ == RasterIsa::kAvx2) {
+    if (!rasterAvx2Available()) {
+      throw std::invalid_argument(
+          "Rasterizer: isa avx2 requested, but this CPU has no AVX2+FMA or this build has no AVX2 kernels "
+          "(use auto or generic)");
+    }
+#if DYPHO_RASTER_HAVE_AVX2
+    kernels_.forward = &raster::avx2::forwardTile<T>;
+    kernels_.backward = &raster::avx2::backwardTile<T>;
+#endif
+  } else {
+    kernels_.forward = &raster::generic::forwardTile<T>;
+    kernels_.backward = &raster::generic::backwardTile<T>;
   }
 }
 
@@ -200,7 +240,10 @@ void Rasterizer<T>::forward(const GaussianParamsView<T>& params, const gs::Pinho
   const auto t1 = std::chrono::steady_clock::now();
   binTiles();
   const auto t2 = std::chrono::steady_clock::now();
-  pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int) { forwardTile(tile, out); });
+  const raster::TileLists<T> lists = tileLists();
+  const raster::ForwardImages<T> images{out.color.data(), out.depth.data(), out.alpha.data(), final_T_.data(),
+                                        last_entry_.data()};
+  pool_->parallelFor(tiles_x_ * tiles_y_, [&](int tile, int) { kernels_.forward(lists, tile, images); });
   const auto t3 = std::chrono::steady_clock::now();
   using Ms = std::chrono::duration<double, std::milli>;
   times_.project_ms = Ms(t1 - t0).count();
@@ -209,90 +252,17 @@ void Rasterizer<T>::forward(const GaussianParamsView<T>& params, const gs::Pinho
 }
 
 template <typename T>
-void Rasterizer<T>::forwardTile(int tile, RenderResult<T>& out) {
-  constexpr int S = gs::kTileSize;
-  const int tx0 = (tile % tiles_x_) * S, ty0 = (tile / tiles_x_) * S;
-  const int tx1 = std::min(tx0 + S, view_.width), ty1 = std::min(ty0 + S, view_.height);
-  alignas(64) T Tr[gs::kTilePixels], Cr[gs::kTilePixels], Cg[gs::kTilePixels], Cb[gs::kTilePixels], D[gs::kTilePixels];
-  alignas(64) T live[gs::kTilePixels];  // 1 while the pixel still composites, 0 once stopped
-  alignas(64) std::uint32_t last[gs::kTilePixels];
-  const std::uint32_t begin = tile_ranges_[tile], end = tile_ranges_[tile + 1];
-  for (int i = 0; i < gs::kTilePixels; ++i) {
-    Tr[i] = T(1);
-    Cr[i] = Cg[i] = Cb[i] = D[i] = T(0);
-    last[i] = begin;
-    // Pixels outside the image (partial tiles) never composite.
-    const int px = tx0 + i % S, py = ty0 + i / S;
-    live[i] = (px >= tx1 || py >= ty1) ? T(0) : T(1);
-  }
-  const T min_alpha = T(settings_.min_alpha), min_T = T(settings_.min_transmittance), max_alpha = T(gs::kMaxAlpha);
-  for (std::uint32_t k = begin; k < end; ++k) {
-    // The tile's Gaussians are scattered over sorted_ (global depth order): fetch ahead.
-    if (k + kPrefetchAhead < end) __builtin_prefetch(&sorted_[entries_[k + kPrefetchAhead]]);
-    const Packed& p = sorted_[entries_[k]];
-    // Rows of the footprint box inside the tile; every row is processed over the full tile width
-    // (fixed trip count, vectorised); pixels outside the box fall below min_alpha by construction.
-    const auto [py0, py1, xb0, xb1] = p.windowInTile(tx0, ty0, ty1, S);
-    const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
-    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
-    const T mu0 = p.mean_u - T(tx0);
-    for (int py = py0; py < py1; ++py) {
-      const T dy = p.mean_v - T(py);
-      const T row_term = T(-0.5) * c * dy * dy;
-      const T bdy = b * dy;
-      const int row = (py - ty0) * S;
-      for (int xb = xb0; xb < xb1; xb += 8)
-#pragma omp simd
-      for (int x = xb; x < xb + 8; ++x) {
-        const int i = row + x;
-        const T dx = mu0 - T(x);
-        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
-        T alpha = o * gs::blendExp(power);
-        alpha = alpha < max_alpha ? alpha : max_alpha;
-        // 0/1 masks in float arithmetic (keeps the loop branch-free and vectorised).
-        const T ok = (power <= T(0) ? T(1) : T(0)) * (alpha >= min_alpha ? T(1) : T(0)) * live[i];
-        const T test_T = Tr[i] * (T(1) - alpha);
-        const T stop = ok * (test_T < min_T ? T(1) : T(0));
-        const T use = ok - stop;
-        const T w = use * alpha * Tr[i];
-        Cr[i] += w * c0;
-        Cg[i] += w * c1;
-        Cb[i] += w * c2;
-        D[i] += w * dep;
-        Tr[i] += use * (test_T - Tr[i]);
-        last[i] = use > T(0) ? k + 1 : last[i];
-        live[i] -= stop;
-      }
-    }
-    if (((k - begin) & 31) == 31) {
-      T any = T(0);
-      for (int i = 0; i < gs::kTilePixels; ++i) any += live[i];
-      if (any == T(0)) break;
-    }
-  }
-  // Rows of the tile out to the images (block copies; full-width rows with a constant size).
-  alignas(64) T A[gs::kTilePixels];
-  for (int i = 0; i < gs::kTilePixels; ++i) A[i] = T(1) - Tr[i];
-  const std::size_t npix = static_cast<std::size_t>(view_.width) * view_.height;
-  const int w = tx1 - tx0;
-  auto copyRow = [&](int row, std::size_t o, auto width) {
-    std::memcpy(&out.color[o], &Cr[row], width * sizeof(T));
-    std::memcpy(&out.color[npix + o], &Cg[row], width * sizeof(T));
-    std::memcpy(&out.color[2 * npix + o], &Cb[row], width * sizeof(T));
-    std::memcpy(&out.depth[o], &D[row], width * sizeof(T));
-    std::memcpy(&out.alpha[o], &A[row], width * sizeof(T));
-    std::memcpy(&final_T_[o], &Tr[row], width * sizeof(T));
-    std::memcpy(&last_entry_[o], &last[row], width * sizeof(std::uint32_t));
-  };
-  for (int py = ty0; py < ty1; ++py) {
-    const int row = (py - ty0) * S;
-    const std::size_t o = static_cast<std::size_t>(py) * view_.width + tx0;
-    if (w == S) {
-      copyRow(row, o, std::integral_constant<std::size_t, S>());
-    } else {
-      copyRow(row, o, static_cast<std::size_t>(w));
-    }
-  }
+raster::TileLists<T> Rasterizer<T>::tileLists() const {
+  raster::TileLists<T> lists;
+  lists.tiles_x = tiles_x_;
+  lists.width = view_.width;
+  lists.height = view_.height;
+  lists.ranges = tile_ranges_.data();
+  lists.entries = entries_.data();
+  lists.sorted = sorted_.data();
+  lists.min_alpha = T(settings_.min_alpha);
+  lists.min_transmittance = T(settings_.min_transmittance);
+  return lists;
 }
 
 template class Rasterizer<float>;

@@ -26,6 +26,19 @@
 
 namespace dypho::mapping {
 
+/// Instruction set of the CPU tile kernels (the per-tile compositing loops, forward and backward).
+/// Both sets are compiled into every x86-64 build; the CPU is asked at run time.
+enum class RasterIsa {
+  kAuto,     ///< AVX2+FMA when this CPU has them, else generic
+  kGeneric,  ///< the build's baseline instruction set (SSE2 on x86-64): runs on every CPU
+  kAvx2,     ///< AVX2+FMA; constructing a Rasterizer with it on a CPU without them throws
+};
+
+/// "auto", "generic" or "avx2".
+const char* rasterIsaName(RasterIsa isa);
+/// True when this build has the AVX2+FMA kernels and this CPU (and OS) can run them.
+bool rasterAvx2Available();
+
 /// Numerical settings of the rasterizer (defaults = 3DGS).
 struct RasterSettings {
   /// Footprint radius in standard deviations of the largest screen axis, > 0. Default 3.
@@ -34,7 +47,25 @@ struct RasterSettings {
   double min_alpha = 1.0 / 255.0;
   /// Transmittance below which a pixel stops compositing, >= 0. Default 1e-4.
   double min_transmittance = 1e-4;
+  /// Tile kernels; default kAuto. The two sets agree to rounding (FMA contracts some products).
+  RasterIsa isa = RasterIsa::kAuto;
 };
+
+namespace raster {
+
+/// Tile-list entries ahead of the current one whose Gaussian is prefetched.
+constexpr std::uint32_t kPrefetchAhead = 6;
+
+/// One projected Gaussian as the tile kernels read it; cache-line aligned (64 bytes for float) so
+/// that a tile's lookup of it touches a single line.
+template <typename T>
+struct alignas(64) PackedGaussian {
+  T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth;
+  T half_u, half_v;  ///< footprint box half sizes [px] (gs::Projected)
+  int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
+};
+
+}  // namespace raster
 
 /// Read-only view of Gaussian parameters in the SoA layout of GaussianMap (rows of 3, 3, 4, 1, 3K).
 template <typename T>
@@ -85,6 +116,47 @@ struct RasterStageTimes {
   double chain_ms = 0;      ///< backward: per-Gaussian chain rule
 };
 
+namespace raster {
+
+/// What the tile kernels read of one forward pass: the tile lists and the projected Gaussians.
+template <typename T>
+struct TileLists {
+  int tiles_x = 0;                           ///< tiles per row
+  int width = 0, height = 0;                 ///< image size [px]
+  const std::uint32_t* ranges = nullptr;     ///< [tiles + 1] offsets into `entries`
+  const std::uint32_t* entries = nullptr;    ///< per (tile, depth-ordered) slot: index into `sorted`
+  const PackedGaussian<T>* sorted = nullptr; ///< visible Gaussians in depth order
+  T min_alpha = T(0), min_transmittance = T(0);  ///< RasterSettings
+};
+
+/// Images a forward tile kernel writes (planar, row-major).
+template <typename T>
+struct ForwardImages {
+  T* color = nullptr;                  ///< [3, H, W]
+  T* depth = nullptr;                  ///< [H, W]
+  T* alpha = nullptr;                  ///< [H, W]
+  T* final_T = nullptr;                ///< [H, W] transmittance after the last Gaussian
+  std::uint32_t* last_entry = nullptr; ///< [H, W] one past the last contributing entry
+};
+
+/// What a backward tile kernel reads besides the lists: the forward's record and the loss.
+template <typename T>
+struct BackwardInputs {
+  const T* final_T = nullptr;
+  const std::uint32_t* last_entry = nullptr;
+  PixelGrads<T> grads;
+};
+
+/// One set of tile kernels (generic or AVX2; see RasterIsa). `forward` renders one tile;
+/// `backward` adds one tile's screen-space gradients into `acc` ([visible], indexed like `sorted`).
+template <typename T>
+struct TileKernels {
+  void (*forward)(const TileLists<T>& lists, int tile, const ForwardImages<T>& out) = nullptr;
+  void (*backward)(const TileLists<T>& lists, int tile, const BackwardInputs<T>& in, gs::ScreenGrad<T>* acc) = nullptr;
+};
+
+}  // namespace raster
+
 /// Builds the projection view from a pose and undistorted pinhole intrinsics (distortion ignored).
 template <typename T>
 gs::PinholeView<T> makePinholeView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
@@ -109,44 +181,22 @@ class Rasterizer {
   /// Gaussians in front of the camera with a non-empty footprint in the last forward.
   std::size_t numVisible() const { return num_visible_; }
   const RasterSettings& settings() const { return settings_; }
+  /// Tile kernels in use: kGeneric or kAvx2 (settings().isa resolved against this CPU).
+  RasterIsa isa() const { return isa_; }
   /// Stage times of the last forward() / backward().
   const RasterStageTimes& stageTimes() const { return times_; }
 
  private:
-  /// One projected Gaussian; cache-line aligned (64 bytes for float) so that a tile's lookup of
-  /// it touches a single line.
-  struct alignas(64) Packed {
-    T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth;
-    T half_u, half_v;  ///< footprint box half sizes [px] (gs::Projected)
-    int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
-
-    /// Part of a tile the footprint box touches: pixel rows [y0, y1) and columns in blocks of 8
-    /// (one AVX2 vector) [xb0, xb1), relative to the tile's left edge; empty when y0 >= y1 or
-    /// xb0 >= xb1. The tile starts at pixel (tx0, ty0), is `tile_size` wide and ends before row ty1.
-    struct TileWindow {
-      int y0, y1, xb0, xb1;
-    };
-    TileWindow windowInTile(int tx0, int ty0, int ty1, int tile_size) const {
-      TileWindow w;
-      w.y0 = std::max(ty0, static_cast<int>(std::ceil(mean_v - half_v)));
-      w.y1 = std::min(ty1, static_cast<int>(std::floor(mean_v + half_v)) + 1);
-      const T mu0 = mean_u - T(tx0);
-      const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - half_u)));
-      const int cx1 = std::min(tile_size, static_cast<int>(std::floor(mu0 + half_u)) + 1);
-      w.xb0 = (cx0 / 8) * 8;
-      w.xb1 = cx1 <= cx0 ? w.xb0 : ((cx1 + 7) / 8) * 8;
-      return w;
-    }
-  };
-  /// Tile-list entries ahead of the current one whose Gaussian is prefetched.
-  static constexpr std::uint32_t kPrefetchAhead = 6;
+  using Packed = raster::PackedGaussian<T>;
+  static constexpr std::uint32_t kPrefetchAhead = raster::kPrefetchAhead;
   void preprocess();
   void binTiles();
-  void forwardTile(int tile, RenderResult<T>& out);
-  void backwardTile(int tile, int thread, const PixelGrads<T>& grads);
+  raster::TileLists<T> tileLists() const;
 
   ThreadPool* pool_;
   RasterSettings settings_;
+  RasterIsa isa_ = RasterIsa::kGeneric;  ///< kernels in use (never kAuto)
+  raster::TileKernels<T> kernels_{};
   RasterStageTimes times_;
   GaussianParamsView<T> params_;
   gs::PinholeView<T> view_{};

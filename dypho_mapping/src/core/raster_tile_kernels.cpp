@@ -1,0 +1,275 @@
+/// The per-tile compositing loops of the rasterizer, forward and backward. This file is compiled
+/// twice (dypho_mapping/CMakeLists.txt): with the build's baseline flags into namespace
+/// raster::generic, and with -mavx2 -mfma into raster::avx2; DYPHO_RASTER_ISA names the namespace.
+/// Everything defined here is inside that namespace or has internal linkage, so the two builds
+/// share no symbol; the rasterizer asks the CPU at run time which one to call.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <type_traits>
+
+#include "raster_tile_kernels.h"
+
+#ifndef DYPHO_RASTER_ISA
+#error "DYPHO_RASTER_ISA (generic or avx2) must be defined when compiling raster_tile_kernels.cpp"
+#endif
+
+namespace dypho::mapping::raster::DYPHO_RASTER_ISA {
+namespace {
+
+/// Part of a tile a Gaussian's footprint box touches: pixel rows [y0, y1) and columns in blocks
+/// of 8 (one AVX2 vector) [xb0, xb1), relative to the tile's left edge; empty when y0 >= y1 or
+/// xb0 >= xb1. The tile starts at pixel (tx0, ty0), is `tile_size` wide and ends before row ty1.
+struct TileWindow {
+  int y0, y1, xb0, xb1;
+};
+
+template <typename T>
+TileWindow windowInTile(const PackedGaussian<T>& p, int tx0, int ty0, int ty1, int tile_size) {
+  TileWindow w;
+  w.y0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.half_v)));
+  w.y1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.half_v)) + 1);
+  const T mu0 = p.mean_u - T(tx0);
+  const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.half_u)));
+  const int cx1 = std::min(tile_size, static_cast<int>(std::floor(mu0 + p.half_u)) + 1);
+  w.xb0 = (cx0 / 8) * 8;
+  w.xb1 = cx1 <= cx0 ? w.xb0 : ((cx1 + 7) / 8) * 8;
+  return w;
+}
+
+}  // namespace
+
+template <typename T>
+void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& out) {
+  constexpr int S = gs::kTileSize;
+  const int tx0 = (tile % lists.tiles_x) * S, ty0 = (tile / lists.tiles_x) * S;
+  const int tx1 = std::min(tx0 + S, lists.width), ty1 = std::min(ty0 + S, lists.height);
+  alignas(64) T Tr[gs::kTilePixels], Cr[gs::kTilePixels], Cg[gs::kTilePixels], Cb[gs::kTilePixels], D[gs::kTilePixels];
+  alignas(64) T live[gs::kTilePixels];  // 1 while the pixel still composites, 0 once stopped
+  alignas(64) std::uint32_t last[gs::kTilePixels];
+  const std::uint32_t begin = lists.ranges[tile], end = lists.ranges[tile + 1];
+  const std::uint32_t* const entries = lists.entries;
+  const PackedGaussian<T>* const sorted = lists.sorted;
+  for (int i = 0; i < gs::kTilePixels; ++i) {
+    Tr[i] = T(1);
+    Cr[i] = Cg[i] = Cb[i] = D[i] = T(0);
+    last[i] = begin;
+    // Pixels outside the image (partial tiles) never composite.
+    const int px = tx0 + i % S, py = ty0 + i / S;
+    live[i] = (px >= tx1 || py >= ty1) ? T(0) : T(1);
+  }
+  const T min_alpha = lists.min_alpha, min_T = lists.min_transmittance, max_alpha = T(gs::kMaxAlpha);
+  for (std::uint32_t k = begin; k < end; ++k) {
+    // The tile's Gaussians are scattered over `sorted` (global depth order): fetch ahead.
+    if (k + kPrefetchAhead < end) __builtin_prefetch(&sorted[entries[k + kPrefetchAhead]]);
+    const PackedGaussian<T>& p = sorted[entries[k]];
+    // Rows of the footprint box inside the tile; every row is processed over the full tile width
+    // (fixed trip count, vectorised); pixels outside the box fall below min_alpha by construction.
+    const auto [py0, py1, xb0, xb1] = windowInTile(p, tx0, ty0, ty1, S);
+    const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
+    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
+    const T mu0 = p.mean_u - T(tx0);
+    for (int py = py0; py < py1; ++py) {
+      const T dy = p.mean_v - T(py);
+      const T row_term = T(-0.5) * c * dy * dy;
+      const T bdy = b * dy;
+      const int row = (py - ty0) * S;
+      for (int xb = xb0; xb < xb1; xb += 8)
+#pragma omp simd
+      for (int x = xb; x < xb + 8; ++x) {
+        const int i = row + x;
+        const T dx = mu0 - T(x);
+        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
+        T alpha = o * gs::blendExp(power);
+        alpha = alpha < max_alpha ? alpha : max_alpha;
+        // 0/1 masks in float arithmetic (keeps the loop branch-free and vectorised).
+        const T ok = (power <= T(0) ? T(1) : T(0)) * (alpha >= min_alpha ? T(1) : T(0)) * live[i];
+        const T test_T = Tr[i] * (T(1) - alpha);
+        const T stop = ok * (test_T < min_T ? T(1) : T(0));
+        const T use = ok - stop;
+        const T w = use * alpha * Tr[i];
+        Cr[i] += w * c0;
+        Cg[i] += w * c1;
+        Cb[i] += w * c2;
+        D[i] += w * dep;
+        Tr[i] += use * (test_T - Tr[i]);
+        last[i] = use > T(0) ? k + 1 : last[i];
+        live[i] -= stop;
+      }
+    }
+    if (((k - begin) & 31) == 31) {
+      T any = T(0);
+      for (int i = 0; i < gs::kTilePixels; ++i) any += live[i];
+      if (any == T(0)) break;
+    }
+  }
+  // Rows of the tile out to the images (block copies; full-width rows with a constant size).
+  alignas(64) T A[gs::kTilePixels];
+  for (int i = 0; i < gs::kTilePixels; ++i) A[i] = T(1) - Tr[i];
+  const std::size_t npix = static_cast<std::size_t>(lists.width) * lists.height;
+  const int w = tx1 - tx0;
+  auto copyRow = [&](int row, std::size_t o, auto width) {
+    std::memcpy(&out.color[o], &Cr[row], width * sizeof(T));
+    std::memcpy(&out.color[npix + o], &Cg[row], width * sizeof(T));
+    std::memcpy(&out.color[2 * npix + o], &Cb[row], width * sizeof(T));
+    std::memcpy(&out.depth[o], &D[row], width * sizeof(T));
+    std::memcpy(&out.alpha[o], &A[row], width * sizeof(T));
+    std::memcpy(&out.final_T[o], &Tr[row], width * sizeof(T));
+    std::memcpy(&out.last_entry[o], &last[row], width * sizeof(std::uint32_t));
+  };
+  for (int py = ty0; py < ty1; ++py) {
+    const int row = (py - ty0) * S;
+    const std::size_t o = static_cast<std::size_t>(py) * lists.width + tx0;
+    if (w == S) {
+      copyRow(row, o, std::integral_constant<std::size_t, S>());
+    } else {
+      copyRow(row, o, static_cast<std::size_t>(w));
+    }
+  }
+}
+
+template <typename T>
+void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& in, gs::ScreenGrad<T>* acc) {
+  constexpr int S = gs::kTileSize;
+  const int tx0 = (tile % lists.tiles_x) * S, ty0 = (tile / lists.tiles_x) * S;
+  const int tx1 = std::min(tx0 + S, lists.width), ty1 = std::min(ty0 + S, lists.height);
+  const std::size_t npix = static_cast<std::size_t>(lists.width) * lists.height;
+  const PixelGrads<T>& grads = in.grads;
+  const std::uint32_t* const entries = lists.entries;
+  const PackedGaussian<T>* const sorted = lists.sorted;
+  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels],
+      BD[gs::kTilePixels], BA[gs::kTilePixels];
+  alignas(64) T gR[gs::kTilePixels], gG[gs::kTilePixels], gB[gs::kTilePixels], gD[gs::kTilePixels], gA[gs::kTilePixels];
+  alignas(64) std::uint32_t last[gs::kTilePixels];
+  const std::uint32_t begin = lists.ranges[tile];
+  std::uint32_t max_last = begin;
+  for (int i = 0; i < gs::kTilePixels; ++i) {
+    Tc[i] = T(1);
+    Br[i] = Bg[i] = Bb[i] = BD[i] = BA[i] = T(0);
+    gR[i] = gG[i] = gB[i] = gD[i] = gA[i] = T(0);
+    last[i] = begin;
+  }
+  // Rows of the images into the tile (block copies; full-width rows with a constant size).
+  const int w = tx1 - tx0;
+  auto copyRow = [&](int row, std::size_t o, auto width) {
+    std::memcpy(&Tc[row], &in.final_T[o], width * sizeof(T));
+    std::memcpy(&last[row], &in.last_entry[o], width * sizeof(std::uint32_t));
+    if (grads.color) {
+      std::memcpy(&gR[row], &grads.color[o], width * sizeof(T));
+      std::memcpy(&gG[row], &grads.color[npix + o], width * sizeof(T));
+      std::memcpy(&gB[row], &grads.color[2 * npix + o], width * sizeof(T));
+    }
+    if (grads.depth) std::memcpy(&gD[row], &grads.depth[o], width * sizeof(T));
+    if (grads.alpha) std::memcpy(&gA[row], &grads.alpha[o], width * sizeof(T));
+  };
+  for (int py = ty0; py < ty1; ++py) {
+    const int row = (py - ty0) * S;
+    const std::size_t o = static_cast<std::size_t>(py) * lists.width + tx0;
+    if (w == S) {
+      copyRow(row, o, std::integral_constant<std::size_t, S>());
+    } else {
+      copyRow(row, o, static_cast<std::size_t>(w));
+    }
+  }
+  for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, last[i]);
+  const T min_alpha = lists.min_alpha, max_alpha = T(gs::kMaxAlpha);
+  // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
+  // pair, not once per 8-pixel block.
+  constexpr int kNumSums = 10;
+  alignas(64) T lanes[kNumSums][8];
+  for (std::uint32_t k = max_last; k-- > begin;) {
+    // Fetch ahead (the list is walked back to front): the Gaussian and its gradient slot.
+    if (k >= begin + kPrefetchAhead) {
+      const std::uint32_t ahead = entries[k - kPrefetchAhead];
+      __builtin_prefetch(&sorted[ahead]);
+      __builtin_prefetch(&acc[ahead], 1);
+      __builtin_prefetch(reinterpret_cast<const char*>(&acc[ahead] + 1) - 1, 1);
+    }
+    const std::uint32_t g = entries[k];
+    const PackedGaussian<T>& p = sorted[g];
+    const auto [py0, py1, xb0, xb1] = windowInTile(p, tx0, ty0, ty1, S);
+    const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
+    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
+    const T mu0 = p.mean_u - T(tx0);
+    if (py0 >= py1 || xb0 >= xb1) continue;
+    T* const l_mu = lanes[0];
+    T* const l_mv = lanes[1];
+    T* const l_a = lanes[2];
+    T* const l_b = lanes[3];
+    T* const l_c = lanes[4];
+    T* const l_o = lanes[5];
+    T* const l_c0 = lanes[6];
+    T* const l_c1 = lanes[7];
+    T* const l_c2 = lanes[8];
+    T* const l_d = lanes[9];
+    for (int s = 0; s < kNumSums; ++s)
+      for (int j = 0; j < 8; ++j) lanes[s][j] = T(0);
+    for (int py = py0; py < py1; ++py) {
+      const T dy = p.mean_v - T(py);
+      const T row_term = T(-0.5) * c * dy * dy;
+      const T bdy = b * dy;
+      const int row = (py - ty0) * S;
+      // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
+      // transmittance and its accumulators unchanged and contributes nothing.
+      for (int xb = xb0; xb < xb1; xb += 8)
+#pragma omp simd
+      for (int j = 0; j < 8; ++j) {
+        const int x = xb + j;
+        const int i = row + x;
+        const T dx = mu0 - T(x);
+        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
+        const T G = gs::blendExp(power);
+        const T raw = o * G;
+        const T clamped = raw < max_alpha ? raw : max_alpha;
+        const T use = (k < last[i] ? T(1) : T(0)) * (power <= T(0) ? T(1) : T(0)) * (clamped >= min_alpha ? T(1) : T(0));
+        const T alpha = use * clamped;
+        const T Ti = Tc[i] / (T(1) - alpha);
+        Tc[i] = Ti;
+        const T w = alpha * Ti;
+        l_c0[j] += w * gR[i];
+        l_c1[j] += w * gG[i];
+        l_c2[j] += w * gB[i];
+        l_d[j] += w * gD[i];
+        const T dL_dalpha = use * Ti * ((c0 - Br[i]) * gR[i] + (c1 - Bg[i]) * gG[i] + (c2 - Bb[i]) * gB[i] +
+                                         (dep - BD[i]) * gD[i] + (T(1) - BA[i]) * gA[i]);
+        Br[i] = alpha * c0 + (T(1) - alpha) * Br[i];
+        Bg[i] = alpha * c1 + (T(1) - alpha) * Bg[i];
+        Bb[i] = alpha * c2 + (T(1) - alpha) * Bb[i];
+        BD[i] = alpha * dep + (T(1) - alpha) * BD[i];
+        BA[i] = alpha + (T(1) - alpha) * BA[i];
+        const T dG = (raw < max_alpha ? T(1) : T(0)) * dL_dalpha;  // clamped alpha: no gradient through G, o
+        l_o[j] += G * dG;
+        const T dpow = o * G * dG;
+        l_mu[j] += dpow * (-a * dx - b * dy);
+        l_mv[j] += dpow * (-b * dx - c * dy);
+        l_a[j] += T(-0.5) * dx * dx * dpow;
+        l_b[j] += -dx * dy * dpow;
+        l_c[j] += T(-0.5) * dy * dy * dpow;
+      }
+    }
+    T sums[kNumSums];
+    for (int s = 0; s < kNumSums; ++s) {
+      T v = T(0);
+      for (int j = 0; j < 8; ++j) v += lanes[s][j];
+      sums[s] = v;
+    }
+    gs::ScreenGrad<T>& sg = acc[g];
+    sg.mean_u += sums[0];
+    sg.mean_v += sums[1];
+    sg.conic_a += sums[2];
+    sg.conic_b += sums[3];
+    sg.conic_c += sums[4];
+    sg.opacity += sums[5];
+    sg.color[0] += sums[6];
+    sg.color[1] += sums[7];
+    sg.color[2] += sums[8];
+    sg.depth += sums[9];
+  }
+}
+
+template void forwardTile<float>(const TileLists<float>&, int, const ForwardImages<float>&);
+template void forwardTile<double>(const TileLists<double>&, int, const ForwardImages<double>&);
+template void backwardTile<float>(const TileLists<float>&, int, const BackwardInputs<float>&, gs::ScreenGrad<float>*);
+template void backwardTile<double>(const TileLists<double>&, int, const BackwardInputs<double>&, gs::ScreenGrad<double>*);
+
+}  // namespace dypho::mapping::raster::DYPHO_RASTER_ISA
