@@ -3,11 +3,17 @@
 /// latency over time, to show they stay bounded and flat.
 ///
 ///   soak_runner [--frames 10000] [--every 100] [--out soak.csv] [--plot soak.png]
+///               [--mapping-mode deterministic|live]
 ///   soak_runner --plot-csv soak.csv --plot soak.png     (plot an earlier run's CSV)
 ///
 /// One CSV row per `every` frames: frame, rss_mb, gaussians, keyframes, queued, latency p50/p95
 /// [ms] of the frames in that window (mask + tracking + hand-over to mapping, not the rendering
-/// of the synthetic input). The plot shows the same over the frames.
+/// of the synthetic input). The plot shows the same over the frames. The CSV is rewritten after
+/// every row, so a run stopped early keeps what it measured.
+///
+/// --mapping-mode: `deterministic` (default, the runner's policy: a keyframe waits for the previous
+/// keyframe's training) or `live` (the graph's policy: mapping runs beside the frames and drops
+/// the oldest queued keyframe when its queue is full).
 #include <algorithm>
 #include <chrono>
 #include <fstream>
@@ -87,6 +93,7 @@ int main(int argc, char** argv) {
   using namespace dypho;
   int frames = 10000, every = 100;
   std::string out = "soak.csv", plot_path = "soak.png", plot_csv;
+  mapping::MappingMode mode = mapping::MappingMode::kDeterministic;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--frames") frames = std::stoi(v);
@@ -94,6 +101,8 @@ int main(int argc, char** argv) {
     else if (k == "--out") out = v;
     else if (k == "--plot") plot_path = v;
     else if (k == "--plot-csv") plot_csv = v;
+    else if (k == "--mapping-mode" && (v == "deterministic" || v == "live"))
+      mode = v == "live" ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic;
     else { std::cerr << "unknown argument " << k << "\n"; return 2; }
   }
   if (!plot_csv.empty()) {
@@ -119,9 +128,17 @@ int main(int argc, char** argv) {
   so.seed = 9;
   const tools::SyntheticScene scene(so);
   const pipeline::PipelineOptions options = pipeline::loadPipelineOptions(tools::defaultConfigDir(), "");
-  pipeline::SlamPipeline slam(options);
+  pipeline::SlamPipeline slam(options, mode);
   std::vector<Row> rows;
   std::vector<double> window;
+  auto writeCsv = [&] {
+    writeFileAtomically(out, [&](std::ostream& os) {
+      os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms\n";
+      for (const Row& r : rows)
+        os << r.frame << ',' << r.rss_mb << ',' << r.gaussians << ',' << r.keyframes << ',' << r.queued << ','
+           << r.p50_ms << ',' << r.p95_ms << '\n';
+    });
+  };
   for (int i = 0; i < frames; ++i) {
     const RgbdFrame frame = scene.render(i).frame;
     const auto t0 = std::chrono::steady_clock::now();
@@ -137,14 +154,9 @@ int main(int argc, char** argv) {
       std::cerr << "frame " << r.frame << ": rss " << r.rss_mb << " MB, " << r.gaussians << " Gaussians, "
                 << r.keyframes << " keyframes, queued " << r.queued << ", p50 " << r.p50_ms << " ms, p95 "
                 << r.p95_ms << " ms\n";
+      writeCsv();
     }
   }
-  writeFileAtomically(out, [&](std::ostream& os) {
-    os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms\n";
-    for (const Row& r : rows)
-      os << r.frame << ',' << r.rss_mb << ',' << r.gaussians << ',' << r.keyframes << ',' << r.queued << ','
-         << r.p50_ms << ',' << r.p95_ms << '\n';
-  });
   plot(rows, plot_path);
   std::cout << "soak: " << frames << " frames, " << out << ", " << plot_path << "\n";
   return 0;
