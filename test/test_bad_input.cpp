@@ -25,7 +25,7 @@ using dypho::tools::SynthFrame;
 
 struct Observed {
   std::mutex mutex;
-  std::atomic<int> poses{0}, masks{0}, statuses{0}, nan_poses{0};
+  std::atomic<int> poses{0}, masks{0}, statuses{0}, nan_poses{0}, restarts{0};
   std::vector<std::string> log;  ///< warnings and errors of the nodelets
 };
 
@@ -104,6 +104,7 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   });
   auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 100, [&](const dypho_slam::TrackingStatusConstPtr& s) {
     if (is_nan_pose(s->T_world_camera) && s->trusted) ++obs.nan_poses;
+    if (s->restarted) ++obs.restarts;
     ++obs.statuses;
   });
   auto mask_sub = nh.subscribe<sensor_msgs::Image>("/dypho/mask", 100, [&](const sensor_msgs::ImageConstPtr&) { ++obs.masks; });
@@ -178,10 +179,25 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   // The graph still serves.
   EXPECT_GE(poses_after(20), 10) << "no poses after the bad frames";
 
-  // 7. Time jumps backwards (a looped bag): tracking restarts and goes on.
+  // 7. A repeated stamp, then a frame 0.2 s late (out of order): each dropped and named; tracking
+  // does not restart and goes on.
+  {
+    const SynthFrame g = scene.render(next_frame);
+    feed.publish(rgbOf(g, t), depthOf(g.frame.depth_m, t), infoOf(g, t));  // the last good frame's stamp
+    const double late = t - 0.2;
+    feed.publish(rgbOf(g, late), depthOf(g.frame.depth_m, late), infoOf(g, late));
+  }
+  ros::WallDuration(1.0).sleep();
+  EXPECT_TRUE(logMentions(obs, "repeated stamp")) << "the repeated stamp was not named";
+  EXPECT_TRUE(logMentions(obs, "out of order")) << "the late frame was not named";
+  EXPECT_GE(poses_after(20), 10) << "no poses after the repeated and late frames";
+  EXPECT_EQ(obs.restarts, 0) << "a repeated or late frame restarted tracking";
+
+  // 8. Time jumps backwards (a looped bag): tracking restarts and goes on.
   t -= 30.0;
   EXPECT_GE(poses_after(20), 10) << "no poses after time jumped backwards";
   EXPECT_TRUE(logMentions(obs, "backwards")) << "the restart was not reported";
+  EXPECT_EQ(obs.restarts, 1) << "the jump back was not a restart";
 
   EXPECT_EQ(obs.nan_poses, 0);
   EXPECT_GT(obs.masks, 40);

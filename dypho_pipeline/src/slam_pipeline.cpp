@@ -34,6 +34,12 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
   const auto t_mask = std::chrono::steady_clock::now();
   if (options_.mask_source == MaskSource::kFlow) {
     const mask::MaskResult result = mask_.process(frame);
+    if (result.dropped) {
+      report.dropped = true;
+      report.message = result.message;
+      report.tracking.stamp_ns = frame.stamp_ns;
+      return report;
+    }
     mask = result.mask;
     report.masked_fraction = result.degraded ? 0.0 : result.masked_fraction;
     report.mask_degraded = result.degraded;
@@ -45,11 +51,18 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
   report.mask_ms = msSince(t_mask);
 
   tracking::TrackingOutput out = tracking_.process(frame, mask);
+  if (out.dropped) {
+    report.dropped = true;
+    report.message = out.result.message;
+    report.tracking = std::move(out.result);
+    return report;
+  }
   mask_.observePose(out.pose);
   mapping_.observePose(out.pose);
   const auto t_map = std::chrono::steady_clock::now();
   mapping_.correctKeyframes(out.corrections());
-  if (out.result.keyframe) mapping_.addKeyframe(out.result.keyframe);
+  // A keyframe at an untrusted pose (re-initialised, not yet anchored) would corrupt the map.
+  if (out.result.keyframe && out.pose.trusted && out.pose.anchored) mapping_.addKeyframe(out.result.keyframe);
   report.mapping_ms = msSince(t_map);
   report.tracking = std::move(out.result);
   return report;

@@ -2,11 +2,14 @@
 /// corrections reach the map, and the shared constant-velocity model's reset rules.
 
 #include <cmath>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "dypho/common/motion_prior.h"
+#include "dypho/common/stamp_gate.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/synthetic_scene.h"
 
@@ -135,6 +138,78 @@ TEST(SlamPipeline, LocalBaCorrectionsReachTheGaussianMap) {
     EXPECT_LT(Eigen::AngleAxisd(T_mapper.rotation().transpose() * it->second.rotation()).angle(), 1e-3 + 1e-9)
         << "keyframe " << id;
   }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(StampGate, DropsRepeatedAndLateFramesRestartsOnAJumpBack) {
+  StampGate gate(1.0);
+  EXPECT_EQ(gate.admit(10 * kFrameNs), StampOrder::kNext);
+  EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kNext);
+  EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kRepeated);
+  EXPECT_EQ(gate.admit(9 * kFrameNs), StampOrder::kLate);    // 2 frames late
+  EXPECT_EQ(gate.admit(12 * kFrameNs), StampOrder::kNext);   // the newest stays 11, then 12
+  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'000), StampOrder::kLate);  // exactly 1 s: late
+  EXPECT_EQ(gate.dropped(), 3u);
+  EXPECT_EQ(gate.restarts(), 0u);
+  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'001), StampOrder::kJumpedBack);
+  EXPECT_EQ(gate.restarts(), 1u);
+  // After the jump the new run's stamps are the reference.
+  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'001 + kFrameNs), StampOrder::kNext);
+  // Extreme stamps do not overflow the comparison.
+  StampGate extremes;
+  EXPECT_EQ(extremes.admit(std::numeric_limits<Timestamp>::max()), StampOrder::kNext);
+  EXPECT_EQ(extremes.admit(std::numeric_limits<Timestamp>::min()), StampOrder::kJumpedBack);
+}
+
+// Through the whole pipeline: a repeated and a late frame are dropped (no pose, no restart, the
+// trajectory keeps its frames); a looped sequence (time back by 5 s) restarts tracking.
+TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
+  tools::SynthOptions so;
+  so.frames = 40;
+  so.people = 1;
+  so.seed = 5;
+  const tools::SyntheticScene scene(so);
+  pipeline::PipelineOptions options;
+  options.mapping.gaussian.iterations_per_keyframe = 2;
+  options.mapping.gaussian.final_refine_iterations = 0;
+  pipeline::SlamPipeline slam(options);
+  std::vector<tools::SynthFrame> frames;
+  for (int i = 0; i < 30; ++i) frames.push_back(scene.render(i));
+  for (int i = 0; i < 20; ++i) ASSERT_FALSE(slam.process(frames[i].frame).dropped) << "frame " << i;
+  const std::size_t recorded = slam.tracking().numFrames();
+  ASSERT_EQ(recorded, 20u);
+
+  RgbdFrame repeated = frames[20].frame;  // new content, the previous frame's stamp
+  repeated.stamp_ns = frames[19].frame.stamp_ns;
+  const pipeline::FrameReport r1 = slam.process(repeated);
+  EXPECT_TRUE(r1.dropped);
+  EXPECT_NE(r1.message.find("repeated"), std::string::npos) << r1.message;
+  const pipeline::FrameReport r2 = slam.process(frames[15].frame);  // 5 frames late
+  EXPECT_TRUE(r2.dropped);
+  EXPECT_NE(r2.message.find("out of order"), std::string::npos) << r2.message;
+  EXPECT_EQ(slam.tracking().numFrames(), recorded) << "a dropped frame must not enter the trajectory";
+  EXPECT_EQ(slam.mask().stats().dropped_out_of_order, 2u);
+  EXPECT_EQ(slam.mask().stats().restarts, 0u);
+
+  // Tracking goes on where it was: the next frames are tracked, not re-initialised.
+  for (int i = 20; i < 25; ++i) {
+    const pipeline::FrameReport r = slam.process(frames[i].frame);
+    EXPECT_FALSE(r.dropped);
+    EXPECT_FALSE(r.tracking.discontinuous) << "frame " << i;
+    EXPECT_EQ(r.tracking.state, tracking::TrackingState::kOk) << "frame " << i;
+  }
+  EXPECT_EQ(slam.tracking().numFrames(), recorded + 5);
+
+  // A jump back by more than 1 s (the sequence looped): a new run.
+  RgbdFrame looped = frames[0].frame;
+  looped.stamp_ns = frames[24].frame.stamp_ns - 5'000'000'000;
+  const pipeline::FrameReport r3 = slam.process(looped);
+  EXPECT_FALSE(r3.dropped);
+  EXPECT_EQ(slam.mask().stats().restarts, 1u);
+  EXPECT_EQ(slam.tracking().numFrames(), 1u) << "the trajectory restarts with the new run";
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/tracking_stage.h"
 #include "synthetic_scene.h"
 
 namespace dypho {
@@ -141,6 +142,41 @@ TEST(RgbdOdometry, ReinitialisesAfterMaxLostFrames) {
   EXPECT_EQ(r.state, TrackingState::kOk);
   EXPECT_TRUE(r.is_keyframe);
   EXPECT_TRUE(contains(r.message, "re-initialised")) << r.message;
+  // The new keyframe's pose is a guess (the last good pose): not anchored to the map.
+  EXPECT_FALSE(r.anchored);
+  f.stamp_ns = t += kDt;
+  const TrackingResult next = odo.track(f, {});
+  EXPECT_EQ(next.state, TrackingState::kOk) << next.message;
+  EXPECT_FALSE(next.anchored) << "still in the re-initialised segment";
+  // Back in the first scene: found again against keyframe 0, anchored again.
+  const TrackingResult back = odo.track(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {});
+  EXPECT_EQ(back.state, TrackingState::kOk) << back.message;
+  EXPECT_TRUE(back.relocalized) << back.message;
+  EXPECT_TRUE(back.anchored) << back.message;
+}
+
+// The stage hands a re-initialised pose on as not anchored, so that neither the map nor the
+// published pose takes a guess for a measurement (the mask may still use the motion).
+TEST(TrackingStage, PosesOfAReinitialisedSegmentAreNotAnchored) {
+  TrackingOptions o;
+  o.max_lost_frames = 2;
+  TrackingStage stage(o);
+  Timestamp t = kDt;
+  ASSERT_TRUE(stage.process(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {}).pose.trusted);
+  const RgbdFrame other = test::planarFrame(test::texturedImage(99), 2.0, 0);
+  TrackingOutput out;
+  for (int i = 0; i < 2; ++i) {
+    RgbdFrame f = other;
+    f.stamp_ns = t += kDt;
+    out = stage.process(f, {});
+  }
+  ASSERT_TRUE(contains(out.result.message, "re-initialised")) << out.result.message;
+  EXPECT_EQ(out.result.state, TrackingState::kOk);
+  EXPECT_TRUE(out.pose.trusted) << "tracked: the motion within the segment is right";
+  EXPECT_FALSE(out.pose.anchored) << "but its start is a guess";
+  const TrackingOutput back = stage.process(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {});
+  EXPECT_TRUE(back.pose.trusted) << back.result.message;
+  EXPECT_TRUE(back.pose.anchored) << back.result.message;
 }
 
 }  // namespace

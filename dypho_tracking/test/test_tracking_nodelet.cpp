@@ -87,7 +87,7 @@ TEST(TrackingNodelet, SaveServiceWritesOnlyInsideTheOutputDirectory) {
   ASSERT_FALSE(inside.response.files.empty());
   EXPECT_EQ(inside.response.files.front(), output_dir + "/run1/trajectory.txt");
   EXPECT_TRUE(std::ifstream(output_dir + "/run1/trajectory.txt").good());
-  for (const std::string outside : {std::string("../escaped"), std::string("/tmp/dypho_escaped")}) {
+  for (const std::string& outside : {std::string("../escaped"), std::string("/tmp/dypho_escaped")}) {
     dypho_slam::SaveMap srv;
     srv.request.directory = outside;
     ASSERT_TRUE(ros::service::call("/dypho/tracking/save_trajectory", srv));

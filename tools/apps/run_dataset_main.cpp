@@ -175,6 +175,7 @@ int run(const Args& args) {
   if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
   std::size_t lost = 0;
   std::vector<std::string> unreadable;  // frames skipped because their files could not be read
+  std::vector<std::string> out_of_order;  // frames dropped for a repeated or late stamp (stamp_gate.h)
   std::size_t processed = 0;
   for (std::size_t i = 0; i < n && !g_stop; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -194,6 +195,10 @@ int run(const Args& args) {
     FrameReport report = pipeline.process(sf.frame, sf.mask);
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+    if (report.dropped) {  // repeated or late stamp in the list: counted and named, no pose
+      out_of_order.push_back("frame " + std::to_string(i) + ": " + report.message);
+      continue;
+    }
     const auto& tr = report.tracking;
     if (tr.state != tracking::TrackingState::kOk) ++lost;
     if (tr.keyframe) ++num_keyframes;
@@ -223,9 +228,11 @@ int run(const Args& args) {
   const mapping::MappingStageStats map_stats = pipeline.mapping().stats();
   const mask::MaskStageStats mask_stats = pipeline.mask().stats();
   std::cout << "frames:       " << processed << " of " << n << " processed (" << lost << " not tracked, "
-            << unreadable.size() << " unreadable and skipped" << (g_stop ? ", stopped early by a signal" : "")
+            << unreadable.size() << " unreadable and skipped, " << out_of_order.size()
+            << " dropped for a repeated or late stamp" << (g_stop ? ", stopped early by a signal" : "")
             << "), " << num_final_keyframes << " keyframes\n";
   for (const std::string& u : unreadable) std::cout << "  skipped " << u << "\n";
+  for (const std::string& u : out_of_order) std::cout << "  dropped " << u << "\n";
   std::cout
             << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion

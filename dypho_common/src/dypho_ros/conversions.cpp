@@ -206,6 +206,7 @@ PoseUpdate toPoseUpdate(const dypho_slam::TrackingStatus& status) {
   update.stamp_ns = toTimestamp(status.header.stamp);
   update.T_world_camera = toIsometry(status.T_world_camera);
   update.trusted = status.trusted && update.T_world_camera.matrix().allFinite();
+  update.anchored = status.anchored;
   update.discontinuous = status.discontinuous || status.restarted;
   update.restarted = status.restarted;
   return update;

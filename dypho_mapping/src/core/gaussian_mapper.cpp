@@ -1,6 +1,7 @@
 /// GaussianMapper: the thread-safe composition of trainer, worker, renderer, evaluation and files.
 #include "dypho/mapping/gaussian_mapper.h"
 
+#include <chrono>
 #include <stdexcept>
 
 #include "gaussian_trainer.h"
@@ -64,7 +65,7 @@ void GaussianMapper::runJob(const MappingJob& job) {
     if (!job.corrections.empty()) applyCorrections(job.corrections);
     if (!job.keyframe) return;
     report(addKeyframe(*job.keyframe).message);
-    for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping(); ++i) optimize(1);
+    for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping() && !hurry_; ++i) optimize(1);
   } catch (const std::exception& e) {
     report(std::string("mapping worker: ") + e.what());
   }
@@ -127,11 +128,17 @@ void GaussianMapper::waitUntilIdle() {
   if (worker_) worker_->waitUntilIdle();
 }
 
-double GaussianMapper::finish() {
+double GaussianMapper::finish(std::optional<double> budget_s) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto within_budget = [&] {
+    return !budget_s || std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < *budget_s;
+  };
+  if (budget_s) hurry_ = true;  // queued keyframes: added to the map, not trained
   waitUntilIdle();
+  hurry_ = false;
   double sum = 0.0;
   int n = 0;
-  for (int i = 0; i < options_.final_refine_iterations; ++i) {
+  for (int i = 0; i < options_.final_refine_iterations && within_budget(); ++i) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double l = trainer_->iterate(/*all_keyframes=*/true);
     if (l < 0) break;

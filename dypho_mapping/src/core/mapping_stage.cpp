@@ -53,7 +53,10 @@ void MappingStage::correctKeyframes(const KeyframePoseCorrections& corrections) 
 void MappingStage::observePose(const PoseUpdate& update) {
   if (update.restarted) reset();  // a new world: the old map does not belong to it
   std::lock_guard<std::mutex> lock(mutex_);
-  motion_.observe(update);
+  // A pose not anchored to the map must not predict where to render the map from.
+  PoseUpdate for_map = update;
+  for_map.trusted = update.trusted && update.anchored;
+  motion_.observe(for_map);
 }
 
 std::optional<Timestamp> MappingStage::expectedNextStamp() const {
@@ -95,21 +98,21 @@ RenderedView MappingStage::renderView(const Eigen::Isometry3d& T_world_camera, c
   return renderer_.render(*snapshot.map, T_world_camera, camera);
 }
 
-double MappingStage::finish() {
+double MappingStage::finish(std::optional<double> budget_s) {
   std::int64_t received = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     received = static_cast<std::int64_t>(counters_.keyframes_received);
     if (received == refined_after_keyframes_) return 0.0;  // nothing new since the last refinement
   }
-  const double loss = gaussians_.finish();
+  const double loss = gaussians_.finish(budget_s);
   std::lock_guard<std::mutex> lock(mutex_);
   refined_after_keyframes_ = received;
   return loss;
 }
 
-std::vector<std::string> MappingStage::save(const std::string& dir, bool refine) {
-  if (refine) finish();
+std::vector<std::string> MappingStage::save(const std::string& dir, bool refine, std::optional<double> budget_s) {
+  if (refine) finish(budget_s);
   const std::vector<std::string> paths{dir + "/map.ply", dir + "/map.pcd", dir + "/gaussian_centres.pcd"};
   gaussians_.savePly(paths[0]);
   {

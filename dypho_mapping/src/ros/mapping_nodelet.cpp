@@ -34,6 +34,7 @@
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mapping/mapping_stage.h"
+#include "dypho/mapping/rasterizer.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
 
@@ -57,6 +58,11 @@ struct MappingRosParams {
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
   /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
   bool refine_before_save = true;
+  /// Wall time the final refinement may take when the nodelet shuts down with ~output_dir set
+  /// [s]: queued keyframes are added untrained, refinement stops at the budget, then the files
+  /// are written. Default 6: roslaunch escalates to SIGTERM 15 s after Ctrl-C, and tracking's
+  /// trajectory is written after the map. > 0.
+  double shutdown_refine_budget_s = 6.0;
 };
 
 /// A pose to render at (the latest tracked pose).
@@ -76,13 +82,24 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (render_thread_.joinable()) render_thread_.join();
     if (!stage_ || params_.output_dir.empty()) return;
     try {
-      stage_->save(params_.output_dir, params_.refine_before_save);
+      stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
     } catch (const std::exception& e) {
       NODELET_ERROR_STREAM("could not write the map on shutdown: " << e.what());
     }
   }
 
+  /// A bad parameter or an unusable input file (model, map) must not take the manager down, nor
+  /// vanish: it is logged as FATAL with the reason and this nodelet stays idle (nothing advertised
+  /// or subscribed) until it is restarted with a fixed configuration.
   void onInit() override {
+    try {
+      start();
+    } catch (const std::exception& e) {
+      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
+    }
+  }
+
+  void start() {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
 
@@ -99,13 +116,16 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("map_load_path", params_.map_load_path, "");
     reader("use_gpu", params_.use_gpu, "");
     reader("refine_before_save", params_.refine_before_save, "");
+    reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
+    if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
     reader.checkNoUnknownKeys();
     options.validate();
     NODELET_INFO_STREAM("mapping parameters:" << reader.summary());
     std::string device_message;
     const mapping::ComputeDevice device = mapping::selectComputeDevice(params_.use_gpu, &device_message);
     // There are no CUDA kernels yet: whatever the device query says, training runs on the CPU.
-    NODELET_INFO_STREAM(device_message << "; the Gaussian rasterizer and training run on the CPU");
+    NODELET_INFO_STREAM(device_message << "; the Gaussian rasterizer and training run on the CPU (tile kernels: "
+                                       << (mapping::rasterAvx2Available() ? "avx2" : "generic") << ")");
     (void)device;
 
     // 2. Cores and threads.

@@ -1,6 +1,8 @@
 /// MaskStage: the mask core with its motion prior, R_d hand-over and restart policy.
 #include "dypho/mask/mask_stage.h"
 
+#include <string>
+
 #include <cstdlib>
 
 namespace dypho::mask {
@@ -42,7 +44,15 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
   bool restarted = false;
   {
     std::lock_guard<std::mutex> lock(prior_mutex_);
-    if (previous_frame_ns_ && frame.stamp_ns <= *previous_frame_ns_) {
+    const StampOrder order = stamp_gate_.admit(frame.stamp_ns);
+    if (order == StampOrder::kRepeated || order == StampOrder::kLate) {
+      ++stats_.dropped_out_of_order;
+      MaskResult dropped;
+      dropped.dropped = true;
+      dropped.message = stamp_gate_.dropMessage(order);
+      return dropped;
+    }
+    if (order == StampOrder::kJumpedBack) {
       motion_.reset();
       rendered_depth_m_.release();
       previous_frame_ns_.reset();
@@ -69,7 +79,7 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
   if (restarted) masker_.reset();
   MaskResult result = masker_.compute(frame, prior);
   if (restarted) {
-    result.message = "stamp not after the previous frame (bag looped?): mask history restarted" +
+    result.message = "time jumped backwards (bag looped?): mask history restarted" +
                      std::string(result.message.empty() ? "" : "; ") + result.message;
   }
   std::lock_guard<std::mutex> lock(prior_mutex_);
@@ -86,6 +96,7 @@ void MaskStage::reset() {
   std::lock_guard<std::mutex> lock(prior_mutex_);
   motion_.reset();
   previous_frame_ns_.reset();
+  stamp_gate_.reset();
   rendered_depth_m_.release();
   stats_ = MaskStageStats();
 }

@@ -37,7 +37,18 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   using ExactPolicy = message_filters::sync_policies::ExactTime<Image, Image, CameraInfo>;
 
  public:
+  /// A bad parameter or an unusable input file (model, map) must not take the manager down, nor
+  /// vanish: it is logged as FATAL with the reason and this nodelet stays idle (nothing advertised
+  /// or subscribed) until it is restarted with a fixed configuration.
   void onInit() override {
+    try {
+      start();
+    } catch (const std::exception& e) {
+      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
+    }
+  }
+
+  void start() {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
 
@@ -120,6 +131,10 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
+    if (result.dropped) {  // repeated or late stamp: no mask for it (tracking drops it too)
+      if (input_log_.pass(result.message)) NODELET_WARN_STREAM(result.message);
+      return;
+    }
     if (result.degraded && !result.message.empty() && degraded_log_.pass(result.message)) {
       NODELET_WARN_STREAM("mask degraded: " << result.message);
     }
@@ -143,6 +158,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     status->frames_with_rendered_depth = stats.frames_with_rendered_depth;
     status->rendered_depth_offered = stats.rendered_depth_offered;
     status->rendered_depth_unmatched = stats.rendered_depth_unmatched;
+    status->frames_dropped_out_of_order = stats.dropped_out_of_order;
+    status->restarts = stats.restarts;
     status->message = result.message;
     status_pub_.publish(status);
     auto timing = boost::make_shared<dypho_slam::StageTiming>();

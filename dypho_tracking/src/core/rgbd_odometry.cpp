@@ -38,6 +38,7 @@ void RgbdOdometry::reset() {
   T_world_last_.setIdentity();
   T_world_odom_.setIdentity();
   last_loop_keyframe_id_ = -1;
+  unanchored_from_keyframe_id_ = -1;
   motion_.reset();
   reported_poses_.clear();
   has_stamp_ = false;
@@ -167,6 +168,10 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
     return;
   }
   last_loop_keyframe_id_ = keyframe_id;
+  // A loop back to a keyframe from before a re-initialisation ties the new keyframes to the map.
+  if (unanchored_from_keyframe_id_ >= 0 && loop.loop_keyframe_id < unanchored_from_keyframe_id_) {
+    unanchored_from_keyframe_id_ = -1;
+  }
   T_world_odom_ = correction.T_correction * T_world_odom_;
   result->loop_closed = true;
   result->message = "loop closed: keyframe " + std::to_string(keyframe_id) + " -> " +
@@ -208,6 +213,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
       result.reference_keyframe_id = reference_id_;
       result.T_reference_camera = reference->T_world_camera.inverse() * result.T_world_camera;
     }
+    result.anchored = unanchored_from_keyframe_id_ < 0;
     result.num_map_points = static_cast<int>(map_.points().size());
     result.num_keyframes = static_cast<int>(map_.keyframes().size());
     result.times.total = msSince(t_start);
@@ -324,6 +330,10 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
       motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
       lost_frames_ = 0;
       setReference(reloc.keyframe_id);
+      // Found again on the map from before a re-initialisation: anchored again.
+      if (unanchored_from_keyframe_id_ >= 0 && reloc.keyframe_id < unanchored_from_keyframe_id_) {
+        unanchored_from_keyframe_id_ = -1;
+      }
       frames_since_keyframe_ = 1;
       reference_inliers_ = reloc.num_inliers;
       result.state = TrackingState::kOk;
@@ -344,13 +354,19 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
                    aligned.message;
   if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
+    const std::int64_t first_new_keyframe_id = next_keyframe_id_;
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
+    // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
+    // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
+    // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.
+    if (unanchored_from_keyframe_id_ < 0) unanchored_from_keyframe_id_ = first_new_keyframe_id;
     result.state = TrackingState::kOk;
     result.discontinuous = true;
     motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
     result.message += "; re-initialised after " + std::to_string(lost_frames_) +
-                      " lost frames: new keyframe at the last good pose (motion while lost is "
-                      "not recovered)";
+                      " lost frames: new keyframe at the last good pose (the motion while lost is "
+                      "unknown); poses are not anchored to the map until relocalisation or a loop "
+                      "closure";
     lost_frames_ = 0;
   }
   return finish();

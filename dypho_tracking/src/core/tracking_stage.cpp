@@ -2,6 +2,8 @@
 #include "dypho/tracking/tracking_stage.h"
 
 #include <algorithm>
+#include <limits>
+#include <string>
 
 #include "dypho/common/trajectory_io.h"
 
@@ -12,18 +14,26 @@ TrackingStage::TrackingStage(const TrackingOptions& options) : odometry_(options
 TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask) {
   std::lock_guard<std::mutex> lock(mutex_);
   TrackingOutput out;
-  if (has_stamp_ && frame.stamp_ns <= last_stamp_ns_) {
+  const StampOrder order = stamp_gate_.admit(frame.stamp_ns);
+  if (order == StampOrder::kRepeated || order == StampOrder::kLate) {
+    out.dropped = true;
+    out.result.stamp_ns = frame.stamp_ns;
+    out.result.message = stamp_gate_.dropMessage(order);
+    out.pose.stamp_ns = frame.stamp_ns;
+    out.pose.T_world_camera.matrix().setConstant(std::numeric_limits<double>::quiet_NaN());
+    return out;
+  }
+  if (order == StampOrder::kJumpedBack) {
     recorder_.clear();  // the tracker resets itself on this frame (RgbdOdometry::track)
     out.restarted = true;
   }
-  has_stamp_ = true;
-  last_stamp_ns_ = frame.stamp_ns;
   out.result = odometry_.track(frame, mask);
   recorder_.add(out.result);
   const TrackingResult& r = out.result;
   out.pose.stamp_ns = r.stamp_ns;
   out.pose.T_world_camera = r.T_world_camera;
   out.pose.trusted = r.state == TrackingState::kOk && r.T_world_camera.matrix().allFinite();
+  out.pose.anchored = r.anchored;
   out.pose.discontinuous = r.discontinuous || out.restarted;
   out.pose.restarted = out.restarted;
   return out;
@@ -77,8 +87,12 @@ void TrackingStage::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   odometry_.reset();
   recorder_.clear();
-  has_stamp_ = false;
-  last_stamp_ns_ = 0;
+  stamp_gate_.reset();
+}
+
+std::size_t TrackingStage::droppedOutOfOrder() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stamp_gate_.dropped();
 }
 
 }  // namespace dypho::tracking

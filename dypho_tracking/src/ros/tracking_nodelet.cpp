@@ -67,7 +67,18 @@ class TrackingNodelet : public nodelet::Nodelet {
   using Policy3 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
 
  public:
+  /// A bad parameter or an unusable input file (model, map) must not take the manager down, nor
+  /// vanish: it is logged as FATAL with the reason and this nodelet stays idle (nothing advertised
+  /// or subscribed) until it is restarted with a fixed configuration.
   void onInit() override {
+    try {
+      start();
+    } catch (const std::exception& e) {
+      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
+    }
+  }
+
+  void start() {
     ros::NodeHandle& nh = getNodeHandle();
     ros::NodeHandle& pnh = getPrivateNodeHandle();
 
@@ -162,6 +173,10 @@ class TrackingNodelet : public nodelet::Nodelet {
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
+    if (out.dropped) {  // repeated or late stamp: nothing to publish for it
+      if (input_log_.pass(out.result.message)) NODELET_WARN_STREAM(out.result.message);
+      return;
+    }
     publish(out, rgb->header);
   }
 
@@ -180,6 +195,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     status->message = result.message;
     status->T_world_camera = rc::toPoseMsg(out.pose.T_world_camera);
     status->trusted = out.pose.trusted;
+    status->anchored = out.pose.anchored;
     status->discontinuous = out.pose.discontinuous;
     status->restarted = out.restarted;
     status_pub_.publish(status);
@@ -191,7 +207,8 @@ class TrackingNodelet : public nodelet::Nodelet {
     }
     publishTiming(result, header);
     publishCorrections(out.corrections(), header.stamp);
-    if (!out.pose.trusted) return;  // never publish a pose we do not trust
+    // Never publish a pose we do not trust, nor one not anchored to the map (re-initialised).
+    if (!out.pose.trusted || !out.pose.anchored) return;
     auto pose = boost::make_shared<geometry_msgs::PoseStamped>();
     pose->header.stamp = header.stamp;
     pose->header.frame_id = params_.map_frame;

@@ -21,11 +21,13 @@
 /// (the backward pass reduces in a fixed order). The lock is released between iterations, so a
 /// render waits at most one iteration; renders of a snapshot (MapRenderer) wait for nothing.
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,7 +107,10 @@ class GaussianMapper {
   /// End of a sequence: waitUntilIdle(), then `final_refine_iterations` iterations over all stored
   /// keyframes (shuffled passes, each keyframe equally often) on the calling thread. Call it once
   /// before the final map is saved or evaluated. Returns the mean loss of those iterations (0: none).
-  double finish();
+  /// With `budget_s` (shutdown, where the process has seconds): the queued keyframes are added to
+  /// the map (seeded, corrections applied) without their training iterations, and refinement
+  /// stops once `budget_s` [s] have passed since the call.
+  double finish(std::optional<double> budget_s = std::nullopt);
   /// Stops and joins the worker (remaining queued jobs are discarded).
   void stop();
   /// Receives one line per skipped keyframe or notable event from the worker (optional).
@@ -172,6 +177,7 @@ class GaussianMapper {
   mutable std::condition_variable snapshot_cv_;
   MapSnapshot snapshot_;
   std::int64_t done_keyframe_id_ = -1;  ///< highest keyframe id whose job finished
+  std::atomic<bool> hurry_{false};  ///< finish(budget) is draining the queue: skip training
 };
 
 }  // namespace dypho::mapping

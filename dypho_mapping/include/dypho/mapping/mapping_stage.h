@@ -21,6 +21,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -87,10 +88,12 @@ class MappingStage {
 
   /// Waits for the worker, then runs the final refinement unless it already ran for the current
   /// keyframes; returns its mean loss (0 when skipped).
-  double finish();
+  /// `budget_s`: bounded in wall time, see GaussianMapper::finish.
+  double finish(std::optional<double> budget_s = std::nullopt);
   /// finish(), then map.ply (3DGS), map.pcd (keyframe cloud) and gaussian_centres.pcd in `dir`,
   /// each atomically; returns the paths. `refine` = false skips finish().
-  std::vector<std::string> save(const std::string& dir, bool refine = true);
+  std::vector<std::string> save(const std::string& dir, bool refine = true,
+                                std::optional<double> budget_s = std::nullopt);
   /// Replaces the Gaussian map with a 3DGS PLY (GaussianMapper::loadPly); returns the count.
   std::size_t loadMap(const std::string& path, std::string* note = nullptr);
   /// Clears both maps and the motion prior.

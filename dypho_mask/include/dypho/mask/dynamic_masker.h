@@ -61,6 +61,9 @@ struct MaskResult {
   /// True when part of the pipeline could not run this frame (bad input, flow fit failed);
   /// the mask is then what the remaining parts give (possibly empty). `message` says why.
   bool degraded = false;
+  /// Set by MaskStage only: the frame's stamp was repeated or late (stamp_gate.h); it was not
+  /// masked, `mask` is empty and `message` says why.
+  bool dropped = false;
   std::string message;             ///< why degraded, warnings, "first frame"
   bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
   bool rendered_depth_used = false;   ///< R_d entered the background model B_i on this frame

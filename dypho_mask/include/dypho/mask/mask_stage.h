@@ -11,8 +11,10 @@
 ///  - R_d: depth rendered from the Gaussian map at the predicted pose of a frame, offered with the
 ///    frame's stamp; used only by the frame with that stamp (within rendered_depth_tolerance_s),
 ///    never by a later one whose pose it does not show.
-///  - A frame stamp not after the previous one (bag looped, duplicate) restarts the masker: the
-///    flow, the background model B_i and the motion prior are forgotten.
+///  - Stamps (stamp_gate.h, the same rule as tracking): a repeated stamp, or one at most 1 s
+///    before the newest (a late frame), is dropped (MaskResult::dropped, no mask); a jump back by
+///    more (a looped bag) restarts the masker: the flow, the background model B_i and the motion
+///    prior are forgotten.
 /// Thread-safe: poses and R_d may arrive on other threads than process().
 
 #include <cstddef>
@@ -23,6 +25,7 @@
 
 #include "dypho/common/camera.h"
 #include "dypho/common/motion_prior.h"
+#include "dypho/common/stamp_gate.h"
 #include "dypho/common/types.h"
 #include "dypho/mask/dynamic_masker.h"
 
@@ -45,7 +48,8 @@ struct MaskStageStats {
   std::size_t rendered_depth_offered = 0;  ///< R_d images received
   std::size_t rendered_depth_unmatched = 0;  ///< R_d images no frame used (stamp did not match)
   std::size_t degraded_frames = 0;        ///< MaskResult::degraded
-  std::size_t restarts = 0;               ///< restarts after a stamp went backwards
+  std::size_t restarts = 0;               ///< restarts after a stamp jumped back
+  std::size_t dropped_out_of_order = 0;   ///< frames dropped for a repeated or late stamp
 };
 
 class MaskStage {
@@ -82,6 +86,7 @@ class MaskStage {
   mutable std::mutex prior_mutex_;  ///< guards everything below
   ConstantVelocityModel motion_;
   std::optional<Timestamp> previous_frame_ns_;
+  StampGate stamp_gate_;
   cv::Mat rendered_depth_m_;
   Timestamp rendered_stamp_ns_ = 0;
   MaskStageStats stats_;

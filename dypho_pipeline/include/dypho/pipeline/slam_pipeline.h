@@ -18,6 +18,7 @@
 /// R_d is rendered only when MaskStage::wantsRenderedDepth() (background model on, tau > 0).
 /// Not thread-safe: call process() from one thread.
 
+#include <string>
 #include <memory>
 
 #include <opencv2/core.hpp>
@@ -39,6 +40,10 @@ struct FrameReport {
   double masked_fraction = 0.0;       ///< share of the image the mask excluded [0, 1]
   bool mask_degraded = false;         ///< the mask core could not trust its mask this frame
   bool rendered_depth_used = false;   ///< R_d entered the background model on this frame
+  /// The frame's stamp was repeated or late (stamp_gate.h): not masked, not tracked, no pose;
+  /// `message` says why. A jump back by more than 1 s restarts instead (tracking.restarted).
+  bool dropped = false;
+  std::string message;                ///< why the frame was dropped
 };
 
 class SlamPipeline {

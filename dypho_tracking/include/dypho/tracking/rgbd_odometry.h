@@ -113,8 +113,8 @@ class RgbdOdometry {
   KeyframePoints local_view_;       ///< map points of the reference's local map
   KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
-  ConstantVelocityModel motion_;
-  std::unordered_map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on  ///< the shared constant-velocity prediction (motion_prior.h)
+  ConstantVelocityModel motion_;  ///< the shared constant-velocity prediction (motion_prior.h)
+  std::unordered_map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on
   Eigen::Isometry3d T_world_odom_ = Eigen::Isometry3d::Identity();  ///< loop corrections so far
   bool has_stamp_ = false;
   Timestamp last_stamp_ns_ = 0;
@@ -123,6 +123,8 @@ class RgbdOdometry {
   int lost_frames_ = 0;
   std::int64_t next_keyframe_id_ = 0;
   std::int64_t last_loop_keyframe_id_ = -1;  ///< keyframe where the last loop closed
+  /// First keyframe of a re-initialised segment not yet tied to the earlier map; -1 = anchored.
+  std::int64_t unanchored_from_keyframe_id_ = -1;
 };
 
 }  // namespace tracking

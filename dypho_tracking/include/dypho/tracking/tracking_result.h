@@ -55,6 +55,11 @@ struct TrackingResult {
   /// The pose jumped at this frame (first keyframe of a world, relocalised, re-initialised, reset
   /// by a stamp going backwards): no velocity may be formed across it (motion_prior.h).
   bool discontinuous = false;
+  /// False from a re-initialisation (max_lost_frames lost frames: a new keyframe at the last good
+  /// pose, the motion while lost unknown) until relocalisation or a loop closure ties the new
+  /// keyframes to the map from before. The pose is then tracked, but relative to a guess: the
+  /// stage hands it on as untrusted (no pose, tf or keyframe for the map).
+  bool anchored = true;
   /// Earlier keyframes moved at this (key)frame by local BA or loop closure, by more than
   /// correction_min_translation_m / correction_min_rotation_rad: (keyframe id, new
   /// T_world_camera), one batch. Consumers (mapping) re-anchor those keyframes. Empty on frames

@@ -7,9 +7,11 @@
 ///  - Every frame is recorded (TrajectoryRecorder): the final trajectory follows the later
 ///    local-BA and loop corrections of each frame's keyframe; a frame that was not tracked keeps
 ///    the pose it was published with.
-///  - A stamp not after the previous frame's (bag looped, duplicate) resets the tracker and clears
-///    the recorded trajectory: the next frame starts a new world.
-///  - The pose handed to the other stages (PoseUpdate) is trusted only when tracking is OK, and
+///  - Stamps (stamp_gate.h): a repeated stamp, or one at most 1 s before the newest (a late frame),
+///    is dropped (TrackingOutput::dropped, not tracked, not recorded); a jump back by more (a
+///    looped bag) resets the tracker and clears the recorded trajectory: a new world begins.
+///  - The pose handed to the other stages (PoseUpdate) is trusted only when tracking is OK,
+///    anchored only outside a re-initialised segment (TrackingResult::anchored), and
 ///    marked discontinuous where it jumps (first keyframe, relocalisation, re-initialisation, loop
 ///    closure), so no stage forms a velocity across a jump (motion_prior.h).
 ///  - Keyframe poses moved by local BA or loop closure leave as one batch per frame
@@ -24,6 +26,7 @@
 #include <opencv2/core.hpp>
 
 #include "dypho/common/motion_prior.h"
+#include "dypho/common/stamp_gate.h"
 #include "dypho/common/types.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/trajectory_recorder.h"
@@ -35,7 +38,10 @@ struct TrackingOutput {
   TrackingResult result;               ///< the tracker's result (pose, state, keyframe, timings)
   PoseUpdate pose;                     ///< for the mask and mapping stages
   const KeyframePoseCorrections& corrections() const { return result.corrected_keyframes; }
-  bool restarted = false;              ///< the stamp went backwards: tracker and trajectory reset
+  bool restarted = false;              ///< the stamp jumped back: tracker and trajectory reset
+  /// The frame was dropped (repeated or late stamp, see stamp_gate.h): not tracked, nothing to
+  /// publish; result.message says why, pose is NaN and untrusted.
+  bool dropped = false;
 };
 
 /// Trajectory as (stamp [ns], T_world_camera) pairs.
@@ -67,6 +73,8 @@ class TrackingStage {
 
   /// Forgets map, pose and trajectory.
   void reset();
+  /// Frames dropped for a repeated or late stamp since construction.
+  std::size_t droppedOutOfOrder() const;
   /// The tracker (read it only from the thread that calls process()).
   const RgbdOdometry& odometry() const { return odometry_; }
   const TrackingOptions& options() const { return odometry_.options(); }
@@ -75,8 +83,7 @@ class TrackingStage {
   mutable std::mutex mutex_;
   RgbdOdometry odometry_;
   TrajectoryRecorder recorder_;
-  Timestamp last_stamp_ns_ = 0;
-  bool has_stamp_ = false;
+  StampGate stamp_gate_;
 };
 
 }  // namespace dypho::tracking

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# test_launch_shutdown.sh BAG OUT
+# roslaunch shutdown, the two ways users stop a run, on tum_bag.launch at rate 1.0 with
+# output_dir set:
+#   1. Ctrl-C (SIGINT to roslaunch) while the bag plays and mapping trains;
+#   2. the bag ends (the player is required: roslaunch shuts the graph down).
+# Each must end within 90 s, with exit code 0, no process that died (no segfault or abort at
+# shutdown), and the outputs written completely: trajectory.txt with the posed frames and a
+# map.ply, no temporary files left. Exit 0 when both pass.
+set -uo pipefail
+bag="${1:-}"
+out="${2:-}"
+if [[ ! -f "$bag" || -z "$out" ]]; then
+  echo "usage: $0 BAG OUT (bag '$bag' not found?)" >&2
+  exit 2
+fi
+bag="$(realpath "$bag")"  # roslaunch runs nodes in ROS_HOME: a relative path would not resolve
+out="$(realpath -m "$out")"
+rm -rf "$out"
+mkdir -p "$out"
+failures=0
+
+run_case() {  # NAME INTERRUPT_AFTER_S (0 = let the bag end)
+  local name="$1" interrupt_after="$2"
+  local dir="$out/$name" log="$out/$name.log"
+  local port=$((20000 + RANDOM % 20000))
+  mkdir -p "$dir"
+  setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
+    start_delay:=3.0 > "$log" 2>&1 &
+  local pid=$!
+  if [[ "$interrupt_after" != 0 ]]; then
+    sleep "$interrupt_after"
+    kill -INT "$pid" 2>/dev/null
+  fi
+  local waited=0
+  while kill -0 "$pid" 2>/dev/null && ((waited < 90)); do sleep 1; waited=$((waited + 1)); done
+  if kill -0 "$pid" 2>/dev/null; then
+    echo "FAIL $name: roslaunch still running 90 s after it was asked to stop" >&2
+    kill -KILL -- "-$pid" 2>/dev/null
+    failures=$((failures + 1))
+    return
+  fi
+  wait "$pid"
+  local code=$?
+  local ok=1
+  [[ $code -eq 0 ]] || { echo "FAIL $name: roslaunch exit code $code" >&2; ok=0; }
+  # The player ending with exit code 0 is the normal end of case 2; anything else is a failure,
+  # as is roslaunch having to escalate to SIGTERM/SIGKILL (outputs would not be written).
+  if grep -E "escalating to SIG|exit code (-[0-9]+|[1-9][0-9]*)|Segmentation fault|core dumped|terminate called" "$log" >&2; then
+    echo "FAIL $name: a process died at shutdown (lines above, $log)" >&2
+    ok=0
+  fi
+  local poses=0
+  [[ -f "$dir/trajectory.txt" ]] && poses=$(grep -vc '^#' "$dir/trajectory.txt")
+  ((poses >= 20)) || { echo "FAIL $name: trajectory.txt has $poses poses (want >= 20)" >&2; ok=0; }
+  [[ -s "$dir/map.ply" ]] || { echo "FAIL $name: no map.ply written" >&2; ok=0; }
+  if find "$dir" -name '*.tmp*' | grep -q .; then
+    echo "FAIL $name: temporary files left: $(find "$dir" -name '*.tmp*')" >&2
+    ok=0
+  fi
+  if ((ok)); then
+    echo "ok   $name: exit 0 after $waited s, $poses poses in trajectory.txt, map.ply $(stat -c %s "$dir/map.ply") bytes"
+  else
+    failures=$((failures + 1))
+    echo "---- last lines of $log" >&2
+    tail -20 "$log" >&2
+  fi
+}
+
+run_case ctrl_c_while_playing 6
+run_case bag_ended 0
+exit $((failures > 0 ? 1 : 0))
