@@ -38,3 +38,12 @@ if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/test/test_bag_io.cpp)
     target_include_directories(test_bag_io SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
   endif()
 endif()
+
+# graph_soak_probe (bench/): records a running graph for a soak (bench/graph_soak.sh).
+add_executable(graph_soak_probe ${DYPHO_REAL_SOURCE_DIR}/bench/graph_soak_probe.cpp)
+target_include_directories(graph_soak_probe SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(graph_soak_probe PRIVATE dypho_common ${catkin_LIBRARIES})
+add_dependencies(graph_soak_probe ${PROJECT_NAME}_generate_messages_cpp)
+dypho_set_warnings(graph_soak_probe)
+set_target_properties(graph_soak_probe PROPERTIES
+  RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})

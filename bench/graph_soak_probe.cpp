@@ -1,0 +1,100 @@
+/// graph_soak_probe: watches a running DyPho graph for a soak and writes a CSV in soak_runner's
+/// format (so `soak_runner --plot-csv` plots it): one row per `every` tracking statuses.
+///
+///   graph_soak_probe --pid MANAGER_PID --out soak.csv [--every 100] [--expect FRAMES]
+///
+/// Columns: frame (statuses received), rss_mb (resident memory of the nodelet manager, from
+/// /proc/PID/statm), gaussians (width x height of the latest /dypho/gaussian_cloud), keyframes
+/// (statuses with is_keyframe), queued (always 0: the graph has no such counter yet), p50_ms /
+/// p95_ms (latency of the statuses in the window: ROS time at arrival minus the frame's stamp,
+/// i.e. from the bag's /clock; 10 ms resolution). Ends when `expect` statuses arrived, or 20 s
+/// after the last one, or on Ctrl-C; the CSV is rewritten after every row.
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <dypho_slam/TrackingStatus.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include "dypho/common/atomic_file.h"
+
+namespace {
+
+double rssMb(int pid) {
+  std::ifstream statm("/proc/" + std::to_string(pid) + "/statm");
+  long pages_total = 0, pages_resident = 0;
+  if (!(statm >> pages_total >> pages_resident)) return 0.0;
+  return static_cast<double>(pages_resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "graph_soak_probe", ros::init_options::AnonymousName);
+  int pid = 0, every = 100, expect = 0;
+  std::string out = "graph_soak.csv";
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i], v = argv[i + 1];
+    if (k == "--pid") pid = std::stoi(v);
+    else if (k == "--every") every = std::stoi(v);
+    else if (k == "--expect") expect = std::stoi(v);
+    else if (k == "--out") out = v;
+    else { std::cerr << "unknown argument " << k << "\n"; return 2; }
+  }
+  if (pid <= 0 || every <= 0) {
+    std::cerr << "usage: graph_soak_probe --pid MANAGER_PID --out soak.csv [--every 100] [--expect FRAMES]\n";
+    return 2;
+  }
+  ros::NodeHandle nh;
+  struct Row { int frame; double rss, gaussians, keyframes, p50, p95; };
+  std::vector<Row> rows;
+  std::vector<double> window;
+  int statuses = 0, keyframes = 0;
+  double gaussians = 0;
+  ros::WallTime last_status = ros::WallTime::now();
+  auto writeCsv = [&] {
+    dypho::writeFileAtomically(out, [&](std::ostream& os) {
+      os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms\n";
+      for (const Row& r : rows) os << r.frame << ',' << r.rss << ',' << r.gaussians << ',' << r.keyframes << ",0," << r.p50 << ',' << r.p95 << '\n';
+    });
+  };
+  auto cloud_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/gaussian_cloud", 1, [&](const sensor_msgs::PointCloud2ConstPtr& c) {
+    gaussians = static_cast<double>(c->width) * c->height;
+  });
+  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 200, [&](const dypho_slam::TrackingStatusConstPtr& s) {
+    last_status = ros::WallTime::now();
+    ++statuses;
+    if (s->is_keyframe) ++keyframes;
+    window.push_back((ros::Time::now() - s->header.stamp).toSec() * 1e3);
+    if (statuses % every == 0) {
+      rows.push_back({statuses, rssMb(pid), gaussians, static_cast<double>(keyframes), percentile(window, 0.5), percentile(window, 0.95)});
+      window.clear();
+      const Row& r = rows.back();
+      std::cerr << "status " << r.frame << ": rss " << r.rss << " MB, " << r.gaussians << " Gaussians, " << r.keyframes
+                << " keyframes, latency p50 " << r.p50 << " ms, p95 " << r.p95 << " ms\n";
+      writeCsv();
+    }
+  });
+  ros::Rate rate(20);
+  while (ros::ok()) {
+    ros::spinOnce();
+    if (expect > 0 && statuses >= expect) break;
+    if (statuses > 0 && (ros::WallTime::now() - last_status).toSec() > 20.0) break;
+    rate.sleep();
+  }
+  writeCsv();
+  std::cout << "graph_soak_probe: " << statuses << " statuses, " << rows.size() << " rows in " << out << "\n";
+  return 0;
+}
