@@ -88,9 +88,9 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
   }
 
-  /// A bad parameter or an unusable input file (model, map) must not take the manager down, nor
-  /// vanish: it is logged as FATAL with the reason and this nodelet stays idle (nothing advertised
-  /// or subscribed) until it is restarted with a fixed configuration.
+  /// A bad parameter must not take the manager down, nor vanish: it is logged as FATAL
+  /// with the reason and this nodelet stays idle (nothing advertised or subscribed) until it is
+  /// restarted with a fixed configuration.
   void onInit() override {
     try {
       start();

@@ -37,9 +37,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   using ExactPolicy = message_filters::sync_policies::ExactTime<Image, Image, CameraInfo>;
 
  public:
-  /// A bad parameter or an unusable input file (model, map) must not take the manager down, nor
-  /// vanish: it is logged as FATAL with the reason and this nodelet stays idle (nothing advertised
-  /// or subscribed) until it is restarted with a fixed configuration.
+  /// A bad parameter must not take the manager down, nor vanish (a missing model is only a
+  /// warning, below): it is logged as FATAL with the reason and this nodelet stays idle (nothing
+  /// advertised or subscribed) until it is restarted with a fixed configuration.
   void onInit() override {
     try {
       start();
