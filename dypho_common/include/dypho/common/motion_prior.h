@@ -29,14 +29,15 @@ struct PoseUpdate {
   Timestamp stamp_ns = 0;  ///< stamp of the frame [ns]
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< camera optical frame in world
   bool trusted = false;        ///< tracking was OK on this frame (the motion to neighbours is right)
-  /// The pose is in the map's frame. False in a re-initialised segment (after max_lost_frames,
-  /// until relocalisation or a loop closure ties it to the map): motion within the segment is
-  /// right, but its start is a guess; nothing may render or build the map from such a pose.
-  bool anchored = true;
   bool discontinuous = false;  ///< the pose jumped here (relocalised, loop closed, re-initialised, reset)
   /// Tracking restarted at this frame (its stamp went backwards): a new world begins, the maps
   /// built so far do not belong to it. Implies discontinuous.
   bool restarted = false;
+  /// (Last, so that brace initialisation {stamp, pose, trusted, discontinuous} keeps its meaning.)
+  /// The pose is in the map's frame. False in a re-initialised segment (after max_lost_frames,
+  /// until relocalisation or a loop closure ties it to the map): motion within the segment is
+  /// right, but its start is a guess; nothing may render or build the map from such a pose.
+  bool anchored = true;
 };
 
 /// Constant-velocity prediction from the last two trusted, continuous poses.
