@@ -22,9 +22,10 @@ failures=0
 
 run_case() {  # NAME INTERRUPT_AFTER_S (0 = let the bag end)
   local name="$1" interrupt_after="$2"
-  local dir="$out/$name" log="$out/$name.log"
+  # The output folder does not exist yet: the nodelets create it.
+  local dir="$out/$name/run" log="$out/$name.log"
   local port=$((20000 + RANDOM % 20000))
-  mkdir -p "$dir"
+  mkdir -p "$out/$name"
   setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
     start_delay:=3.0 > "$log" 2>&1 &
   local pid=$!

@@ -119,6 +119,9 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
     if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
     reader.checkNoUnknownKeys();
+    // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
+    // created is a startup error, not a silent loss at the end of the run).
+    if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
     options.validate();
     NODELET_INFO_STREAM("mapping parameters:" << reader.summary());
     std::string device_message;

@@ -96,6 +96,9 @@ class TrackingNodelet : public nodelet::Nodelet {
     reader("output_dir", params_.output_dir, "");
     reader("max_path_length", params_.max_path_length, "");
     reader.checkNoUnknownKeys();
+    // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
+    // created is a startup error, not a silent loss at the end of the run).
+    if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
     options.validate();
     NODELET_INFO_STREAM("tracking parameters:" << reader.summary());
 
