@@ -15,31 +15,12 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include <dypho_slam/TrackingStatus.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/common/atomic_file.h"
-
-namespace {
-
-double rssMb(int pid) {
-  std::ifstream statm("/proc/" + std::to_string(pid) + "/statm");
-  long pages_total = 0, pages_resident = 0;
-  if (!(statm >> pages_total >> pages_resident)) return 0.0;
-  return static_cast<double>(pages_resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
-}  // namespace
+#include "soak_stats.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "graph_soak_probe", ros::init_options::AnonymousName);
@@ -79,7 +60,9 @@ int main(int argc, char** argv) {
     if (s->is_keyframe) ++keyframes;
     window.push_back((ros::Time::now() - s->header.stamp).toSec() * 1e3);
     if (statuses % every == 0) {
-      rows.push_back({statuses, rssMb(pid), gaussians, static_cast<double>(keyframes), percentile(window, 0.5), percentile(window, 0.95)});
+      rows.push_back({statuses, dypho::bench::residentMb("/proc/" + std::to_string(pid) + "/statm"), gaussians,
+                      static_cast<double>(keyframes), dypho::bench::percentile(window, 0.5),
+                      dypho::bench::percentile(window, 0.95)});
       window.clear();
       const Row& r = rows.back();
       std::cerr << "status " << r.frame << ": rss " << r.rss << " MB, " << r.gaussians << " Gaussians, " << r.keyframes

@@ -22,31 +22,17 @@
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/common/atomic_file.h"
+#include "soak_stats.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/synthetic_scene.h"
 
 namespace {
 
-double rssMb() {
-  std::ifstream statm("/proc/self/statm");
-  long pages_total = 0, pages_resident = 0;
-  statm >> pages_total >> pages_resident;
-  return static_cast<double>(pages_resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
 
 struct Row {
   int frame;
@@ -146,9 +132,9 @@ int main(int argc, char** argv) {
     window.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     if ((i + 1) % every == 0 || i + 1 == frames) {
       const mapping::MappingStageStats s = slam.mapping().stats();
-      rows.push_back({i + 1, rssMb(), static_cast<double>(s.gaussians.num_gaussians),
+      rows.push_back({i + 1, bench::residentMb("/proc/self/statm"), static_cast<double>(s.gaussians.num_gaussians),
                       static_cast<double>(s.gaussians.num_keyframes), static_cast<double>(s.gaussians.queued),
-                      percentile(window, 0.5), percentile(window, 0.95)});
+                      bench::percentile(window, 0.5), bench::percentile(window, 0.95)});
       window.clear();
       const Row& r = rows.back();
       std::cerr << "frame " << r.frame << ": rss " << r.rss_mb << " MB, " << r.gaussians << " Gaussians, "
