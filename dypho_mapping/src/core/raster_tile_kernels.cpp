@@ -37,6 +37,24 @@ TileWindow windowInTile(const PackedGaussian<T>& p, int tx0, int ty0, int ty1, i
   return w;
 }
 
+/// Calls copy_row(row offset in the tile, pixel offset in the image, width) for each image row of
+/// the tile [tx0, tx1) x [ty0, ty1); a full-width row gets the width as a compile-time constant
+/// (fixed-size block copies).
+template <typename CopyRow>
+void forEachTileRow(int tx0, int ty0, int tx1, int ty1, int image_width, CopyRow&& copy_row) {
+  constexpr int S = gs::kTileSize;
+  const int w = tx1 - tx0;
+  for (int py = ty0; py < ty1; ++py) {
+    const int row = (py - ty0) * S;
+    const std::size_t o = static_cast<std::size_t>(py) * image_width + tx0;
+    if (w == S) {
+      copy_row(row, o, std::integral_constant<std::size_t, S>());
+    } else {
+      copy_row(row, o, static_cast<std::size_t>(w));
+    }
+  }
+}
+
 }  // namespace
 
 template <typename T>
@@ -107,7 +125,6 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
   alignas(64) T A[gs::kTilePixels];
   for (int i = 0; i < gs::kTilePixels; ++i) A[i] = T(1) - Tr[i];
   const std::size_t npix = static_cast<std::size_t>(lists.width) * lists.height;
-  const int w = tx1 - tx0;
   auto copyRow = [&](int row, std::size_t o, auto width) {
     std::memcpy(&out.color[o], &Cr[row], width * sizeof(T));
     std::memcpy(&out.color[npix + o], &Cg[row], width * sizeof(T));
@@ -117,15 +134,7 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
     std::memcpy(&out.final_T[o], &Tr[row], width * sizeof(T));
     std::memcpy(&out.last_entry[o], &last[row], width * sizeof(std::uint32_t));
   };
-  for (int py = ty0; py < ty1; ++py) {
-    const int row = (py - ty0) * S;
-    const std::size_t o = static_cast<std::size_t>(py) * lists.width + tx0;
-    if (w == S) {
-      copyRow(row, o, std::integral_constant<std::size_t, S>());
-    } else {
-      copyRow(row, o, static_cast<std::size_t>(w));
-    }
-  }
+  forEachTileRow(tx0, ty0, tx1, ty1, lists.width, copyRow);
 }
 
 template <typename T>
@@ -150,7 +159,6 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
     last[i] = begin;
   }
   // Rows of the images into the tile (block copies; full-width rows with a constant size).
-  const int w = tx1 - tx0;
   auto copyRow = [&](int row, std::size_t o, auto width) {
     std::memcpy(&Tc[row], &in.final_T[o], width * sizeof(T));
     std::memcpy(&last[row], &in.last_entry[o], width * sizeof(std::uint32_t));
@@ -162,15 +170,7 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
     if (grads.depth) std::memcpy(&gD[row], &grads.depth[o], width * sizeof(T));
     if (grads.alpha) std::memcpy(&gA[row], &grads.alpha[o], width * sizeof(T));
   };
-  for (int py = ty0; py < ty1; ++py) {
-    const int row = (py - ty0) * S;
-    const std::size_t o = static_cast<std::size_t>(py) * lists.width + tx0;
-    if (w == S) {
-      copyRow(row, o, std::integral_constant<std::size_t, S>());
-    } else {
-      copyRow(row, o, static_cast<std::size_t>(w));
-    }
-  }
+  forEachTileRow(tx0, ty0, tx1, ty1, lists.width, copyRow);
   for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, last[i]);
   const T min_alpha = lists.min_alpha, max_alpha = T(gs::kMaxAlpha);
   // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
