@@ -1,9 +1,8 @@
 /// MaskStage: the mask core with its motion prior, R_d hand-over and restart policy.
 #include "dypho/mask/mask_stage.h"
 
-#include <string>
-
 #include <cstdlib>
+#include <string>
 
 namespace dypho::mask {
 
