@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
       writeCsv();
     }
   });
-  ros::Rate rate(20);
+  ros::WallRate rate(20);  // wall time: once the bag ends, /clock stops and a ROS-time rate would never wake
   while (ros::ok()) {
     ros::spinOnce();
     if (expect > 0 && statuses >= expect) break;

@@ -6,9 +6,9 @@
 ///               [--mapping-mode deterministic|live]
 ///   soak_runner --plot-csv soak.csv --plot soak.png     (plot an earlier run's CSV)
 ///
-/// One CSV row per `every` frames: frame, rss_mb, gaussians, keyframes, queued, latency p50/p95
-/// [ms] of the frames in that window (mask + tracking + hand-over to mapping, not the rendering
-/// of the synthetic input). The plot shows the same over the frames. The CSV is rewritten after
+/// One CSV row per `every` frames: frame, rss_mb, gaussians, keyframes (mapper), queued, latency
+/// p50/p95 [ms] of the frames in that window (mask + tracking + hand-over to mapping, not the
+/// rendering of the synthetic input), then the tracker's keyframes and map points. The plot shows the same over the frames. The CSV is rewritten after
 /// every row, so a run stopped early keeps what it measured.
 ///
 /// --mapping-mode: `deterministic` (default, the runner's policy: a keyframe waits for the previous
@@ -37,6 +37,7 @@ namespace {
 struct Row {
   int frame;
   double rss_mb, gaussians, keyframes, queued, p50_ms, p95_ms;
+  double tracker_keyframes = 0, tracker_points = 0;
 };
 
 /// Four stacked panels (RSS, Gaussians, queued jobs, latency p50/p95) over the frame index.
@@ -101,6 +102,7 @@ int main(int argc, char** argv) {
       std::istringstream ss(line);
       if (ss >> r.frame >> comma >> r.rss_mb >> comma >> r.gaussians >> comma >> r.keyframes >> comma >> r.queued >>
           comma >> r.p50_ms >> comma >> r.p95_ms) {
+        if (ss >> comma >> r.tracker_keyframes >> comma >> r.tracker_points) {}  // older CSVs lack them
         rows.push_back(r);
       }
     }
@@ -119,10 +121,10 @@ int main(int argc, char** argv) {
   std::vector<double> window;
   auto writeCsv = [&] {
     writeFileAtomically(out, [&](std::ostream& os) {
-      os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms\n";
+      os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms,tracker_keyframes,tracker_points\n";
       for (const Row& r : rows)
         os << r.frame << ',' << r.rss_mb << ',' << r.gaussians << ',' << r.keyframes << ',' << r.queued << ','
-           << r.p50_ms << ',' << r.p95_ms << '\n';
+           << r.p50_ms << ',' << r.p95_ms << ',' << r.tracker_keyframes << ',' << r.tracker_points << '\n';
     });
   };
   for (int i = 0; i < frames; ++i) {
@@ -135,11 +137,15 @@ int main(int argc, char** argv) {
       rows.push_back({i + 1, bench::residentMb("/proc/self/statm"), static_cast<double>(s.gaussians.num_gaussians),
                       static_cast<double>(s.gaussians.num_keyframes), static_cast<double>(s.gaussians.queued),
                       bench::percentile(window, 0.5), bench::percentile(window, 0.95)});
+      const tracking::TrackerMap& tracker_map = slam.tracking().odometry().map();
+      rows.back().tracker_keyframes = static_cast<double>(tracker_map.keyframes().size());
+      rows.back().tracker_points = static_cast<double>(tracker_map.points().size());
       window.clear();
       const Row& r = rows.back();
       std::cerr << "frame " << r.frame << ": rss " << r.rss_mb << " MB, " << r.gaussians << " Gaussians, "
                 << r.keyframes << " keyframes, queued " << r.queued << ", p50 " << r.p50_ms << " ms, p95 "
-                << r.p95_ms << " ms\n";
+                << r.p95_ms << " ms, tracker " << r.tracker_keyframes << " keyframes / " << r.tracker_points
+                << " points\n";
       writeCsv();
     }
   }

@@ -1,5 +1,5 @@
 /// TrackerMap: point creation and observations, covisibility, local view, culling, fusion, pose
-/// correction.
+/// correction, redundant keyframes and their removal.
 
 #include <set>
 
@@ -108,6 +108,79 @@ TEST(TrackerMap, MergeAndPoseCorrection) {
   map.applyKeyframePoses({{5, T}});
   EXPECT_NEAR(map.point(b[1])->p_world_m.y(), 1.0, 1e-12);
   EXPECT_NEAR(map.point(a[0])->p_world_m.y(), 0.0, 1e-12);
+}
+
+// ORB-SLAM's rule: a keyframe is redundant when >= ratio of its points are seen by >= 3 other
+// keyframes at the same or a finer scale.
+TEST(TrackerMap, RedundantKeyframeRule) {
+  TrackerMap map{TrackingOptions()};
+  const auto base = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(10, -1)));
+  // Keyframe 1 sees the 10 points of keyframe 0 plus 1 of its own: 10 of 11 points.
+  std::vector<std::int64_t> ids1 = base;
+  ids1.push_back(-1);
+  map.addKeyframe(makeKf(1, ids1, 0.1));
+  map.addKeyframe(makeKf(2, base, 0.2));
+  EXPECT_FALSE(map.isRedundant(1, 0.9));  // its points are seen by 2 others (0 and 2)
+  map.addKeyframe(makeKf(3, base, 0.3));
+  EXPECT_TRUE(map.isRedundant(1, 0.9));   // 10 of 11 = 0.91 seen by 3 others
+  EXPECT_FALSE(map.isRedundant(1, 0.95));
+  // Observers at a coarser scale (octave > own + 1) do not count.
+  MapKeyframe coarse = makeKf(4, base, 0.4);
+  for (cv::KeyPoint& kp : coarse.features.keypoints) kp.octave = 3;
+  TrackerMap scaled{TrackingOptions()};
+  scaled.addKeyframe(makeKf(0, base));
+  scaled.addKeyframe(makeKf(1, ids1, 0.1));
+  scaled.addKeyframe(makeKf(2, base, 0.2));
+  scaled.addKeyframe(std::move(coarse));
+  EXPECT_FALSE(scaled.isRedundant(1, 0.9));
+  EXPECT_FALSE(map.isRedundant(42, 0.9));  // unknown
+}
+
+// A removed keyframe's observations go, points only it saw go, points it created get a new
+// first keyframe, and its pose follows the keyframe it was attached to through later corrections
+// (also when that one is removed in turn).
+TEST(TrackerMap, RemovedKeyframeKeepsAPoseThatFollowsCorrections) {
+  TrackingOptions o;
+  o.covisibility_min_shared = 3;
+  TrackerMap map(o);
+  const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(6, -1)));
+  // Keyframe 1 sees points 0-3 of keyframe 0 and creates 2 of its own.
+  std::vector<std::int64_t> ids1(a.begin(), a.begin() + 4);
+  ids1.resize(6, -1);
+  const auto b = map.addKeyframe(makeKf(1, ids1, 1.0));
+  // Keyframe 2 sees 4 of keyframe 1's points: one it created and three of keyframe 0's.
+  map.addKeyframe(makeKf(2, {b[1], b[2], b[3], b[4], -1, -1}, 2.0));
+  const Eigen::Isometry3d T_world_1 = map.keyframe(1)->T_world_camera;
+
+  ASSERT_TRUE(map.removeKeyframe(1));
+  EXPECT_EQ(map.keyframe(1), nullptr);
+  EXPECT_EQ(map.numRemovedKeyframes(), 1u);
+  EXPECT_EQ(map.point(b[5]), nullptr);                   // seen only by keyframe 1
+  EXPECT_EQ(map.point(b[4])->first_keyframe_id, 2);      // created by 1, also seen by 2
+  EXPECT_EQ(map.point(a[0])->observations.count(1), 0u);
+  ASSERT_TRUE(map.keyframePose(1).has_value());
+  EXPECT_TRUE(map.keyframePose(1)->isApprox(T_world_1, 1e-12));
+  // Attached to keyframe 2 (4 shared points with each of 0 and 2; ties go to the newer one).
+  Eigen::Isometry3d T2 = map.keyframe(2)->T_world_camera;
+  T2.translation().y() += 0.5;
+  map.applyKeyframePoses({{2, T2}});
+  EXPECT_NEAR(map.keyframePose(1)->translation().y(), 0.5, 1e-12);
+  EXPECT_NEAR(map.keyframePose(1)->translation().x(), 1.0, 1e-12);
+  EXPECT_NEAR(map.point(b[4])->p_world_m.y(), 0.5, 1e-12);  // moves with its new first keyframe
+  // Keyframe 2 removed too: keyframe 1's pose moves on to keyframe 2's parent (keyframe 0).
+  ASSERT_TRUE(map.removeKeyframe(2));
+  const Eigen::Isometry3d T_world_1_now = *map.keyframePose(1);
+  Eigen::Isometry3d T0 = map.keyframe(0)->T_world_camera;
+  T0.translation().z() += 0.25;
+  map.applyKeyframePoses({{0, T0}});
+  EXPECT_NEAR(map.keyframePose(1)->translation().z(), T_world_1_now.translation().z() + 0.25, 1e-12);
+  EXPECT_NEAR(map.keyframePose(2)->translation().z(), 0.25, 1e-12);
+  // The last keyframe stays; unknown ids and a cleared map answer nothing.
+  EXPECT_FALSE(map.removeKeyframe(0));
+  EXPECT_FALSE(map.removeKeyframe(7));
+  EXPECT_FALSE(map.keyframePose(7).has_value());
+  map.clear();
+  EXPECT_FALSE(map.keyframePose(1).has_value());
 }
 
 }  // namespace

@@ -62,6 +62,14 @@ TEST(TrajectoryRecorder, FramesFollowTheLaterCorrectionOfTheirKeyframe) {
   // The online poses are what was published.
   EXPECT_TRUE(recorder.onlinePoses()[2].second.isApprox(frame_b, 1e-12));
 
+  // Keyframe 1 removed as redundant: its frames follow the keyframe it was attached to.
+  ASSERT_TRUE(map.removeKeyframe(1));
+  const Eigen::Isometry3d correction0b = pose(0.01, -0.03);
+  const Eigen::Isometry3d T_world_0 = map.keyframe(0)->T_world_camera;
+  map.applyKeyframePoses({{0, correction0b * T_world_0}});
+  final_poses = recorder.finalPoses(map);
+  EXPECT_TRUE(final_poses[2].second.isApprox(correction0b * correction1 * frame_b, 1e-12));
+
   // After a reset (keyframes gone) the online pose is kept.
   map.clear();
   final_poses = recorder.finalPoses(map);

@@ -117,6 +117,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   auto t0 = Clock::now();
   local_ba_.adjust(&map_, id, pinhole);
   if (options_.cull_min_found_ratio > 0) map_.cullPoints();
+  if (options_.keyframe_cull_redundant_ratio > 0) cullKeyframes(id);
   result->times.local_ba = msSince(t0);
   t0 = Clock::now();
   closeLoops(id, pinhole, result);
@@ -137,17 +138,28 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   reported_poses_[id] = stored->T_world_camera;  // what mapping receives with the keyframe
 }
 
+void RgbdOdometry::cullKeyframes(std::int64_t newest_keyframe_id) {
+  const std::int64_t oldest_id = map_.keyframes().begin()->first;
+  for (std::int64_t id : map_.covisibleKeyframes(newest_keyframe_id, options_.local_map_keyframes)) {
+    if (id != oldest_id && map_.isRedundant(id, options_.keyframe_cull_redundant_ratio)) {
+      map_.removeKeyframe(id);
+    }
+  }
+}
+
 void RgbdOdometry::collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result) {
-  for (const auto& [id, keyframe] : map_.keyframes()) {
+  // Removed keyframes too: mapping keeps their images, and their poses follow the keyframe they
+  // were attached to.
+  for (auto& [id, reported] : reported_poses_) {
     if (id == new_keyframe_id) continue;
-    auto reported = reported_poses_.find(id);
-    if (reported == reported_poses_.end()) continue;
-    const Eigen::Isometry3d delta = reported->second.inverse() * keyframe.T_world_camera;
+    const std::optional<Eigen::Isometry3d> T_world_keyframe = map_.keyframePose(id);
+    if (!T_world_keyframe) continue;
+    const Eigen::Isometry3d delta = reported.inverse() * *T_world_keyframe;
     const double moved_m = delta.translation().norm();
     const double turned_rad = Eigen::AngleAxisd(delta.rotation()).angle();
     if (moved_m > options_.correction_min_translation_m || turned_rad > options_.correction_min_rotation_rad) {
-      result->corrected_keyframes.emplace_back(id, keyframe.T_world_camera);
-      reported->second = keyframe.T_world_camera;
+      result->corrected_keyframes.emplace_back(id, *T_world_keyframe);
+      reported = *T_world_keyframe;
     }
   }
 }

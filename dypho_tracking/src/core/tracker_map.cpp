@@ -1,6 +1,7 @@
 #include "dypho/tracking/tracker_map.h"
 
 #include <algorithm>
+#include <iterator>
 #include <unordered_set>
 
 namespace dypho {
@@ -9,6 +10,8 @@ namespace {
 
 /// Frames a point must have been predicted visible in before culling judges it [count].
 constexpr int kCullMinVisible = 10;
+/// Other keyframes that must see a point for it to count as redundant (ORB-SLAM's rule) [count].
+constexpr int kRedundantObservers = 3;
 
 }  // namespace
 
@@ -17,6 +20,7 @@ TrackerMap::TrackerMap(const TrackingOptions& options) : options_(options) { opt
 void TrackerMap::clear() {
   keyframes_.clear();
   points_.clear();
+  removed_.clear();
 }
 
 std::vector<std::int64_t> TrackerMap::addKeyframe(MapKeyframe kf) {
@@ -159,6 +163,69 @@ int TrackerMap::cullPoints() {
     ++removed;
   }
   return removed;
+}
+
+bool TrackerMap::isRedundant(std::int64_t keyframe_id, double redundant_ratio) const {
+  const MapKeyframe* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return false;
+  int points = 0, redundant = 0;
+  for (size_t i = 0; i < kf->map_point_ids.size(); ++i) {
+    const MapPoint* p = point(kf->map_point_ids[i]);
+    if (p == nullptr) continue;
+    ++points;
+    const int octave = kf->features.keypoints[i].octave;
+    int observers = 0;
+    for (const auto& [other_id, index] : p->observations) {
+      if (other_id == keyframe_id) continue;
+      const MapKeyframe& other = keyframes_.at(other_id);
+      if (other.features.keypoints[static_cast<size_t>(index)].octave <= octave + 1 &&
+          ++observers >= kRedundantObservers) {
+        ++redundant;
+        break;
+      }
+    }
+  }
+  return points > 0 && redundant >= redundant_ratio * points;
+}
+
+bool TrackerMap::removeKeyframe(std::int64_t keyframe_id) {
+  auto it = keyframes_.find(keyframe_id);
+  if (it == keyframes_.end() || keyframes_.size() < 2) return false;
+  const std::vector<std::int64_t> covisible = covisibleKeyframes(keyframe_id, 1);
+  const std::int64_t parent_id =
+      !covisible.empty() ? covisible.front()
+                         : (keyframes_.rbegin()->first != keyframe_id ? keyframes_.rbegin()->first
+                                                                       : std::next(keyframes_.rbegin())->first);
+  const MapKeyframe& parent = keyframes_.at(parent_id);
+  RemovedKeyframe entry{parent_id, parent.T_world_camera.inverse() * it->second.T_world_camera};
+  // Keyframes removed earlier and attached to this one move to its parent: chains stay one long.
+  for (auto& [id, removed] : removed_) {
+    if (removed.parent_id != keyframe_id) continue;
+    removed.parent_id = parent_id;
+    removed.T_parent_keyframe = entry.T_parent_keyframe * removed.T_parent_keyframe;
+  }
+  removed_[keyframe_id] = entry;
+  for (std::int64_t id : it->second.map_point_ids) {
+    auto p = id >= 0 ? points_.find(id) : points_.end();
+    if (p == points_.end()) continue;
+    p->second.observations.erase(keyframe_id);
+    if (p->second.observations.empty()) {
+      points_.erase(p);
+    } else if (p->second.first_keyframe_id == keyframe_id) {
+      p->second.first_keyframe_id = p->second.observations.begin()->first;
+    }
+  }
+  keyframes_.erase(it);
+  return true;
+}
+
+std::optional<Eigen::Isometry3d> TrackerMap::keyframePose(std::int64_t keyframe_id) const {
+  if (const MapKeyframe* kf = keyframe(keyframe_id)) return kf->T_world_camera;
+  auto removed = removed_.find(keyframe_id);
+  if (removed == removed_.end()) return std::nullopt;
+  const MapKeyframe* parent = keyframe(removed->second.parent_id);
+  if (parent == nullptr) return std::nullopt;
+  return parent->T_world_camera * removed->second.T_parent_keyframe;
 }
 
 bool TrackerMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {

@@ -18,10 +18,10 @@ std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPo
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
   out.reserve(records_.size());
   for (const RecordedPose& r : records_) {
-    const MapKeyframe* keyframe =
-        r.reference_keyframe_id >= 0 ? map.keyframe(r.reference_keyframe_id) : nullptr;
-    out.emplace_back(r.stamp_ns, keyframe != nullptr ? keyframe->T_world_camera * r.T_reference_camera
-                                                     : r.T_world_camera_online);
+    const std::optional<Eigen::Isometry3d> T_world_reference =
+        r.reference_keyframe_id >= 0 ? map.keyframePose(r.reference_keyframe_id) : std::nullopt;
+    out.emplace_back(r.stamp_ns, T_world_reference ? *T_world_reference * r.T_reference_camera
+                                                   : r.T_world_camera_online);
   }
   return out;
 }

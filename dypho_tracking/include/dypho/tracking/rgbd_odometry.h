@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <map>
 #include <unordered_map>
 #include <vector>
 
@@ -38,8 +39,9 @@ namespace tracking {
 /// prediction, projection matching with scale prediction, PnP RANSAC fallback on the last
 /// keyframe's own points, Ceres motion-only BA with chi2 rounds) -> visibility bookkeeping ->
 /// KeyframeSelector. On a new keyframe (synchronously): TrackerMap::addKeyframe (RGB-D points,
-/// matched points get a new observation), LocalBundleAdjuster, map-point culling, LoopDetector +
-/// LoopCloser (pose graph; corrected keyframes in the result).
+/// matched points get a new observation), LocalBundleAdjuster, map-point culling,
+/// redundant-keyframe culling, LoopDetector + LoopCloser (pose graph; corrected keyframes in the
+/// result).
 ///
 /// State machine:
 ///  - NOT_INITIALIZED: the first frame with >= min_init_features keypoints with depth becomes
@@ -82,7 +84,7 @@ class RgbdOdometry {
   std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
                                  const FrameFeatures& features) const;
   /// Adds `features` as a new keyframe at T_world_camera (map_point_ids per feature: the matched
-  /// map point or -1), runs local BA, culling and loop closure, fills the result fields.
+  /// map point or -1), runs local BA, point and keyframe culling and loop closure, fills the result fields.
   void addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
                    const Eigen::Isometry3d& T_world_camera,
                    const std::vector<std::int64_t>& map_point_ids, const Pinhole& pinhole,
@@ -91,6 +93,8 @@ class RgbdOdometry {
   /// since it was last reported, appended to result->corrected_keyframes; the pose mapping holds
   /// thus never differs from the tracker's by more than those thresholds.
   void collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result);
+  /// Removes the redundant keyframes of the newest keyframe's local map (not the oldest keyframe).
+  void cullKeyframes(std::int64_t newest_keyframe_id);
   /// Loop detection and correction for the newest keyframe.
   void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
@@ -114,7 +118,7 @@ class RgbdOdometry {
   KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
   ConstantVelocityModel motion_;  ///< the shared constant-velocity prediction (motion_prior.h)
-  std::unordered_map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on
+  std::map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on
   Eigen::Isometry3d T_world_odom_ = Eigen::Isometry3d::Identity();  ///< loop corrections so far
   bool has_stamp_ = false;
   Timestamp last_stamp_ns_ = 0;

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -57,6 +58,10 @@ struct MapKeyframe {
 ///
 /// Culling (ORB-SLAM style): a point is removed once it was predicted visible in >= 10 frames
 /// but found in fewer than cull_min_found_ratio of them; observations pointing to it are cleared.
+/// A keyframe is redundant when at least keyframe_cull_redundant_ratio of its map points are seen
+/// by >= 3 other keyframes at the same or a finer scale; removing it (removeKeyframe) keeps its
+/// pose relative to a remaining keyframe, so keyframePose still answers for it (a trajectory that
+/// refers to it follows later corrections) while its features and observations are freed.
 class TrackerMap {
  public:
   /// Uses local_map_keyframes, covisibility_min_shared, cull_min_found_ratio, scale_factor.
@@ -98,6 +103,23 @@ class TrackerMap {
   /// Removes bad points (see class comment); returns how many.
   int cullPoints();
 
+  /// True when the keyframe is redundant (see class comment, ratio in (0, 1]); false when
+  /// unknown or it has no map points.
+  bool isRedundant(std::int64_t keyframe_id, double redundant_ratio) const;
+
+  /// Removes a keyframe: its observations are cleared (points seen by no other keyframe are
+  /// erased, points it created are handed to their oldest remaining observer) and its pose is
+  /// kept relative to its most covisible remaining keyframe (else the newest). False when unknown
+  /// or it is the only keyframe.
+  bool removeKeyframe(std::int64_t keyframe_id);
+
+  /// Current pose of a keyframe, also of a removed one (through the keyframe it was attached to);
+  /// nullopt when never known or forgotten by clear().
+  std::optional<Eigen::Isometry3d> keyframePose(std::int64_t keyframe_id) const;
+
+  /// Number of removed keyframes whose poses are still answered.
+  std::size_t numRemovedKeyframes() const { return removed_.size(); }
+
   /// Keyframe by id or nullptr.
   const MapKeyframe* keyframe(std::int64_t id) const;
   /// Map point by id or nullptr.
@@ -123,6 +145,12 @@ class TrackerMap {
   TrackingOptions options_;
   std::map<std::int64_t, MapKeyframe> keyframes_;
   std::unordered_map<std::int64_t, MapPoint> points_;
+  /// A removed keyframe's pose relative to a keyframe still in the map.
+  struct RemovedKeyframe {
+    std::int64_t parent_id = -1;
+    Eigen::Isometry3d T_parent_keyframe = Eigen::Isometry3d::Identity();
+  };
+  std::unordered_map<std::int64_t, RemovedKeyframe> removed_;
   std::int64_t next_point_id_ = 0;
 };
 

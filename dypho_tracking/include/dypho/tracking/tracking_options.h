@@ -143,6 +143,11 @@ struct TrackingOptions {
   /// A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction
   /// of them is removed [-]; default 0.25, range [0, 1]; 0 disables culling.
   double cull_min_found_ratio = 0.25;
+  /// After each keyframe, a keyframe of its local map (not the oldest) is removed when at least
+  /// this fraction of its map points is seen by >= 3 other keyframes at the same or a finer scale
+  /// (ORB-SLAM's rule; bounds the map while the camera stays in known places) [-]; default 0.9,
+  /// range [0, 1]; 0 keeps every keyframe.
+  double keyframe_cull_redundant_ratio = 0.9;
 
   // --- local bundle adjustment (LocalBundleAdjuster), synchronous after each keyframe ---
   /// Keyframes whose poses local BA optimises: the new one and its most covisible ones [count];

@@ -31,9 +31,10 @@ class TrajectoryRecorder {
   /// published with (the last trusted one), so there is one pose per frame, as published.
   void add(const TrackingResult& result);
 
-  /// T_world_camera of every recorded frame, in order: T_world_reference (current, from `map`)
-  /// * T_reference_camera. A frame that was not tracked, or whose keyframe is no longer in `map`
-  /// (tracker reset since), keeps its online pose.
+  /// T_world_camera of every recorded frame, in order: T_world_reference (current, from
+  /// `map.keyframePose`, which also answers for removed keyframes) * T_reference_camera. A frame
+  /// that was not tracked, or whose keyframe `map` no longer knows (tracker reset since), keeps
+  /// its online pose.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> finalPoses(const TrackerMap& map) const;
 
   /// The poses as published at frame time, in order.
