@@ -40,9 +40,10 @@ struct Row {
   double tracker_keyframes = 0, tracker_points = 0;
 };
 
-/// Four stacked panels (RSS, Gaussians, queued jobs, latency p50/p95) over the frame index.
+/// Five stacked panels (RSS, Gaussians, queued jobs, latency p50/p95, keyframes of mapping and
+/// tracking) over the frame index.
 void plot(const std::vector<Row>& rows, const std::string& path) {
-  const int w = 900, h = 220, panels = 4, margin = 50;
+  const int w = 900, h = 220, panels = 5, margin = 50;
   cv::Mat img(h * panels, w, CV_8UC3, cv::Scalar(255, 255, 255));
   const double max_frame = rows.empty() ? 1.0 : rows.back().frame;
   auto panel = [&](int index, const char* title, auto value, auto value2) {
@@ -71,6 +72,8 @@ void plot(const std::vector<Row>& rows, const std::string& path) {
   panel(2, "mapping jobs queued", [](const Row& r) { return r.queued; }, F(nullptr));
   panel(3, "latency per frame [ms]: p50 blue, p95 red", [](const Row& r) { return r.p50_ms; },
         F([](const Row& r) { return r.p95_ms; }));
+  panel(4, "keyframes: mapping blue, tracking red", [](const Row& r) { return r.keyframes; },
+        F([](const Row& r) { return r.tracker_keyframes; }));
   cv::imwrite(path, img);
 }
 
