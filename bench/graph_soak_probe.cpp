@@ -9,6 +9,10 @@
 /// p95_ms (latency of the statuses in the window: ROS time at arrival minus the frame's stamp,
 /// i.e. from the bag's /clock; 10 ms resolution). Ends when `expect` statuses arrived, or 20 s
 /// after the last one, or on Ctrl-C; the CSV is rewritten after every row.
+///
+/// At the end it prints a summary of the whole run (bench/realtime_graph.sh reads it): statuses,
+/// trusted poses, keyframes, latency p50/p95, the manager's CPU use between the first and the
+/// last status [% of one core], and the rate of /dypho/rendered/color.
 #include <algorithm>
 #include <fstream>
 #include <iostream>
@@ -17,6 +21,7 @@
 
 #include <dypho_slam/TrackingStatus.h>
 #include <ros/ros.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/common/atomic_file.h"
@@ -42,9 +47,12 @@ int main(int argc, char** argv) {
   struct Row { int frame; double rss, gaussians, keyframes, p50, p95; };
   std::vector<Row> rows;
   std::vector<double> window;
-  int statuses = 0, keyframes = 0;
+  int statuses = 0, keyframes = 0, trusted = 0, rendered = 0;
   double gaussians = 0;
-  ros::WallTime last_status = ros::WallTime::now();
+  std::vector<double> all_latencies_ms;
+  const std::string stat_path = "/proc/" + std::to_string(pid) + "/stat";
+  double cpu_first_s = -1, cpu_last_s = -1;
+  ros::WallTime first_status, last_status = ros::WallTime::now(), first_rendered, last_rendered;
   auto writeCsv = [&] {
     dypho::writeFileAtomically(out, [&](std::ostream& os) {
       os << "frame,rss_mb,gaussians,keyframes,queued,p50_ms,p95_ms\n";
@@ -56,9 +64,17 @@ int main(int argc, char** argv) {
   });
   auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 200, [&](const dypho_slam::TrackingStatusConstPtr& s) {
     last_status = ros::WallTime::now();
+    if (statuses == 0) first_status = last_status;
     ++statuses;
     if (s->is_keyframe) ++keyframes;
+    if (s->trusted && s->anchored) ++trusted;
+    const double cpu_s = dypho::bench::cpuSeconds(stat_path);
+    if (cpu_s >= 0) {
+      if (cpu_first_s < 0) cpu_first_s = cpu_s;
+      cpu_last_s = cpu_s;
+    }
     window.push_back((ros::Time::now() - s->header.stamp).toSec() * 1e3);
+    all_latencies_ms.push_back(window.back());
     if (statuses % every == 0) {
       rows.push_back({statuses, dypho::bench::residentMb("/proc/" + std::to_string(pid) + "/statm"), gaussians,
                       static_cast<double>(keyframes), dypho::bench::percentile(window, 0.5),
@@ -70,6 +86,10 @@ int main(int argc, char** argv) {
       writeCsv();
     }
   });
+  auto rendered_sub = nh.subscribe<sensor_msgs::Image>("/dypho/rendered/color", 2, [&](const sensor_msgs::ImageConstPtr&) {
+    last_rendered = ros::WallTime::now();
+    if (rendered++ == 0) first_rendered = last_rendered;
+  });
   ros::WallRate rate(20);  // wall time: once the bag ends, /clock stops and a ROS-time rate would never wake
   while (ros::ok()) {
     ros::spinOnce();
@@ -79,5 +99,15 @@ int main(int argc, char** argv) {
   }
   writeCsv();
   std::cout << "graph_soak_probe: " << statuses << " statuses, " << rows.size() << " rows in " << out << "\n";
+  const double span_s = statuses > 1 ? (last_status - first_status).toSec() : 0.0;
+  const double rendered_span_s = rendered > 1 ? (last_rendered - first_rendered).toSec() : 0.0;
+  std::cout << "statuses: " << statuses << " (trusted poses " << trusted << ", keyframes " << keyframes << ")\n"
+            << "latency_ms: p50 " << dypho::bench::percentile(all_latencies_ms, 0.5) << " p95 "
+            << dypho::bench::percentile(all_latencies_ms, 0.95) << "\n"
+            << "manager_cpu_percent: "
+            << (span_s > 0 && cpu_first_s >= 0 ? 100.0 * (cpu_last_s - cpu_first_s) / span_s : 0.0)
+            << " % of one core (over " << span_s << " s)\n"
+            << "rendered_views: " << rendered << " ("
+            << (rendered_span_s > 0 ? (rendered - 1) / rendered_span_s : 0.0) << " Hz)\n";
   return 0;
 }

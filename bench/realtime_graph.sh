@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# realtime_graph.sh BAG [--rate R] [--out DIR] [--detector MODEL.onnx] [--groundtruth FILE]
+#                       [--bonn-correction] [--config-dir DIR]
+#
+# Plays BAG through `roslaunch dypho_slam tum_bag.launch` at rate R (default 1.0, the camera's
+# own pace) and prints what a user of the live graph gets:
+#   frames in (colour images in the bag), statuses (frames tracking answered), poses (trusted,
+#   anchored), not answered (frames in - statuses), keyframes, status latency p50/p95 (arrival
+#   minus frame stamp, bag clock), CPU use of the nodelet manager, rendered-view rate, and the ATE
+#   of trajectory.txt against the ground truth (FILE, or groundtruth.txt beside the bag;
+#   --bonn-correction for Bonn RGB-D Dynamic ground truth).
+# --detector: the mask runs the network at MODEL (launch arg yolo_model), else the shipped
+# config/mask.yaml (flow and background model only). --config-dir: parameter folder other than
+# the shipped config/ (launch arg config_dir).
+# Needs the catkin build and its environment (source build/devel/setup.bash). The summary is
+# also written to OUT/summary.txt; OUT keeps the roslaunch log, the outputs and the probe CSV.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+BIN="${DYPHO_BIN:-$ROOT/build/devel/lib/dypho_slam}"
+usage() { sed -n '2,3p' "$0" | sed 's/^# //' >&2; exit 2; }
+[[ $# -ge 1 ]] || usage
+bag="$(realpath "$1")"; shift
+rate=1.0 out="realtime_graph" detector="" groundtruth="" evaluate_args=() config_dir="$ROOT/config"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --rate) rate="$2"; shift 2 ;;
+    --out) out="$2"; shift 2 ;;
+    --detector) detector="$(realpath "$2")"; shift 2 ;;
+    --groundtruth) groundtruth="$(realpath "$2")"; shift 2 ;;
+    --bonn-correction) evaluate_args+=(--bonn-correction); shift ;;
+    --config-dir) config_dir="$(realpath "$2")"; shift 2 ;;
+    *) usage ;;
+  esac
+done
+[[ -f "$bag" ]] || { echo "realtime_graph.sh: no bag at $bag" >&2; exit 2; }
+[[ -z "$detector" || -f "$detector" ]] || { echo "realtime_graph.sh: no model at $detector" >&2; exit 2; }
+[[ -n "$groundtruth" || ! -f "$(dirname "$bag")/groundtruth.txt" ]] || groundtruth="$(dirname "$bag")/groundtruth.txt"
+out="$(realpath -m "$out")"
+rm -rf "$out/run"
+mkdir -p "$out"
+
+# Frames in: colour images in the bag.
+frames_in="$(rosbag info --yaml --key=topics "$bag" | python3 -c '
+import sys, yaml
+topics = yaml.safe_load(sys.stdin) or []
+print(next((t["messages"] for t in topics if t["topic"] == "/camera/rgb/image_color"), 0))')"
+[[ "$frames_in" -gt 0 ]] || { echo "realtime_graph.sh: no /camera/rgb/image_color in $bag" >&2; exit 2; }
+
+port=$((20000 + RANDOM % 20000))
+setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" rate:="$rate" \
+  output_dir:="$out/run" yolo_model:="$detector" config_dir:="$config_dir" start_delay:=8.0 > "$out/roslaunch.log" 2>&1 &
+launch_pid=$!
+trap 'kill -INT -- -"$launch_pid" 2>/dev/null || true' EXIT
+export ROS_MASTER_URI="http://localhost:$port"
+manager_pid=""
+for _ in $(seq 1 60); do
+  manager_pid="$(pgrep -f "__name:=dypho_manager" | head -1 || true)"
+  [[ -n "$manager_pid" ]] && break
+  sleep 0.5
+done
+[[ -n "$manager_pid" ]] || { echo "realtime_graph.sh: the nodelet manager did not start (see $out/roslaunch.log)" >&2; exit 1; }
+"$BIN/graph_soak_probe" --pid "$manager_pid" --out "$out/probe.csv" --expect "$frames_in" --every 100 \
+  > "$out/probe.txt" 2> "$out/probe.log"
+wait "$launch_pid" || true
+trap - EXIT
+
+value() { grep "^$1:" "$out/probe.txt" | cut -d: -f2- | xargs; }
+statuses="$(value statuses | cut -d' ' -f1)"
+{
+  echo "bag:            $bag (rate $rate, $( [[ -n "$detector" ]] && echo "detector $(basename "$detector")" || echo "no detector"), parameters $config_dir)"
+  echo "machine:        $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+  echo "frames in:      $frames_in"
+  echo "statuses:       $(value statuses)"
+  echo "not answered:   $((frames_in - statuses)) ($(python3 -c "print(f'{100 * ($frames_in - $statuses) / $frames_in:.1f}')") %)"
+  echo "latency ms:     $(value latency_ms)"
+  echo "manager CPU:    $(value manager_cpu_percent)"
+  echo "rendered views: $(value rendered_views)"
+  if [[ -f "$out/run/trajectory.txt" ]]; then
+    echo "trajectory.txt: $(grep -vc '^#' "$out/run/trajectory.txt") lines"
+    if [[ -n "$groundtruth" ]]; then
+      echo "ATE:            $("$BIN/dypho_evaluate" --groundtruth "$groundtruth" --estimate "$out/run/trajectory.txt" "${evaluate_args[@]}" 2>&1 | grep -m1 'rmse' | xargs)"
+    fi
+  else
+    echo "trajectory.txt: not written (see $out/roslaunch.log)"
+  fi
+  echo "map PSNR:       not measured by the graph yet (the offline runner reports it)"
+} | tee "$out/summary.txt"
