@@ -7,6 +7,7 @@
 # Needs the catkin build (scripts/build.sh) and its environment (source build/devel/setup.bash).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+source "$ROOT/bench/graph_launch.sh"
 BIN="${DYPHO_BIN:-$ROOT/build/devel/lib/dypho_slam}"
 frames="${1:-3000}"
 out="$(realpath -m "${2:-graph_soak}")"
@@ -14,19 +15,8 @@ mkdir -p "$out"
 if [[ ! -f "$out/synth/synthetic.bag" ]]; then
   "$BIN/dypho_synth" --out "$out/synth" --frames "$frames" --motion halfsphere --people 2 --seed 9 > "$out/synth.log"
 fi
-port=$((20000 + RANDOM % 20000))
 rm -rf "$out/run"
-setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$out/synth/synthetic.bag" \
-  output_dir:="$out/run" start_delay:=8.0 > "$out/roslaunch.log" 2>&1 &
-launch_pid=$!
-export ROS_MASTER_URI="http://localhost:$port"
-manager_pid=""
-for _ in $(seq 1 60); do
-  manager_pid="$(pgrep -f "__name:=dypho_manager" | head -1 || true)"
-  [[ -n "$manager_pid" ]] && break
-  sleep 0.5
-done
-[[ -n "$manager_pid" ]] || { echo "graph_soak.sh: the nodelet manager did not start (see $out/roslaunch.log)" >&2; exit 1; }
+start_graph "$out" bag:="$out/synth/synthetic.bag" output_dir:="$out/run" start_delay:=8.0
 "$BIN/graph_soak_probe" --pid "$manager_pid" --out "$out/graph_soak.csv" --expect "$frames" --every 100
 wait "$launch_pid" || true
 "$BIN/soak_runner" --plot-csv "$out/graph_soak.csv" --plot "$out/graph_soak.png"

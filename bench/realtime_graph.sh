@@ -16,6 +16,7 @@
 # also written to OUT/summary.txt; OUT keeps the roslaunch log, the outputs and the probe CSV.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+source "$ROOT/bench/graph_launch.sh"
 BIN="${DYPHO_BIN:-$ROOT/build/devel/lib/dypho_slam}"
 usage() { sed -n '2,3p' "$0" | sed 's/^# //' >&2; exit 2; }
 [[ $# -ge 1 ]] || usage
@@ -46,19 +47,9 @@ topics = yaml.safe_load(sys.stdin) or []
 print(next((t["messages"] for t in topics if t["topic"] == "/camera/rgb/image_color"), 0))')"
 [[ "$frames_in" -gt 0 ]] || { echo "realtime_graph.sh: no /camera/rgb/image_color in $bag" >&2; exit 2; }
 
-port=$((20000 + RANDOM % 20000))
-setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" rate:="$rate" \
-  output_dir:="$out/run" yolo_model:="$detector" config_dir:="$config_dir" start_delay:=8.0 > "$out/roslaunch.log" 2>&1 &
-launch_pid=$!
+start_graph "$out" bag:="$bag" rate:="$rate" output_dir:="$out/run" yolo_model:="$detector" \
+  config_dir:="$config_dir" start_delay:=8.0
 trap 'kill -INT -- -"$launch_pid" 2>/dev/null || true' EXIT
-export ROS_MASTER_URI="http://localhost:$port"
-manager_pid=""
-for _ in $(seq 1 60); do
-  manager_pid="$(pgrep -f "__name:=dypho_manager" | head -1 || true)"
-  [[ -n "$manager_pid" ]] && break
-  sleep 0.5
-done
-[[ -n "$manager_pid" ]] || { echo "realtime_graph.sh: the nodelet manager did not start (see $out/roslaunch.log)" >&2; exit 1; }
 "$BIN/graph_soak_probe" --pid "$manager_pid" --out "$out/probe.csv" --expect "$frames_in" --every 100 \
   > "$out/probe.txt" 2> "$out/probe.log"
 wait "$launch_pid" || true
