@@ -89,7 +89,7 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
     const T mu0 = p.mean_u - T(tx0);
     for (int py = py0; py < py1; ++py) {
       const T dy = p.mean_v - T(py);
-      const T row_term = T(-0.5) * c * dy * dy;
+      const T row_term = gs::conicRowTerm(c, dy);
       const T bdy = b * dy;
       const int row = (py - ty0) * S;
       for (int xb = xb0; xb < xb1; xb += 8)
@@ -97,7 +97,7 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
       for (int x = xb; x < xb + 8; ++x) {
         const int i = row + x;
         const T dx = mu0 - T(x);
-        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
+        const T power = gs::conicPower(a, bdy, row_term, dx);
         T alpha = o * gs::blendExp(power);
         alpha = alpha < max_alpha ? alpha : max_alpha;
         // 0/1 masks in float arithmetic (keeps the loop branch-free and vectorised).
@@ -206,7 +206,7 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
       for (int j = 0; j < 8; ++j) lanes[s][j] = T(0);
     for (int py = py0; py < py1; ++py) {
       const T dy = p.mean_v - T(py);
-      const T row_term = T(-0.5) * c * dy * dy;
+      const T row_term = gs::conicRowTerm(c, dy);
       const T bdy = b * dy;
       const int row = (py - ty0) * S;
       // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
@@ -217,7 +217,7 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
         const int x = xb + j;
         const int i = row + x;
         const T dx = mu0 - T(x);
-        const T power = T(-0.5) * a * dx * dx - bdy * dx + row_term;
+        const T power = gs::conicPower(a, bdy, row_term, dx);
         const T G = gs::blendExp(power);
         const T raw = o * G;
         const T clamped = raw < max_alpha ? raw : max_alpha;

@@ -59,6 +59,18 @@ struct Projected {
   T half_u, half_v;
 };
 
+/// Exponent of a projected Gaussian at a pixel, evaluated row by row as the tile kernels do:
+/// with dx = mean_u - x and dy = mean_v - y, power = -a dx^2/2 - b dx dy - c dy^2/2 (conic a, b,
+/// c). conicRowTerm is the part fixed along a pixel row; conicPower adds the rest, given b * dy.
+template <typename T>
+DYPHO_HOST_DEVICE inline T conicRowTerm(T c, T dy) {
+  return T(-0.5) * c * dy * dy;
+}
+template <typename T>
+DYPHO_HOST_DEVICE inline T conicPower(T a, T b_dy, T row_term, T dx) {
+  return T(-0.5) * a * dx * dx - b_dy * dx + row_term;
+}
+
 /// exp() used in the per-pixel blending: std::exp for double (reference, gradient checks); for
 /// float a branch-free version (range reduction to 2^n * 2^f with |f| <= 1/2, degree-6
 /// polynomial, relative error < 1e-6 on [-87, 87], see test_gaussian_math) that compilers vectorise. Inputs below -87 return ~0.
