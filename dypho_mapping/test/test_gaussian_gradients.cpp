@@ -8,26 +8,12 @@
 #include <gtest/gtest.h>
 
 #include "dypho/mapping/rasterizer.h"
+#include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
 namespace {
 
-struct Scene {
-  int sh_degree = 3;
-  int n = 0;
-  std::vector<double> pos, scale, rot, opa, sh;
-  GaussianParamsView<double> view() const {
-    GaussianParamsView<double> v;
-    v.position = pos.data();
-    v.log_scale = scale.data();
-    v.rotation = rot.data();
-    v.opacity_logit = opa.data();
-    v.sh = sh.data();
-    v.count = n;
-    v.sh_degree = sh_degree;
-    return v;
-  }
-};
+using Scene = GaussianParamsStorage<double>;
 
 Scene randomScene(int n, int degree, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);

@@ -8,25 +8,12 @@
 #include <gtest/gtest.h>
 
 #include "dypho/mapping/rasterizer.h"
+#include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
 namespace {
 
-struct FloatScene {
-  int n = 0, sh_degree = 1;
-  std::vector<float> pos, scale, rot, opa, sh;
-  GaussianParamsView<float> view() const {
-    GaussianParamsView<float> v;
-    v.position = pos.data();
-    v.log_scale = scale.data();
-    v.rotation = rot.data();
-    v.opacity_logit = opa.data();
-    v.sh = sh.data();
-    v.count = n;
-    v.sh_degree = sh_degree;
-    return v;
-  }
-};
+using FloatScene = GaussianParamsStorage<float>;
 
 /// `n` Gaussians 2-4 m in front of the camera, some crossing the image border, sizes from a few
 /// pixels to a third of the image, opacities from nearly transparent to nearly opaque.
