@@ -10,6 +10,7 @@
 #include "dypho/mapping/adam.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/rasterizer.h"
+#include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
 namespace {
@@ -77,23 +78,19 @@ TEST(Rasterizer, SingleGaussianMatchesAnalyticValue) {
   ThreadPool pool(2);
   Rasterizer<double> raster(&pool);
   const CameraIntrinsics cam = testCamera();
-  const std::vector<double> pos = {0.1, 0.05, 1.5}, ls = {std::log(0.04), std::log(0.03), std::log(0.02)},
-                            rot = {0.95, 0.1, 0.2, -0.1}, opa = {1.2};
-  const std::vector<double> sh = {(0.8 - 0.5) / 0.28209479177387814, (0.3 - 0.5) / 0.28209479177387814,
-                                  (0.6 - 0.5) / 0.28209479177387814};
-  GaussianParamsView<double> v;
-  v.position = pos.data();
-  v.log_scale = ls.data();
-  v.rotation = rot.data();
-  v.opacity_logit = opa.data();
-  v.sh = sh.data();
-  v.count = 1;
-  v.sh_degree = 0;
+  GaussianParamsStorage<double> g;
+  g.n = 1;
+  g.sh_degree = 0;
+  g.pos = {0.1, 0.05, 1.5};
+  g.scale = {std::log(0.04), std::log(0.03), std::log(0.02)};
+  g.rot = {0.95, 0.1, 0.2, -0.1};
+  g.opa = {1.2};
+  g.sh = {(0.8 - 0.5) / 0.28209479177387814, (0.3 - 0.5) / 0.28209479177387814, (0.6 - 0.5) / 0.28209479177387814};
   const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), cam);
   RenderResult<double> out;
-  raster.forward(v, view, out);
+  raster.forward(g.view(), view, out);
   gs::Projected<double> p;
-  ASSERT_TRUE(gs::projectGaussian(view, pos.data(), ls.data(), rot.data(), opa[0], sh.data(), 0, 3.0, 1.0 / 255, p));
+  ASSERT_TRUE(gs::projectGaussian(view, g.pos.data(), g.scale.data(), g.rot.data(), g.opa[0], g.sh.data(), 0, 3.0, 1.0 / 255, p));
   const double o = 1.0 / (1.0 + std::exp(-1.2));
   int checked = 0;
   for (int y = 0; y < cam.height; ++y) {
