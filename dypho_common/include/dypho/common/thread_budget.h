@@ -1,0 +1,67 @@
+#pragma once
+/// \file thread_budget.h
+/// How the live graph shares the machine's cores, decided in one place (README "Threads and
+/// queues"). The camera-rate path (mask, tracking) runs at normal priority on its own threads;
+/// the network and the Gaussian training run beside it at a lower priority (a higher nice value),
+/// so on a loaded machine they take the time the camera-rate path leaves and never delay it.
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <thread>
+
+namespace dypho {
+
+/// Thread counts and priorities of the graph for a number of cores.
+struct ThreadBudget {
+  int cores = 1;            ///< cores the graph may use
+  int opencv_threads = 1;   ///< OpenCV's pool (flow, ORB, the network's layers): half the cores, >= 1
+  int mapping_threads = 1;  ///< rasterizer/optimiser pool including the mapping worker: every core (niced)
+  int network_nice = 5;     ///< nice increment of the network worker thread
+  int mapping_nice = 10;    ///< nice increment of the mapping worker and its pool
+};
+
+/// The budget for `cores` cores (0 = every core of this machine).
+inline ThreadBudget planThreadBudget(int cores) {
+  ThreadBudget budget;
+  const int available = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  budget.cores = cores > 0 ? cores : available;
+  budget.opencv_threads = std::max(1, budget.cores / 2);
+  budget.mapping_threads = budget.cores;
+  return budget;
+}
+
+/// Raises the nice value of the calling thread by `increment` (Linux: nice is per thread), which
+/// needs no privilege. Returns an empty string on success, else the reason (the thread then keeps
+/// its priority; callers log it once).
+inline std::string lowerCurrentThreadPriority(int increment) {
+  if (increment <= 0) return {};
+#ifdef __linux__
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int current = ::getpriority(PRIO_PROCESS, tid);
+  if (current == -1 && errno != 0) return std::string("getpriority: ") + std::strerror(errno);
+  if (::setpriority(PRIO_PROCESS, tid, std::min(19, current + increment)) != 0) {
+    return std::string("setpriority: ") + std::strerror(errno);
+  }
+  return {};
+#else
+  return "thread priorities are only set on Linux";
+#endif
+}
+
+/// The nice value of the calling thread (for tests and diagnostics).
+inline int currentThreadNice() {
+#ifdef __linux__
+  return ::getpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)));
+#else
+  return 0;
+#endif
+}
+
+}  // namespace dypho
