@@ -11,7 +11,7 @@ namespace dypho::mapping {
 GaussianMapper::GaussianMapper(const GaussianMapperOptions& options) : options_(options) {
   options_.validate();
   trainer_ = std::make_unique<GaussianTrainer>(options_);
-  renderer_ = std::make_unique<MapRenderer>(options_.num_threads);
+  renderer_ = std::make_unique<MapRenderer>(options_.resolvedNumThreads());
 }
 
 GaussianMapper::~GaussianMapper() { stop(); }
@@ -55,9 +55,34 @@ double GaussianMapper::optimize(int iterations) {
   return n > 0 ? sum / n : 0.0;
 }
 
-void GaussianMapper::start(std::size_t queue_capacity) {
+void GaussianMapper::start(std::size_t queue_capacity, bool live) {
   if (worker_) return;
-  worker_ = std::make_unique<MappingWorker>(queue_capacity, [this](const MappingJob& job) { runJob(job); });
+  live_ = live;
+  std::function<bool()> idle;
+  if (live && options_.live_train_when_idle) idle = [this] { return idleStep(); };
+  worker_ = std::make_unique<MappingWorker>(
+      queue_capacity, [this](const MappingJob& job) { runJob(job); }, std::move(idle), options_.training_nice);
+}
+
+bool GaussianMapper::idleStep() {
+  if (idle_paused_ || hurry_ || worker_->stopping()) return false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (trainer_->keyframes.empty()) return false;
+    if (trainer_->iterate() < 0) return false;
+  }
+  // Renders (rviz views, R_d) follow the idle training about once a second.
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_idle_snapshot_ > std::chrono::seconds(1)) {
+    last_idle_snapshot_ = now;
+    std::int64_t done = -1;
+    {
+      std::lock_guard<std::mutex> lock(snapshot_mutex_);
+      done = done_keyframe_id_;
+    }
+    publishSnapshot(done);
+  }
+  return true;
 }
 
 void GaussianMapper::runJob(const MappingJob& job) {
@@ -65,7 +90,11 @@ void GaussianMapper::runJob(const MappingJob& job) {
     if (!job.corrections.empty()) applyCorrections(job.corrections);
     if (!job.keyframe) return;
     report(addKeyframe(*job.keyframe).message);
-    for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping() && !hurry_; ++i) optimize(1);
+    for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping() && !hurry_; ++i) {
+      // Live: the next job waits, so this keyframe gets fewer iterations (idle time adds more).
+      if (live_ && i >= options_.live_min_iterations_per_keyframe && worker_->queued() > 0) break;
+      optimize(1);
+    }
   } catch (const std::exception& e) {
     report(std::string("mapping worker: ") + e.what());
   }
@@ -133,9 +162,14 @@ double GaussianMapper::finish(std::optional<double> budget_s) {
   const auto within_budget = [&] {
     return !budget_s || std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < *budget_s;
   };
+  idle_paused_ = true;  // the refinement below replaces the idle training
   if (budget_s) hurry_ = true;  // queued keyframes: added to the map, not trained
   waitUntilIdle();
   hurry_ = false;
+  struct ResumeIdle {
+    std::atomic<bool>& flag;
+    ~ResumeIdle() { flag = false; }
+  } resume_idle{idle_paused_};
   double sum = 0.0;
   int n = 0;
   for (int i = 0; i < options_.final_refine_iterations && within_budget(); ++i) {

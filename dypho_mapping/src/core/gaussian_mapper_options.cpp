@@ -3,6 +3,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dypho/common/thread_budget.h"
 #include "dypho/mapping/mapping_options_fields.h"
 
 namespace dypho::mapping {
@@ -17,9 +18,12 @@ void require(bool ok, const char* field, const char* range) {
 void GaussianMapperOptions::validate() const {
   require(sh_degree >= 0 && sh_degree <= 3, "sh_degree", "in [0, 3]");
   require(max_gaussians >= 1, "max_gaussians", ">= 1");
-  require(num_threads >= 1, "num_threads", ">= 1");
+  require(num_threads >= 0, "num_threads", ">= 0");
   require(train_downsample == 1 || train_downsample == 2 || train_downsample == 4, "train_downsample", "1, 2 or 4");
   require(iterations_per_keyframe >= 0, "iterations_per_keyframe", ">= 0");
+  require(live_min_iterations_per_keyframe >= 0 && live_min_iterations_per_keyframe <= iterations_per_keyframe,
+          "live_min_iterations_per_keyframe", "in [0, iterations_per_keyframe]");
+  require(training_nice >= 0 && training_nice <= 19, "training_nice", "in [0, 19]");
   require(final_refine_iterations >= 0, "final_refine_iterations", ">= 0");
   require(window_size >= 1, "window_size", ">= 1");
   require(max_stored_keyframes >= 1, "max_stored_keyframes", ">= 1");
@@ -42,6 +46,10 @@ void GaussianMapperOptions::validate() const {
   require(prune_min_opacity >= 0 && prune_min_opacity < 1, "prune_min_opacity", "in [0, 1)");
   require(prune_max_scale_m > 0, "prune_max_scale_m", "> 0");
   require(opacity_reset_interval >= 0, "opacity_reset_interval", ">= 0");
+}
+
+int GaussianMapperOptions::resolvedNumThreads() const {
+  return num_threads > 0 ? num_threads : planThreadBudget(0).mapping_threads;
 }
 
 std::string GaussianMapperOptions::toString() const {

@@ -24,7 +24,7 @@ AdamLearningRates ratesFrom(const GaussianMapperOptions& o) {
 GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o)
     : options(o),
       map(o.sh_degree, o.max_gaussians),
-      pool(o.num_threads),
+      pool(o.resolvedNumThreads(), o.training_nice),
       raster(&pool),
       render_raster(&pool),
       adam(ratesFrom(o)),

@@ -14,7 +14,7 @@ MappingStage::MappingStage(const MappingOptions& options, MappingMode mode, cons
       renderer_(1) {
   options.validate();
   if (stage.keyframe_queue_size < 1) throw std::invalid_argument("keyframe_queue_size must be >= 1");
-  gaussians_.start(static_cast<std::size_t>(stage.keyframe_queue_size));
+  gaussians_.start(static_cast<std::size_t>(stage.keyframe_queue_size), mode == MappingMode::kLive);
 }
 
 MappingStage::~MappingStage() { gaussians_.stop(); }

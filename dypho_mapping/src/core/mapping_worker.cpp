@@ -3,10 +3,16 @@
 
 #include <algorithm>
 
+#include "dypho/common/thread_budget.h"
+
 namespace dypho::mapping {
 
-MappingWorker::MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler)
-    : handler_(std::move(handler)), capacity_(std::max<std::size_t>(1, capacity)) {
+MappingWorker::MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler,
+                             std::function<bool()> idle_handler, int nice_increment)
+    : handler_(std::move(handler)),
+      idle_handler_(std::move(idle_handler)),
+      nice_increment_(nice_increment),
+      capacity_(std::max<std::size_t>(1, capacity)) {
   thread_ = std::thread([this] { loop(); });
 }
 
@@ -39,12 +45,20 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
 }
 
 void MappingWorker::loop() {
+  lowerCurrentThreadPriority(nice_increment_);  // best effort: a failure only keeps the priority
+  bool idle_work_left = true;
   for (;;) {
     MappingJob job;
     {
       std::unique_lock<std::mutex> lock(mutex_);
+      if (idle_handler_ && idle_work_left && queue_.empty() && !stop_) {
+        lock.unlock();
+        idle_work_left = idle_handler_();  // one small step; a new job is taken right after it
+        continue;
+      }
       cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
       if (stop_) return;
+      idle_work_left = true;
       job = std::move(queue_.front());
       queue_.pop_front();
       busy_ = true;

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 
+#include "dypho/common/thread_budget.h"
+
 namespace dypho::mapping {
 
-ThreadPool::ThreadPool(int num_threads) : num_threads_(std::max(1, num_threads)) {
+ThreadPool::ThreadPool(int num_threads, int nice_increment)
+    : num_threads_(std::max(1, num_threads)), nice_increment_(std::max(0, nice_increment)) {
   for (int i = 1; i < num_threads_; ++i) workers_.emplace_back([this, i] { workerLoop(i); });
 }
 
@@ -49,6 +52,7 @@ void ThreadPool::runItems(int thread_index) {
 }
 
 void ThreadPool::workerLoop(int thread_index) {
+  lowerCurrentThreadPriority(nice_increment_);  // best effort: a failure only keeps the priority
   long seen = 0;
   for (;;) {
     {

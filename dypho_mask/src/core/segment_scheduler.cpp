@@ -4,6 +4,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "dypho/common/thread_budget.h"
+
 namespace dypho {
 namespace mask {
 namespace {
@@ -84,7 +86,11 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
       // Copies: the caller may reuse its buffers while the worker runs.
       cv::Mat bgr = frame.bgr.clone(), depth = frame.depth_m.clone();
       YoloSegmenter* seg = segmenter_.get();
-      pending_ = std::async(std::launch::async, [seg, bgr, depth] { return seg->segment(bgr, depth); });
+      const int nice = options_.async_nice;
+      pending_ = std::async(std::launch::async, [seg, bgr, depth, nice] {
+        lowerCurrentThreadPriority(nice);  // best effort: a failure only keeps the priority
+        return seg->segment(bgr, depth);
+      });
     } else {
       SegmentOutput r = segmenter_->segment(frame.bgr, frame.depth_m);
       out.network_ms = r.ms;

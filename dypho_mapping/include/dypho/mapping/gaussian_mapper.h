@@ -22,6 +22,7 @@
 /// render waits at most one iteration; renders of a snapshot (MapRenderer) wait for nothing.
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -93,8 +94,11 @@ class GaussianMapper {
   double optimize(int iterations);
 
   // --- worker thread -----------------------------------------------------------------------
-  /// Starts the worker with a queue of `queue_capacity` jobs (no-op when running).
-  void start(std::size_t queue_capacity);
+  /// Starts the worker with a queue of `queue_capacity` jobs (no-op when running). `live`: the
+  /// live policy (ROS graph): a keyframe's training stops after live_min_iterations_per_keyframe
+  /// iterations when the next job waits, and with live_train_when_idle the worker trains while
+  /// no job waits (fewer iterations when busy, more when idle; the queue never grows).
+  void start(std::size_t queue_capacity, bool live = false);
   /// Hands a keyframe to the worker (MappingWorker's policy: with `block_when_full` waits for
   /// room, otherwise drops the oldest waiting keyframe and returns false). Without a running
   /// worker, integrates and optimises synchronously.
@@ -163,6 +167,9 @@ class GaussianMapper {
   std::size_t applyCorrections(const KeyframePoseCorrections& corrections);
   void publishSnapshot(std::int64_t keyframe_id);
   void report(const std::string& message) const;
+  /// Live policy, worker thread: one training iteration while no job waits; false when there is
+  /// nothing to train (no keyframe yet, or finish() runs).
+  bool idleStep();
 
   GaussianMapperOptions options_;
   std::unique_ptr<GaussianTrainer> trainer_;  ///< guarded by mutex_
@@ -178,6 +185,9 @@ class GaussianMapper {
   MapSnapshot snapshot_;
   std::int64_t done_keyframe_id_ = -1;  ///< highest keyframe id whose job finished
   std::atomic<bool> hurry_{false};  ///< finish(budget) is draining the queue: skip training
+  std::atomic<bool> idle_paused_{false};  ///< finish() runs: no idle training beside it
+  bool live_ = false;                     ///< set by start()
+  std::chrono::steady_clock::time_point last_idle_snapshot_;  ///< worker thread only
 };
 
 }  // namespace dypho::mapping

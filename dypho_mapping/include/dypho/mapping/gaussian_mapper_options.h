@@ -15,12 +15,21 @@ struct GaussianMapperOptions {
   int sh_degree = 0;
   /// Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.
   std::size_t max_gaussians = 300000;
-  /// Threads of the rasterizer and optimiser (including the mapping worker), >= 1. Default 2.
-  int num_threads = 2;
+  /// Threads of the rasterizer and optimiser (including the mapping worker), >= 0; 0 = every core of the machine (the ROS graph: its `cores` thread budget). Default 0.
+  int num_threads = 0;
   /// Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.
   int train_downsample = 2;
   /// Optimisation iterations run after each new keyframe, >= 0. Default 30.
   int iterations_per_keyframe = 30;
+  /// Live policy (ROS graph): a keyframe's training stops after this many iterations when the
+  /// next job already waits, so the queue never grows; in [0, iterations_per_keyframe]. Default 5.
+  int live_min_iterations_per_keyframe = 5;
+  /// Live policy: with no job waiting the worker keeps training on the stored keyframes (the
+  /// idle time of the machine goes into the map). Default true.
+  bool live_train_when_idle = true;
+  /// Nice increment of the mapping worker and its pool threads (thread_budget.h): training takes
+  /// the time the camera-rate threads leave, in [0, 19]. Default 10.
+  int training_nice = 10;
   /// Iterations of the final refinement run by GaussianMapper::finish() at the end of a sequence,
   /// visiting every stored keyframe equally often, >= 0. Default 300.
   int final_refine_iterations = 300;
@@ -97,6 +106,8 @@ struct GaussianMapperOptions {
   /// Seed of the keyframe sampler and of the feature samples. Default 1.
   int random_seed = 1;
 
+  /// num_threads, with 0 resolved to every core of this machine.
+  int resolvedNumThreads() const;
   /// Throws std::invalid_argument naming the first field out of range and its range.
   void validate() const;
   /// One line "key=value ..." with every field.

@@ -23,9 +23,12 @@ template <typename Visitor>
 void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
   visitor("sh_degree", options.sh_degree, "Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.");
   visitor("max_gaussians", options.max_gaussians, "Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.");
-  visitor("num_threads", options.num_threads, "Threads of the rasterizer and optimiser (including the mapping worker), >= 1. Default 2.");
+  visitor("num_threads", options.num_threads, "Threads of the rasterizer and optimiser (including the mapping worker), >= 0; 0 = every core of the machine (the ROS graph: its `cores` thread budget). Default 0.");
   visitor("train_downsample", options.train_downsample, "Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.");
   visitor("iterations_per_keyframe", options.iterations_per_keyframe, "Optimisation iterations run after each new keyframe, >= 0. Default 30.");
+  visitor("live_min_iterations_per_keyframe", options.live_min_iterations_per_keyframe, "Live policy (ROS graph): a keyframe's training stops after this many iterations when the next job already waits, so the queue never grows; in [0, iterations_per_keyframe]. Default 5.");
+  visitor("live_train_when_idle", options.live_train_when_idle, "Live policy: with no job waiting the worker keeps training on the stored keyframes (the idle time of the machine goes into the map). Default true.");
+  visitor("training_nice", options.training_nice, "Nice increment of the mapping worker and its pool threads: training takes the time the camera-rate threads leave, in [0, 19]. Default 10.");
   visitor("final_refine_iterations", options.final_refine_iterations, "Iterations of the final refinement run by GaussianMapper::finish() at the end of a sequence, visiting every stored keyframe equally often, >= 0. Default 300.");
   visitor("window_size", options.window_size, "Newest keyframes sampled for training (sliding window), >= 1. Default 8.");
   visitor("max_stored_keyframes", options.max_stored_keyframes, "Keyframes whose images are kept (training and PSNR); older ones keep only their pose, >= 1. Default 200.");

@@ -30,7 +30,11 @@ struct MappingJob {
 class MappingWorker {
  public:
   /// Runs `handler` on the worker thread for every job. `capacity` >= 1 waiting jobs.
-  MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler);
+  /// `idle_handler` (optional): called again and again while no job waits; it does one small
+  /// step of background work and returns false when there is none (the worker then sleeps until
+  /// the next job). The thread raises its nice value by `nice_increment` (thread_budget.h).
+  MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler,
+                std::function<bool()> idle_handler = {}, int nice_increment = 0);
   ~MappingWorker();  ///< stop()
   MappingWorker(const MappingWorker&) = delete;
   MappingWorker& operator=(const MappingWorker&) = delete;
@@ -52,6 +56,8 @@ class MappingWorker {
   void loop();
 
   std::function<void(const MappingJob&)> handler_;
+  std::function<bool()> idle_handler_;
+  int nice_increment_ = 0;
   std::size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;

@@ -36,6 +36,9 @@ struct YoloOptions {
   /// Run the network on a worker thread: compute() never waits for it; its newest result is
   /// carried to the current frame with the flows of the frames since. Default false.
   bool async = false;
+  /// Nice increment of the asynchronous network's thread (thread_budget.h): the network takes the
+  /// time the camera-rate threads leave, in [0, 19]. Default 5.
+  int async_nice = 5;
   /// Detector boxes: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.
   double box_depth_range_m = 0.6;
 

@@ -43,6 +43,7 @@ void visitOptions(YoloOptions& options, Visitor&& visitor) {
   visitor("dynamic_classes", options.dynamic_classes, "COCO class ids treated as dynamic, comma separated. Default person, bicycle, car, motorbike, bus, truck, bird, cat, dog, horse, backpack, handbag, suitcase, skateboard.");
   visitor("every_n_frames", options.every_n_frames, "Run the network on every N-th frame, >= 1; in between its mask is carried along with the optical flow. Default 1.");
   visitor("async", options.async, "Run the network on a worker thread; its newest result is carried to the current frame with the optical flow. Default false.");
+  visitor("async_nice", options.async_nice, "Nice increment of the asynchronous network's thread: the network takes the time the camera-rate threads leave, in [0, 19]. Default 5.");
   visitor("box_depth_range_m", options.box_depth_range_m, "Detector boxes are segmented with depth: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.");
 }
 
