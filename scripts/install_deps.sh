@@ -12,6 +12,7 @@ PACKAGES=(
   libsensor-msgs-dev libgeometry-msgs-dev libstd-msgs-dev libnav-msgs-dev
   ros-sensor-msgs ros-geometry-msgs ros-std-msgs ros-nav-msgs
   python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs python3-nav-msgs
+  libdiagnostic-updater-dev libdiagnostic-msgs-dev python3-diagnostic-msgs
   libeigen3-dev libopencv-dev libceres-dev libgtest-dev libyaml-cpp-dev
   librostest-dev python3-rostest ros-core rosbash python3-rosbag
   rviz xvfb imagemagick

@@ -5,6 +5,7 @@
 /// (the depth rendered from the map) used by the mask in both.
 
 #include <atomic>
+#include <cmath>
 #include <mutex>
 
 #include <dypho_slam/Keyframe.h>
@@ -33,6 +34,7 @@ struct Recorder {
   std::vector<dypho::StampedPose> trajectory;
   std::vector<double> keyframe_stamps_s;
   dypho_slam::MaskStatus last_mask_status;
+  dypho_slam::TrackingStatus last_status;
   ros::WallTime last_pose = ros::WallTime::now();
 };
 
@@ -44,11 +46,11 @@ struct InProcessRun {
   std::size_t frames = 0;
 };
 
-InProcessRun runInProcess(const std::string& dataset) {
+InProcessRun runInProcess(const std::string& dataset, double background_tau) {
   using namespace dypho;
   const std::string config_dir = tools::defaultConfigDir();
   pipeline::PipelineOptions options = pipeline::loadPipelineOptions(config_dir, "");
-  options.mask.background.tau = 0.1;  // R_d on, as graph.test sets it for the mask nodelet
+  options.mask.background.tau = background_tau;  // as the launch file sets it for the mask nodelet
   const auto source = tools::openFrameSource(dataset, "", config_dir);
   pipeline::SlamPipeline slam(options);
   InProcessRun run;
@@ -87,6 +89,11 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   ASSERT_TRUE(pnh.getParam("groundtruth", gt_path));
   ASSERT_TRUE(pnh.getParam("dataset", dataset));
   ASSERT_TRUE(pnh.getParam("frames", frames));
+  // background_tau > 0: R_d is on in the launch file (graph_rendered_depth.test) and its use is
+  // checked; min_posed_fraction: the share of the input frames that must get a pose.
+  double background_tau = 0.0, min_posed_fraction = 0.99;
+  pnh.getParam("background_tau", background_tau);
+  pnh.getParam("min_posed_fraction", min_posed_fraction);
   Recorder rec;
 
   auto mask_sub = nh.subscribe<sensor_msgs::Image>("/dypho/mask", 50, [&](const sensor_msgs::ImageConstPtr& m) {
@@ -118,6 +125,8 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 50, [&](const dypho_slam::TrackingStatusConstPtr& s) {
     ++rec.statuses;
     if (s->state == dypho_slam::TrackingStatus::OK) ++rec.ok_statuses;
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    rec.last_status = *s;
   });
   auto mask_status_sub = nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 50, [&](const dypho_slam::MaskStatusConstPtr& m) {
     std::lock_guard<std::mutex> lock(rec.mutex);
@@ -138,10 +147,23 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   }
   ros::WallDuration(2.0).sleep();  // let the cloud timer fire once more
 
-  // Every frame is processed by mask and tracking. Bound: the approximate-time synchroniser may
-  // drop the first frames while subscriptions connect, so at least 90 % of the frames.
+  // graph.test, at 1x: every frame gets a pose, bound 99 % of the input frames (with 120 frames
+  // one may be lost, e.g. while the subscriptions connect). Tracking never waits for a slow mask
+  // longer than ~mask_max_wait_s: it goes on with a carried mask, and says so in its status.
+  const std::size_t at_least = static_cast<std::size_t>(std::ceil(min_posed_fraction * frames));
+  {
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    const dypho_slam::TrackingStatus& s = rec.last_status;
+    std::cout << "graph test (1x): " << rec.statuses << " statuses, " << rec.poses << " poses of " << frames
+              << " frames; tracking saw " << s.frames_in << " in, " << s.frames_processed << " processed, "
+              << s.frames_dropped << " dropped, " << s.frames_mask_carried << " with a carried mask, "
+              << s.frames_without_mask << " without; latency p50 " << s.latency_p50_ms << " ms, p95 "
+              << s.latency_p95_ms << " ms; mask skipped " << rec.last_mask_status.frames_dropped_busy << "\n";
+    EXPECT_EQ(s.frames_processed + s.frames_dropped, s.frames_in) << "every frame is tracked or counted as dropped";
+  }
+  EXPECT_GE(static_cast<std::size_t>(rec.statuses), at_least);
+  EXPECT_GE(static_cast<std::size_t>(rec.poses), at_least);
   EXPECT_GE(rec.masks, frames * 9 / 10);
-  EXPECT_GE(rec.statuses, frames * 9 / 10);
   EXPECT_EQ(rec.mask_errors, 0);
   // Tracking is OK on nearly all frames of this easy sequence (first frame initialises).
   EXPECT_GE(rec.ok_statuses, frames * 8 / 10);
@@ -168,17 +190,19 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   // in the depth rendered from the map. The first keyframes' frames have no map to render yet;
   // bound: half of the frames masked.
   const dypho_slam::MaskStatus& mask_status = rec.last_mask_status;
+  const bool rendered_depth_on = background_tau > 0.0;
   std::cout << "graph test: mask used R_d on " << mask_status.frames_with_rendered_depth << " of "
             << mask_status.frames << " frames (" << mask_status.rendered_depth_offered << " offered, "
             << mask_status.rendered_depth_unmatched << " unmatched)\n";
-  EXPECT_GE(mask_status.frames_with_rendered_depth * 2, mask_status.frames);
+  if (rendered_depth_on) EXPECT_GE(mask_status.frames_with_rendered_depth * 2, mask_status.frames);
+  if (!rendered_depth_on) EXPECT_EQ(mask_status.frames_with_rendered_depth, 0u) << "R_d is off by default";
 
   // The same stages in process on the same frames (the sequence folder the bag was written from).
-  const InProcessRun in_process = runInProcess(dataset);
+  const InProcessRun in_process = runInProcess(dataset, background_tau);
   std::cout << "in process: R_d on " << in_process.frames_with_rendered_depth << " of " << in_process.frames
             << " frames, " << in_process.keyframe_stamps_s.size() << " keyframes, " << in_process.trajectory.size()
             << " poses\n";
-  EXPECT_GE(in_process.frames_with_rendered_depth * 2, in_process.frames);
+  if (rendered_depth_on) EXPECT_GE(in_process.frames_with_rendered_depth * 2, in_process.frames);
   // Trajectories: the graph's poses against the in-process ones (rigid alignment, matched by
   // stamp). Bound 5 mm: both are about 4 mm from the ground truth, and the graph differs only in
   // timing (which R_d arrives in time for which frame, frames the synchroniser drops).

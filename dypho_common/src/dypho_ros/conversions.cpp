@@ -119,7 +119,7 @@ RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& d
 
 sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding,
                                  const std_msgs::Header& header) {
-  return cv_bridge::CvImage(header, encoding, image.clone()).toImageMsg();
+  return cv_bridge::CvImage(header, encoding, image).toImageMsg();  // one copy, into the message
 }
 
 geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
@@ -165,12 +165,13 @@ dypho_slam::KeyframePtr toKeyframeMsg(const Keyframe& keyframe, const std::strin
   header.frame_id = camera_frame;
   msg->header = header;
   msg->id = keyframe.id;
-  msg->rgb = *toImageMsg(keyframe.frame.bgr, enc::BGR8, header);
-  msg->depth = *toImageMsg(keyframe.frame.depth_m, enc::TYPE_32FC1, header);
+  // Each image is copied once, straight into the message's buffer.
+  cv_bridge::CvImage(header, enc::BGR8, keyframe.frame.bgr).toImageMsg(msg->rgb);
+  cv_bridge::CvImage(header, enc::TYPE_32FC1, keyframe.frame.depth_m).toImageMsg(msg->depth);
   const cv::Mat mask = keyframe.mask.empty()
                            ? cv::Mat(keyframe.frame.bgr.size(), CV_8UC1, cv::Scalar(kMaskStatic))
                            : keyframe.mask;
-  msg->mask = *toImageMsg(mask, enc::MONO8, header);
+  cv_bridge::CvImage(header, enc::MONO8, mask).toImageMsg(msg->mask);
   msg->camera_info = toCameraInfoMsg(keyframe.frame.camera, header);
   msg->T_world_camera = toPoseMsg(keyframe.T_world_camera);
   msg->keypoints.reserve(keyframe.keypoints.size());

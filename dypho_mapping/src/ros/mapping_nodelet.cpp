@@ -19,6 +19,7 @@
 #include <optional>
 #include <thread>
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <dypho_slam/Keyframe.h>
 #include <dypho_slam/KeyframeCorrections.h>
 #include <dypho_slam/LoadMap.h>
@@ -31,6 +32,7 @@
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/common/output_path.h"
+#include "dypho/common/thread_budget.h"
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mapping/mapping_stage.h"
@@ -63,6 +65,9 @@ struct MappingRosParams {
   /// are written. Default 6: roslaunch escalates to SIGTERM 15 s after Ctrl-C, and tracking's
   /// trajectory is written after the map. > 0.
   double shutdown_refine_budget_s = 6.0;
+  /// Cores of the thread budget (thread_budget.h; 0 = every core): with num_threads 0 the
+  /// rasterizer/optimiser pool gets them all, at the lower priority of training_nice.
+  int cores = 0;
 };
 
 /// A pose to render at (the latest tracked pose).
@@ -117,13 +122,17 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("use_gpu", params_.use_gpu, "");
     reader("refine_before_save", params_.refine_before_save, "");
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
+    reader("cores", params_.cores, "");
     if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
     reader.checkNoUnknownKeys();
     // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
     // created is a startup error, not a silent loss at the end of the run).
     if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
     options.validate();
-    NODELET_INFO_STREAM("mapping parameters:" << reader.summary());
+    if (options.gaussian.num_threads == 0) options.gaussian.num_threads = planThreadBudget(params_.cores).mapping_threads;
+    NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\nthread budget: " << options.gaussian.num_threads
+                                              << " training threads at nice +" << options.gaussian.training_nice
+                                              << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
     std::string device_message;
     const mapping::ComputeDevice device = mapping::selectComputeDevice(params_.use_gpu, &device_message);
     // There are no CUDA kernels yet: whatever the device query says, training runs on the CPU.
@@ -158,6 +167,11 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
     timer_ = nh.createWallTimer(ros::WallDuration(params_.publish_period_s),
                                 [this](const ros::WallTimerEvent&) { publishClouds(); });
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("dypho_slam");
+    diagnostics_->add("mapping", this, &GaussianMappingNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
+                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
 
     // 4. Inputs.
     keyframe_sub_ = nh.subscribe("keyframe", 10, &GaussianMappingNodelet::onKeyframe, this);
@@ -331,6 +345,39 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  /// /diagnostics: training rate, map size and the keyframe queue.
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+    const mapping::MappingStageStats s = stage_->stats();
+    const ros::WallTime now = ros::WallTime::now();
+    double iterations_per_s = 0.0;
+    if (last_diagnosis_.toSec() > 0) {
+      const double dt = (now - last_diagnosis_).toSec();
+      if (dt > 0) iterations_per_s = static_cast<double>(s.gaussians.iterations - iterations_at_last_diagnosis_) / dt;
+    }
+    const std::size_t dropped_now = s.gaussians.dropped_keyframes - dropped_at_last_diagnosis_;
+    last_diagnosis_ = now;
+    iterations_at_last_diagnosis_ = s.gaussians.iterations;
+    dropped_at_last_diagnosis_ = s.gaussians.dropped_keyframes;
+    if (dropped_now > 0) {
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "%zu keyframes dropped since the last report: mapping is behind (queue full)", dropped_now);
+    } else if (s.keyframes_received == 0) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "waiting for the first keyframe");
+    } else {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "training");
+    }
+    stat.add("iterations per second", iterations_per_s);
+    stat.add("iterations", s.gaussians.iterations);
+    stat.add("Gaussians", s.gaussians.num_gaussians);
+    stat.add("keyframes received", s.keyframes_received);
+    stat.add("keyframes in the map", s.gaussians.num_keyframes);
+    stat.add("keyframes with images", s.gaussians.num_stored_images);
+    stat.add("jobs queued", s.gaussians.queued);
+    stat.add("keyframes dropped", s.gaussians.dropped_keyframes);
+    stat.add("keyframes skipped", s.gaussians.skipped_keyframes);
+    stat.add("last loss", s.gaussians.last_loss);
+  }
+
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
     stage_->reset();
     changed_ = true;
@@ -354,7 +401,11 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
-  ros::WallTimer timer_;
+  ros::WallTimer timer_, diagnostics_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTime last_diagnosis_{0.0};           ///< diagnostics timer only
+  std::int64_t iterations_at_last_diagnosis_ = 0;
+  std::size_t dropped_at_last_diagnosis_ = 0;
 };
 
 }  // namespace dypho::mapping_ros

@@ -3,9 +3,21 @@
 /// in-process pipeline runs). Optional inputs, never waited for: `tracking_status` (the tracked
 /// pose with its jump flags, for the ego-motion prior) and `rendered/depth_predicted` (R_d, the
 /// map's depth at the predicted pose of the frame with the same stamp).
+///
+/// Threads: the synchronised callback only stores the message pointers; one worker thread masks
+/// the oldest waiting frame. When more than ~max_waiting_frames wait (the mask is slower than the
+/// camera), the oldest is skipped and counted: tracking then carries the nearest mask to it. The
+/// network (yolo_async) runs on its own lower-priority thread beside it. `~cores` sets OpenCV's
+/// pool for the whole process (thread_budget.h).
 
+#include <chrono>
+#include <condition_variable>
+#include <deque>
 #include <memory>
+#include <mutex>
+#include <thread>
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <dypho_slam/MaskStatus.h>
 #include <dypho_slam/StageTiming.h>
 #include <dypho_slam/TrackingStatus.h>
@@ -17,7 +29,11 @@
 #include <message_filters/synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <opencv2/core.hpp>
 #include <sensor_msgs/image_encodings.h>
+
+#include "dypho/common/rolling_stats.h"
+#include "dypho/common/thread_budget.h"
 
 #include "dypho/mask/mask_options_fields.h"
 #include "dypho/mask/mask_stage.h"
@@ -31,6 +47,10 @@ namespace dypho::mask_ros {
 namespace rc = dypho::ros_conversions;
 using sensor_msgs::CameraInfo;
 using sensor_msgs::Image;
+
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 class DynamicMaskNodelet : public nodelet::Nodelet {
   using ApproxPolicy = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
@@ -60,12 +80,22 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     int queue_size = 10;
     bool approx_sync = true;
     double watchdog_s = 5.0;
+    int cores = 0;
     reader("queue_size", queue_size, "synchroniser queue length [messages]");
     reader("approx_sync", approx_sync, "approximate-time sync of rgb/depth/camera_info");
     reader("watchdog_s", watchdog_s, "warn when no input arrived for this long [s]; 0 = off");
     reader("rendered_depth_tolerance_s", stage_options.rendered_depth_tolerance_s,
            "R_d is used by the frame whose stamp is within this of its stamp [s]");
+    reader("max_waiting_frames", max_waiting_frames_,
+           "frames waiting for the mask worker; beyond it the oldest is skipped and counted, >= 1");
+    reader("cores", cores, "cores of the thread budget (0 = every core): OpenCV's pool gets half");
     reader.checkNoUnknownKeys();
+    if (max_waiting_frames_ < 1) throw std::invalid_argument("max_waiting_frames must be >= 1");
+    const ThreadBudget budget = planThreadBudget(cores);
+    cv::setNumThreads(budget.opencv_threads);  // process-wide: the manager's nodelets share it
+    NODELET_INFO_STREAM("thread budget: " << budget.cores << " cores, OpenCV pool " << budget.opencv_threads
+                                          << " threads, network nice +" << options.yolo.async_nice
+                                          << (options.yolo.async ? " (asynchronous)" : " (in the mask thread)"));
     options.validate();
     NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary());
 
@@ -86,6 +116,12 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     consistency_pub_ = it_->advertise("mask/raw_consistency", 2);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("mask/timing", 10);
     status_pub_ = nh.advertise<dypho_slam::MaskStatus>("mask/status", 10);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("dypho_slam");
+    diagnostics_->add("mask", this, &DynamicMaskNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
+                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    worker_ = std::thread([this] { workerLoop(); });
 
     // 4. Inputs.
     rgb_sub_.subscribe(*it_, "rgb/image", queue_size);
@@ -111,13 +147,59 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
         watchdog_s, /*has_approx_sync=*/true);
   }
 
+ ~DynamicMaskNodelet() override {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      stop_ = true;
+    }
+    queue_cv_.notify_all();
+    if (worker_.joinable()) worker_.join();
+  }
+
  private:
+  /// One synchronised input set, held as message pointers (no copy) until masked.
+  struct FrameMsgs {
+    sensor_msgs::ImageConstPtr rgb, depth;
+    sensor_msgs::CameraInfoConstPtr info;
+    double arrival_s = 0.0;
+  };
+
   void callback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                 const sensor_msgs::CameraInfoConstPtr& info) {
     watchdog_->tick();
+    const double now = steadySeconds();
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      waiting_.push_back(FrameMsgs{rgb, depth, info, now});
+      ++frames_in_;
+      input_rate_.add(now);
+      while (static_cast<int>(waiting_.size()) > max_waiting_frames_) {
+        waiting_.pop_front();
+        ++frames_dropped_busy_;
+      }
+    }
+    queue_cv_.notify_one();
+  }
+
+  void workerLoop() {
+    for (;;) {
+      FrameMsgs msgs;
+      {
+        std::unique_lock<std::mutex> lock(queue_mutex_);
+        queue_cv_.wait(lock, [&] { return stop_ || !waiting_.empty(); });
+        if (stop_) return;
+        msgs = std::move(waiting_.front());
+        waiting_.pop_front();
+      }
+      processFrame(msgs);
+    }
+  }
+
+  void processFrame(const FrameMsgs& msgs) {
+    const sensor_msgs::ImageConstPtr& rgb = msgs.rgb;
     RgbdFrame frame;
     try {
-      frame = rc::toRgbdFrame(*rgb, *depth, *info);
+      frame = rc::toRgbdFrame(*rgb, *msgs.depth, *msgs.info);
     } catch (const std::exception& e) {
       const std::string message = std::string("dropping frame: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
@@ -142,10 +224,10 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     publishIfWanted(raw_pub_, result.raw_flow_mask, rgb->header);
     publishIfWanted(raw_segment_pub_, result.raw_segment_mask, rgb->header);
     publishIfWanted(consistency_pub_, result.consistency_mask, rgb->header);
-    publishStatus(result, rgb->header);
+    publishStatus(result, rgb->header, (steadySeconds() - msgs.arrival_s) * 1e3);
   }
 
-  void publishStatus(const mask::MaskResult& result, const std_msgs::Header& header) {
+  void publishStatus(const mask::MaskResult& result, const std_msgs::Header& header, double latency_ms) {
     const mask::MaskStageStats stats = stage_->stats();
     auto status = boost::make_shared<dypho_slam::MaskStatus>();
     status->header = header;
@@ -161,6 +243,21 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     status->frames_dropped_out_of_order = stats.dropped_out_of_order;
     status->restarts = stats.restarts;
     status->message = result.message;
+    status->segment_source = result.segment_fresh                ? dypho_slam::MaskStatus::SEGMENT_FRESH
+                             : !result.raw_segment_mask.empty() ? dypho_slam::MaskStatus::SEGMENT_CARRIED
+                                                                : dypho_slam::MaskStatus::SEGMENT_NONE;
+    status->segment_age_frames = result.segment_age_frames;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      latency_ms_.add(latency_ms);
+      status->frames_in = frames_in_;
+      status->frames_dropped_busy = frames_dropped_busy_;
+      status->latency_ms = static_cast<float>(latency_ms);
+      status->latency_p50_ms = static_cast<float>(latency_ms_.percentile(0.5));
+      status->latency_p95_ms = static_cast<float>(latency_ms_.percentile(0.95));
+      status->input_rate_hz = static_cast<float>(input_rate_.rateHz(steadySeconds()));
+      last_status_ = *status;
+    }
     status_pub_.publish(status);
     auto timing = boost::make_shared<dypho_slam::StageTiming>();
     timing->header = header;
@@ -170,6 +267,37 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
                   static_cast<float>(result.background_ms)};
     timing->total_ms = static_cast<float>(result.total_ms);
     timing_pub_.publish(timing);
+  }
+
+  /// /diagnostics: the mask's live figures, with a level a user can act on.
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    const dypho_slam::MaskStatus& s = last_status_;
+    const std::uint64_t dropped_now = s.frames_dropped_busy - dropped_at_last_diagnosis_;
+    dropped_at_last_diagnosis_ = s.frames_dropped_busy;
+    static const char* const kSegment[] = {"network, this frame", "network, carried", "flow and background only"};
+    const char* segment = kSegment[std::min<int>(s.segment_source, 2)];
+    if (s.frames == 0) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame masked yet (check the input topics)");
+    } else if (dropped_now > 0) {
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "%lu frames skipped since the last report: the mask is slower than the camera (tracking carries masks)",
+                    static_cast<unsigned long>(dropped_now));
+    } else if (s.degraded) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "degraded: " + s.message);
+    } else {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, segment);
+    }
+    stat.add("mask mode", segment);
+    stat.add("network mask age [frames]", s.segment_age_frames);
+    stat.add("input rate [Hz]", s.input_rate_hz);
+    stat.add("frames in", s.frames_in);
+    stat.add("frames masked", s.frames);
+    stat.add("frames skipped (busy)", s.frames_dropped_busy);
+    stat.add("latency p50 [ms]", s.latency_p50_ms);
+    stat.add("latency p95 [ms]", s.latency_p95_ms);
+    stat.add("masked fraction", s.masked_fraction);
+    stat.add("R_d used on frames", s.frames_with_rendered_depth);
   }
 
   void publishIfWanted(image_transport::Publisher& pub, const cv::Mat& image, const std_msgs::Header& header) {
@@ -190,7 +318,20 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
-  std::unique_ptr<mask::MaskStage> stage_;
+  std::unique_ptr<mask::MaskStage> stage_;  ///< the worker thread (and the optional-input callbacks, through its own lock)
+  int max_waiting_frames_ = 2;
+
+  std::mutex queue_mutex_;  ///< guards the queue, the counters and stop_
+  std::condition_variable queue_cv_;
+  std::deque<FrameMsgs> waiting_;
+  bool stop_ = false;
+  std::uint64_t frames_in_ = 0, frames_dropped_busy_ = 0, dropped_at_last_diagnosis_ = 0;
+  RollingSamples latency_ms_;
+  EventRate input_rate_;
+  dypho_slam::MaskStatus last_status_;
+  std::thread worker_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
   rc::ThrottledLog input_log_, degraded_log_;  ///< each kind of problem is named at once, then every 5 s
   ros::Subscriber tracking_sub_;
   image_transport::Subscriber rendered_sub_;

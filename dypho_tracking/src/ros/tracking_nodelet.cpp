@@ -1,11 +1,19 @@
-/// TrackingNodelet: synchronised rgb + depth + camera_info (+ dynamic mask) in; pose, path, tf
+/// TrackingNodelet: synchronised rgb + depth + camera_info and the dynamic mask in; pose, path, tf
 /// (map -> odom -> camera, REP-105), tracking status (with the pose and its jump flags, which the
-/// mask and mapping nodelets feed their motion models with), keyframes, keyframe correction
-/// batches and timing out. All the work and its policy are in dypho::tracking::TrackingStage (the
-/// same stage the in-process pipeline runs).
+/// mask and mapping nodelets feed their motion models with, and the live figures), keyframes,
+/// keyframe correction batches, timing and /diagnostics out. All the tracking and its policy are
+/// in dypho::tracking::TrackingStage (the same stage the in-process pipeline runs).
+///
+/// Threads: the callbacks only store message pointers; one worker thread pairs each frame with its
+/// mask (MaskPairer: a bounded wait, then a carried mask or none, said in the status), converts
+/// it once and tracks it. Frames beyond ~mask_max_pending_frames are dropped and counted.
 
+#include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <memory>
+#include <mutex>
+#include <thread>
 
 #include <dypho_slam/Keyframe.h>
 #include <dypho_slam/KeyframeCorrections.h>
@@ -13,6 +21,7 @@
 #include <dypho_slam/SaveMap.h>
 #include <dypho_slam/StageTiming.h>
 #include <dypho_slam/TrackingStatus.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
@@ -26,6 +35,8 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "dypho/common/output_path.h"
+#include "dypho/common/rolling_stats.h"
+#include "dypho/tracking/mask_pairing.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
@@ -46,13 +57,27 @@ struct TrackingRosParams {
   std::string camera_frame;         ///< tracked camera optical frame; empty = the rgb header's frame_id
   bool publish_tf = true;           ///< broadcast map -> odom -> camera_frame
   bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
-  int queue_size = 10;              ///< synchroniser queue [messages]
+  int queue_size = 10;              ///< synchroniser and mask subscriber queues [messages]
   double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
   /// where trajectory.txt is written on shutdown (empty = not on shutdown); ~save_trajectory
   /// writes only inside it (empty: inside $ROS_HOME/dypho, default ~/.ros/dypho)
   std::string output_dir;
-  int max_path_length = 100000;     ///< path poses kept [poses]
+  int max_path_length = 20000;      ///< path poses kept, newest (11 min at 30 Hz) [poses], >= 1
+  double path_period_s = 0.5;       ///< the path is published at most this often, when it changed [s], > 0
+  tracking::MaskPairingOptions mask_pairing;  ///< ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s
 };
+
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::uint8_t toStatusMaskSource(tracking::MaskSource source) {
+  switch (source) {
+    case tracking::MaskSource::kMatched: return dypho_slam::TrackingStatus::MASK_MATCHED;
+    case tracking::MaskSource::kCarried: return dypho_slam::TrackingStatus::MASK_CARRIED;
+    default: return dypho_slam::TrackingStatus::MASK_NONE;
+  }
+}
 
 std::uint8_t toStatusState(tracking::TrackingState state) {
   switch (state) {
@@ -63,8 +88,14 @@ std::uint8_t toStatusState(tracking::TrackingState state) {
 }
 
 class TrackingNodelet : public nodelet::Nodelet {
-  using Policy4 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo, Image>;
   using Policy3 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
+
+  /// One synchronised input set, held as message pointers (no copy) until tracked.
+  struct FrameMsgs {
+    sensor_msgs::ImageConstPtr rgb, depth;
+    sensor_msgs::CameraInfoConstPtr info;
+  };
+  using Pairer = tracking::MaskPairer<FrameMsgs, sensor_msgs::ImageConstPtr>;
 
  public:
   /// A bad parameter must not take the manager down, nor vanish: it is logged as FATAL
@@ -95,7 +126,14 @@ class TrackingNodelet : public nodelet::Nodelet {
     reader("watchdog_s", params_.watchdog_s, "");
     reader("output_dir", params_.output_dir, "");
     reader("max_path_length", params_.max_path_length, "");
+    reader("path_period_s", params_.path_period_s, "");
+    reader("mask_max_wait_s", params_.mask_pairing.max_wait_s, "");
+    reader("mask_max_pending_frames", params_.mask_pairing.max_pending_frames, "");
+    reader("mask_max_carry_age_s", params_.mask_pairing.max_carry_age_s, "");
     reader.checkNoUnknownKeys();
+    if (params_.max_path_length < 1) throw std::invalid_argument("max_path_length must be >= 1");
+    if (!(params_.path_period_s > 0)) throw std::invalid_argument("path_period_s must be > 0");
+    params_.mask_pairing.validate();
     // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
     // created is a startup error, not a silent loss at the end of the run).
     if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
@@ -104,6 +142,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 2. Core.
     stage_ = std::make_unique<tracking::TrackingStage>(options);
+    pairer_ = std::make_unique<Pairer>(params_.mask_pairing, params_.use_mask);
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
@@ -116,8 +155,16 @@ class TrackingNodelet : public nodelet::Nodelet {
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
     path_.header.frame_id = params_.map_frame;
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+    path_timer_ = nh.createWallTimer(ros::WallDuration(params_.path_period_s),
+                                     [this](const ros::WallTimerEvent&) { publishPathIfChanged(); });
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+    diagnostics_->setHardwareID("dypho_slam");
+    diagnostics_->add("tracking", this, &TrackingNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
+                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
 
-    // 4. Inputs.
+    // 4. Worker, then inputs.
+    worker_ = std::thread([this] { workerLoop(); });
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
     const int q = params_.queue_size;
     rgb_sub_.subscribe(*it_, "rgb/image", q);
@@ -125,22 +172,20 @@ class TrackingNodelet : public nodelet::Nodelet {
     info_sub_.subscribe(nh, "rgb/camera_info", q);
     std::vector<std::string> topics{nh.resolveName("rgb/image"), nh.resolveName("depth/image"),
                                     nh.resolveName("rgb/camera_info")};
-    if (params_.use_mask) {
-      mask_sub_.subscribe(*it_, "mask", q);
-      sync4_ = std::make_unique<message_filters::Synchronizer<Policy4>>(Policy4(q), rgb_sub_,
-                                                                        depth_sub_, info_sub_, mask_sub_);
-      sync4_->registerCallback(&TrackingNodelet::callback, this);
-      topics.push_back(nh.resolveName("mask"));
-    } else {
-      sync3_ = std::make_unique<message_filters::Synchronizer<Policy3>>(Policy3(q), rgb_sub_,
-                                                                        depth_sub_, info_sub_);
-      sync3_->registerCallback(&TrackingNodelet::callbackNoMask, this);
-    }
+    sync3_ = std::make_unique<message_filters::Synchronizer<Policy3>>(Policy3(q), rgb_sub_, depth_sub_, info_sub_);
+    sync3_->registerCallback(&TrackingNodelet::frameCallback, this);
+    if (params_.use_mask) mask_sub_ = it_->subscribe("mask", q, &TrackingNodelet::maskCallback, this);
     watchdog_ = std::make_unique<rc::SyncWatchdog>(nh, getName(), topics, params_.watchdog_s,
                                                    /*has_approx_sync=*/false);
   }
 
   ~TrackingNodelet() override {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      stop_ = true;
+    }
+    queue_cv_.notify_all();
+    if (worker_.joinable()) worker_.join();
     if (params_.output_dir.empty() || !stage_) return;
     try {
       saveTrajectory(params_.output_dir);
@@ -150,40 +195,106 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
  private:
-  void callbackNoMask(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
-                      const sensor_msgs::CameraInfoConstPtr& info) {
-    callback(rgb, depth, info, nullptr);
+  // --- callbacks: store pointers, wake the worker -------------------------------------------
+  void frameCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
+                     const sensor_msgs::CameraInfoConstPtr& info) {
+    watchdog_->tick();
+    const double now = steadySeconds();
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      pairer_->addFrame(rc::toTimestamp(rgb->header.stamp), FrameMsgs{rgb, depth, info}, now);
+      input_rate_.add(now);
+    }
+    queue_cv_.notify_one();
   }
 
-  void callback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
-                const sensor_msgs::CameraInfoConstPtr& info, const sensor_msgs::ImageConstPtr& mask_msg) {
-    watchdog_->tick();
+  void maskCallback(const sensor_msgs::ImageConstPtr& mask) {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      pairer_->addMask(rc::toTimestamp(mask->header.stamp), mask);
+    }
+    queue_cv_.notify_one();
+  }
+
+  // --- worker ---------------------------------------------------------------------------------
+  void workerLoop() {
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    while (!stop_) {
+      std::vector<Pairer::Ready> ready = pairer_->takeReady(steadySeconds());
+      if (ready.empty()) {
+        const std::optional<double> wait_s = pairer_->secondsUntilDeadline(steadySeconds());
+        if (wait_s) {
+          queue_cv_.wait_for(lock, std::chrono::duration<double>(*wait_s + 1e-4));
+        } else {
+          queue_cv_.wait(lock);
+        }
+        continue;
+      }
+      lock.unlock();
+      for (Pairer::Ready& r : ready) processFrame(r);
+      lock.lock();
+    }
+  }
+
+  void processFrame(const Pairer::Ready& ready) {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      ++frames_processed_;  // taken by the worker (a frame it cannot convert is reported, not dropped silently)
+    }
+    const FrameMsgs& msgs = ready.frame;
     RgbdFrame frame;
     cv::Mat mask;
     try {
-      frame = rc::toRgbdFrame(*rgb, *depth, *info);
-      if (mask_msg) mask = rc::toMask(*mask_msg);
+      frame = rc::toRgbdFrame(*msgs.rgb, *msgs.depth, *msgs.info);
+      if (ready.mask) mask = rc::toMask(*ready.mask);
+      if (!mask.empty() && mask.size() != frame.bgr.size()) {
+        throw rc::ConversionError("mask is " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
+                                  " but the image is " + std::to_string(frame.bgr.cols) + "x" +
+                                  std::to_string(frame.bgr.rows));
+      }
     } catch (const std::exception& e) {
       const std::string message = std::string("dropping frame: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
     tracking::TrackingOutput out;
+    const double t0 = steadySeconds();
     try {
+      std::lock_guard<std::mutex> lock(stage_mutex_);
       out = stage_->process(frame, mask);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
       const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
+    const double tracking_ms = (steadySeconds() - t0) * 1e3;
     if (out.dropped) {  // repeated or late stamp: nothing to publish for it
       if (input_log_.pass(out.result.message)) NODELET_WARN_STREAM(out.result.message);
       return;
     }
-    publish(out, rgb->header);
+    if (ready.source != tracking::MaskSource::kMatched && params_.use_mask) {
+      const std::string message = std::string("a frame's mask did not come within mask_max_wait_s (") +
+                                  std::to_string(params_.mask_pairing.max_wait_s) + " s): tracked with " +
+                                  (ready.source == tracking::MaskSource::kCarried ? "the nearest mask in time"
+                                                                                  : "no mask") +
+                                  " (counted in tracking_status; the mask nodelet is slower than the camera)";
+      if (mask_log_.pass(message)) NODELET_WARN_STREAM(message);
+    }
+    LiveFigures live;
+    live.source = ready.source;
+    live.mask_wait_ms = ready.waited_s * 1e3;
+    live.tracking_ms = tracking_ms;
+    publish(out, msgs.rgb->header, live);
   }
 
-  void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header) {
+  /// What the status says about this frame's path through the nodelet.
+  struct LiveFigures {
+    tracking::MaskSource source = tracking::MaskSource::kNone;
+    double mask_wait_ms = 0.0;
+    double tracking_ms = 0.0;
+  };
+
+  void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header, const LiveFigures& live) {
     const tracking::TrackingResult& result = out.result;
     const std::string camera_frame = params_.camera_frame.empty() ? header.frame_id : params_.camera_frame;
     if (out.restarted) NODELET_WARN_STREAM("time jumped backwards (bag restarted?): tracking and path restart");
@@ -201,6 +312,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     status->anchored = out.pose.anchored;
     status->discontinuous = out.pose.discontinuous;
     status->restarted = out.restarted;
+    fillLiveFigures(*status, live);
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {
       const std::string message = std::string("tracking ") + tracking::toString(result.state) + ": " + result.message;
@@ -217,18 +329,81 @@ class TrackingNodelet : public nodelet::Nodelet {
     pose->header.frame_id = params_.map_frame;
     pose->pose = rc::toPoseMsg(result.T_world_camera);
     pose_pub_.publish(pose);
-    publishPath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
+    updatePath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
     if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
     if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
   }
 
-  /// The path of trusted poses; redrawn from the final poses when keyframes moved (local BA,
-  /// loop closure), else extended by `pose`.
-  void publishPath(const geometry_msgs::PoseStamped& pose, bool redraw) {
+  /// The live figures of this frame and of the last frames, into the status and the diagnostics.
+  void fillLiveFigures(dypho_slam::TrackingStatus& status, const LiveFigures& live) {
+    const double latency_ms = (ros::Time::now() - status.header.stamp).toSec() * 1e3;
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    latency_ms_.add(latency_ms);
+    tracking_ms_.add(live.tracking_ms);
+    const tracking::MaskPairingStats& pairing = pairer_->stats();
+    status.mask_source = toStatusMaskSource(live.source);
+    status.mask_wait_ms = static_cast<float>(live.mask_wait_ms);
+    status.tracking_ms = static_cast<float>(live.tracking_ms);
+    status.latency_ms = static_cast<float>(latency_ms);
+    status.latency_p50_ms = static_cast<float>(latency_ms_.percentile(0.5));
+    status.latency_p95_ms = static_cast<float>(latency_ms_.percentile(0.95));
+    status.tracking_p50_ms = static_cast<float>(tracking_ms_.percentile(0.5));
+    status.tracking_p95_ms = static_cast<float>(tracking_ms_.percentile(0.95));
+    status.input_rate_hz = static_cast<float>(input_rate_.rateHz(steadySeconds()));
+    status.frames_in = pairing.frames_in;
+    status.frames_processed = frames_processed_;
+    status.frames_dropped = pairing.dropped;
+    status.frames_mask_carried = pairing.carried;
+    status.frames_without_mask = params_.use_mask ? pairing.without_mask : 0;
+    last_status_ = status;
+  }
+
+  /// /diagnostics: the same figures, with a level a user can act on.
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    const dypho_slam::TrackingStatus& s = last_status_;
+    const std::uint64_t dropped_now = s.frames_dropped - dropped_at_last_diagnosis_;
+    dropped_at_last_diagnosis_ = s.frames_dropped;
+    if (s.frames_processed == 0) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame tracked yet (check the input topics)");
+    } else if (s.state == dypho_slam::TrackingStatus::LOST) {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "tracking lost: " + s.message);
+    } else if (dropped_now > 0) {
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu frames dropped since the last report: tracking is slower than the camera",
+                    static_cast<unsigned long>(dropped_now));
+    } else {
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, s.state == dypho_slam::TrackingStatus::OK ? "tracking" : "initialising");
+    }
+    stat.add("input rate [Hz]", s.input_rate_hz);
+    stat.add("frames in", s.frames_in);
+    stat.add("frames processed", s.frames_processed);
+    stat.add("frames dropped", s.frames_dropped);
+    stat.add("frames with a carried mask", s.frames_mask_carried);
+    stat.add("frames without a mask", s.frames_without_mask);
+    stat.add("mask of the last frame", tracking::toString(static_cast<tracking::MaskSource>(s.mask_source)));
+    stat.add("latency p50 [ms]", s.latency_p50_ms);
+    stat.add("latency p95 [ms]", s.latency_p95_ms);
+    stat.add("tracking p50 [ms]", s.tracking_p50_ms);
+    stat.add("tracking p95 [ms]", s.tracking_p95_ms);
+    stat.add("features", s.num_features);
+    stat.add("inliers", s.num_inliers);
+    stat.add("masked fraction", s.masked_fraction);
+  }
+
+  /// The path of trusted poses (the newest max_path_length); redrawn from the final poses when
+  /// keyframes moved (local BA, loop closure), else extended by `pose`. Published by the path
+  /// timer at most every path_period_s.
+  void updatePath(const geometry_msgs::PoseStamped& pose, bool redraw) {
+    std::vector<std::pair<Timestamp, Eigen::Isometry3d>> redrawn;
+    if (redraw) {
+      std::lock_guard<std::mutex> lock(stage_mutex_);
+      redrawn = stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length));
+    }
+    std::lock_guard<std::mutex> lock(path_mutex_);
     path_.header.stamp = pose.header.stamp;
     if (redraw) {
       path_.poses.clear();
-      for (const auto& [stamp_ns, T_world_camera] : stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length))) {
+      for (const auto& [stamp_ns, T_world_camera] : redrawn) {
         geometry_msgs::PoseStamped p = pose;
         p.header.stamp = rc::toRosTime(stamp_ns);
         p.pose = rc::toPoseMsg(T_world_camera);
@@ -238,6 +413,13 @@ class TrackingNodelet : public nodelet::Nodelet {
       path_.poses.push_back(pose);
       if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
     }
+    path_changed_ = true;
+  }
+
+  void publishPathIfChanged() {
+    std::lock_guard<std::mutex> lock(path_mutex_);
+    if (!path_changed_) return;
+    path_changed_ = false;
     path_pub_.publish(path_);
   }
 
@@ -288,8 +470,17 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
-    stage_->reset();
+    {
+      std::lock_guard<std::mutex> lock(stage_mutex_);
+      stage_->reset();
+    }
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      pairer_->clear();
+    }
+    std::lock_guard<std::mutex> lock(path_mutex_);
     path_.poses.clear();
+    path_changed_ = true;
     res.success = true;
     res.message = "tracking reset";
     return true;
@@ -313,6 +504,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::string saveTrajectory(const std::string& dir) {
     // trajectory.txt: tracked frames following the final poses of their keyframes (after local BA
     // and loop closure); trajectory_online.txt: the poses as published; keyframes.txt.
+    std::lock_guard<std::mutex> lock(stage_mutex_);
     const std::vector<std::string> paths = stage_->saveTrajectories(dir);
     NODELET_INFO_STREAM("wrote " << stage_->numFrames() << " poses to " << paths.front()
                                  << " (and trajectory_online.txt, keyframes.txt)");
@@ -320,16 +512,34 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   TrackingRosParams params_;
+  std::mutex stage_mutex_;  ///< guards stage_ (worker, services, shutdown)
   std::unique_ptr<tracking::TrackingStage> stage_;
-  rc::ThrottledLog input_log_, state_log_;  ///< each kind of problem is named at once, then every 5 s
-  nav_msgs::Path path_;  ///< the synchronised callback only
+  rc::ThrottledLog input_log_, state_log_, mask_log_;  ///< each kind of problem is named at once, then every 5 s
+
+  std::mutex queue_mutex_;  ///< guards the pairer, the live figures and stop_
+  std::condition_variable queue_cv_;
+  std::unique_ptr<Pairer> pairer_;
+  bool stop_ = false;
+  RollingSamples latency_ms_, tracking_ms_;
+  EventRate input_rate_;
+  std::uint64_t frames_processed_ = 0;
+  dypho_slam::TrackingStatus last_status_;
+  std::uint64_t dropped_at_last_diagnosis_ = 0;
+  std::thread worker_;
+
+  std::mutex path_mutex_;  ///< guards path_ and path_changed_
+  nav_msgs::Path path_;
+  bool path_changed_ = false;
+
   ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
+  ros::WallTimer path_timer_, diagnostics_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
-  image_transport::SubscriberFilter rgb_sub_, depth_sub_, mask_sub_;
+  image_transport::SubscriberFilter rgb_sub_, depth_sub_;
+  image_transport::Subscriber mask_sub_;
   message_filters::Subscriber<CameraInfo> info_sub_;
-  std::unique_ptr<message_filters::Synchronizer<Policy4>> sync4_;
   std::unique_ptr<message_filters::Synchronizer<Policy3>> sync3_;
   std::unique_ptr<rc::SyncWatchdog> watchdog_;
 };
