@@ -2,12 +2,14 @@
 /// re-anchoring, training on a synthetic sequence (PSNR, no ghosts).
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -228,6 +230,68 @@ TEST(GaussianMapper, WorkerThreadProcessesQueuedKeyframes) {
   EXPECT_EQ(s.skipped_keyframes, 1u);
   ASSERT_EQ(messages.size(), 1u);
   EXPECT_NE(messages[0].find("keyframe 9"), std::string::npos);
+  mapper.stop();
+}
+
+// Live policy: when the next job already waits, a keyframe gets live_min_iterations_per_keyframe
+// iterations instead of iterations_per_keyframe, so the queue never grows.
+TEST(GaussianMapper, LivePolicyCutsIterationsWhenTheNextJobWaits) {
+  GaussianMapperOptions o = smallOptions();
+  o.iterations_per_keyframe = 30;
+  o.live_min_iterations_per_keyframe = 5;
+  o.live_train_when_idle = false;
+  GaussianMapper mapper(o);
+  mapper.start(8, /*live=*/true);
+  for (int i = 0; i < 4; ++i) {  // pushed within microseconds: jobs 2-4 wait while job 1 trains
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 0.05 * i;
+    mapper.enqueueKeyframe(std::make_shared<Keyframe>(planeKeyframe(i, T)), false);
+  }
+  mapper.waitUntilIdle();
+  const GaussianMapperStats s = mapper.stats();
+  EXPECT_EQ(s.num_keyframes, 4u);
+  EXPECT_EQ(s.dropped_keyframes, 0u);
+  // 5 + 5 + 5 + 30 (the last one has nothing behind it). Upper bound below the 4 x 30 of the
+  // deterministic policy; the exact count holds unless the pushing thread stalls for longer than
+  // 5 iterations between two pushes, hence a range.
+  EXPECT_GE(s.iterations, 45);
+  EXPECT_LT(s.iterations, 4 * 30);
+  mapper.stop();
+}
+
+// Live policy: with no job waiting the worker keeps training; finish() pauses that idle training
+// and runs its own refinement.
+TEST(GaussianMapper, LivePolicyTrainsWhileIdle) {
+  GaussianMapperOptions o = smallOptions();
+  o.iterations_per_keyframe = 3;
+  o.final_refine_iterations = 4;
+  GaussianMapper mapper(o);
+  mapper.start(8, /*live=*/true);
+  mapper.enqueueKeyframe(std::make_shared<Keyframe>(planeKeyframe(0, Eigen::Isometry3d::Identity())), false);
+  mapper.waitUntilIdle();
+  // Idle iterations follow; wait (at most 20 s, a loaded CI machine) for 20 beyond the keyframe's 3.
+  const auto start = std::chrono::steady_clock::now();
+  while (mapper.stats().iterations < 3 + 20 &&
+         std::chrono::steady_clock::now() - start < std::chrono::seconds(20)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_GE(mapper.stats().iterations, 3 + 20) << "no training while idle";
+  EXPECT_EQ(mapper.stats().num_keyframes, 1u);
+  EXPECT_GT(mapper.latestSnapshot().iterations, 3) << "the renders follow the idle training";
+  mapper.finish();
+  mapper.stop();
+}
+
+// The deterministic policy (offline runner) never trains while idle.
+TEST(GaussianMapper, DeterministicPolicyDoesNotTrainWhileIdle) {
+  GaussianMapperOptions o = smallOptions();
+  o.iterations_per_keyframe = 3;
+  GaussianMapper mapper(o);
+  mapper.start(8);
+  mapper.enqueueKeyframe(std::make_shared<Keyframe>(planeKeyframe(0, Eigen::Isometry3d::Identity())), true);
+  mapper.waitUntilIdle();
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(mapper.stats().iterations, 3);
   mapper.stop();
 }
 

@@ -22,7 +22,7 @@ struct GaussianMapperOptions {
   /// Optimisation iterations run after each new keyframe, >= 0. Default 30.
   int iterations_per_keyframe = 30;
   /// Live policy (ROS graph): a keyframe's training stops after this many iterations when the
-  /// next job already waits, so the queue never grows; in [0, iterations_per_keyframe]. Default 5.
+  /// next job already waits, so the queue never grows, >= 0 (at most iterations_per_keyframe are run). Default 5.
   int live_min_iterations_per_keyframe = 5;
   /// Live policy: with no job waiting the worker keeps training on the stored keyframes (the
   /// idle time of the machine goes into the map). Default true.
