@@ -10,7 +10,9 @@ start_graph() {
   export ROS_MASTER_URI="http://localhost:$port"
   manager_pid=""
   for _ in $(seq 1 60); do
-    manager_pid="$(pgrep -f "__name:=dypho_manager" | head -1 || true)"
+    # a child of this roslaunch (a previous run's manager may still be saving); roslaunch sets the
+    # parameters (use_sim_time) before it starts the nodes
+    manager_pid="$(pgrep -P "$launch_pid" -f "__name:=dypho_manager" | head -1 || true)"
     [[ -n "$manager_pid" ]] && return 0
     sleep 0.5
   done

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include <dypho_slam/MaskStatus.h>
 #include <dypho_slam/TrackingStatus.h>
 #include <ros/ros.h>
 #include <sensor_msgs/Image.h>
@@ -48,6 +49,8 @@ int main(int argc, char** argv) {
   std::vector<Row> rows;
   std::vector<double> window;
   int statuses = 0, keyframes = 0, trusted = 0, rendered = 0;
+  dypho_slam::TrackingStatus last;  ///< the newest status: the tracking nodelet's own counters
+  dypho_slam::MaskStatus last_mask;
   double gaussians = 0;
   std::vector<double> all_latencies_ms;
   const std::string stat_path = "/proc/" + std::to_string(pid) + "/stat";
@@ -68,6 +71,7 @@ int main(int argc, char** argv) {
     ++statuses;
     if (s->is_keyframe) ++keyframes;
     if (s->trusted && s->anchored) ++trusted;
+    last = *s;
     const double cpu_s = dypho::bench::cpuSeconds(stat_path);
     if (cpu_s >= 0) {
       if (cpu_first_s < 0) cpu_first_s = cpu_s;
@@ -85,6 +89,9 @@ int main(int argc, char** argv) {
                 << " keyframes, latency p50 " << r.p50 << " ms, p95 " << r.p95 << " ms\n";
       writeCsv();
     }
+  });
+  auto mask_sub = nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 200, [&](const dypho_slam::MaskStatusConstPtr& m) {
+    last_mask = *m;
   });
   auto rendered_sub = nh.subscribe<sensor_msgs::Image>("/dypho/rendered/color", 2, [&](const sensor_msgs::ImageConstPtr&) {
     last_rendered = ros::WallTime::now();
@@ -108,6 +115,13 @@ int main(int argc, char** argv) {
             << (span_s > 0 && cpu_first_s >= 0 ? 100.0 * (cpu_last_s - cpu_first_s) / span_s : 0.0)
             << " % of one core (over " << span_s << " s)\n"
             << "rendered_views: " << rendered << " ("
-            << (rendered_span_s > 0 ? (rendered - 1) / rendered_span_s : 0.0) << " Hz)\n";
+            << (rendered_span_s > 0 ? (rendered - 1) / rendered_span_s : 0.0) << " Hz)\n"
+            << "tracking_counters: " << last.frames_in << " in, " << last.frames_processed << " processed, "
+            << last.frames_dropped << " dropped, " << last.frames_mask_carried << " with a carried mask, "
+            << last.frames_without_mask << " without a mask; tracking p50 " << last.tracking_p50_ms << " ms, p95 "
+            << last.tracking_p95_ms << " ms\n"
+            << "mask_counters: " << last_mask.frames_in << " in, " << last_mask.frames << " masked, "
+            << last_mask.frames_dropped_busy << " skipped; latency p50 " << last_mask.latency_p50_ms << " ms, p95 "
+            << last_mask.latency_p95_ms << " ms\n";
   return 0;
 }

@@ -64,6 +64,8 @@ statuses="$(value statuses | cut -d' ' -f1)"
   echo "statuses:       $(value statuses)"
   echo "not answered:   $((frames_in - statuses)) ($(python3 -c "print(f'{100 * ($frames_in - $statuses) / $frames_in:.1f}')") %)"
   echo "latency ms:     $(value latency_ms)"
+  echo "tracking:       $(value tracking_counters)"
+  echo "mask:           $(value mask_counters)"
   echo "manager CPU:    $(value manager_cpu_percent)"
   echo "rendered views: $(value rendered_views)"
   if [[ -f "$out/run/trajectory.txt" ]]; then
