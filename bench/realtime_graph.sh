@@ -8,6 +8,7 @@
 #   anchored), not answered (frames in - statuses), keyframes, status latency p50/p95 (arrival
 #   minus frame stamp, bag clock), CPU use of the nodelet manager, rendered-view rate, and the ATE
 #   of trajectory.txt against the ground truth (FILE, or groundtruth.txt beside the bag;
+#   the map PSNR comes from map_evaluation.txt, written by the mapping nodelet at shutdown;
 #   --bonn-correction for Bonn RGB-D Dynamic ground truth).
 # --detector: the mask runs the network at MODEL (launch arg yolo_model), else the shipped
 # config/mask.yaml (flow and background model only). --config-dir: parameter folder other than
@@ -76,5 +77,9 @@ statuses="$(value statuses | cut -d' ' -f1)"
   else
     echo "trajectory.txt: not written (see $out/roslaunch.log)"
   fi
-  echo "map PSNR:       not measured by the graph yet (the offline runner reports it)"
+  if [[ -f "$out/run/map_evaluation.txt" ]]; then
+    echo "map PSNR:       $(grep '^psnr_db:' "$out/run/map_evaluation.txt" | cut -d: -f2 | xargs) dB on static pixels of $(grep '^keyframes:' "$out/run/map_evaluation.txt" | cut -d: -f2 | xargs) stored keyframes (map_evaluation.txt, after the shutdown refinement)"
+  else
+    echo "map PSNR:       map_evaluation.txt not written (see $out/roslaunch.log)"
+  fi
 } | tee "$out/summary.txt"

@@ -31,6 +31,7 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 
+#include "dypho/common/atomic_file.h"
 #include "dypho/common/output_path.h"
 #include "dypho/common/thread_budget.h"
 #include "dypho/mapping/compute_device.h"
@@ -88,6 +89,10 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (!stage_ || params_.output_dir.empty()) return;
     try {
       stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
+      mapping::KeyframeEvaluation eval;
+      writeEvaluation(params_.output_dir, &eval);
+      NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of " << eval.num_keyframes
+                                      << " keyframes (map_evaluation.txt)");
     } catch (const std::exception& e) {
       NODELET_ERROR_STREAM("could not write the map on shutdown: " << e.what());
     }
@@ -297,15 +302,31 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       const std::string dir = resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory);
       std::filesystem::create_directories(dir);
       res.files = stage_->save(dir, params_.refine_before_save);
+      mapping::KeyframeEvaluation eval;
+      res.files.push_back(writeEvaluation(dir, &eval));
       const mapping::MappingStageStats stats = stage_->stats();
       res.success = true;
       res.message = "wrote " + std::to_string(stats.gaussians.num_gaussians) + " Gaussians and " +
-                    std::to_string(stats.keyframes_received) + " keyframe clouds to " + res.files.front();
+                    std::to_string(stats.keyframes_received) + " keyframe clouds to " + res.files.front() +
+                    "; map PSNR " + std::to_string(eval.psnr_db) + " dB on static pixels of " +
+                    std::to_string(eval.num_keyframes) + " keyframes";
     } catch (const std::exception& e) {
       res.success = false;
       res.message = e.what();
     }
     return true;
+  }
+
+  /// map_evaluation.txt in `dir`: the map's quality at the stored keyframes, as the offline
+  /// runner reports it (PSNR on static pixels, depth L1), written atomically; returns its path.
+  std::string writeEvaluation(const std::string& dir, mapping::KeyframeEvaluation* eval) {
+    *eval = stage_->gaussians().evaluateKeyframes();
+    const std::string path = dir + "/map_evaluation.txt";
+    writeFileAtomically(path, [&](std::ostream& os) {
+      os << "psnr_db: " << eval->psnr_db << "\nkeyframes: " << eval->num_keyframes
+         << "\ndepth_l1_m: " << eval->depth_l1_m << "\n";
+    });
+    return path;
   }
 
   struct LoadOutcome {

@@ -49,9 +49,10 @@ struct MaskPairingOptions {
   /// mask takes 15-40 ms per frame on 2 cores; a longer wait only adds latency).
   double max_wait_s = 0.1;
   /// Frames waiting at once (for their masks or for tracking), >= 1; a newer frame beyond it
-  /// drops the oldest. Default 8 (a 270 ms backlog at 30 Hz: local BA and loop closure take up to
-  /// ~150 ms on 2 cores and tracking catches up at 3-5x the camera rate after them).
-  int max_pending_frames = 8;
+  /// drops the oldest. Default 16 (0.53 s at 30 Hz): in a crowd the tracker can make a keyframe
+  /// every 2-3 frames for half a second, each with a 60-80 ms local BA on 2 cores; at 20 ms per
+  /// ordinary frame it then catches up. A longer backlog is dropped rather than tracked late.
+  int max_pending_frames = 16;
   /// A mask further than this from the frame's stamp is not carried to it [s], >= 0. Default 0.2
   /// (six frames at 30 Hz; people move a few centimetres, within the mask's safety margin).
   double max_carry_age_s = 0.2;
