@@ -141,9 +141,9 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
             << pose_stamps.size() << " (" << 100.0 * posed_fraction << " %)\n";
   // Bound 90 % (min_posed_fraction in live_camera.test). The goal for the live path is 99 %; a
   // separate change works on the live path (frames the graph drops when it falls behind at 30 Hz
-  // on 2 cores). Measured on the 2-core VM: 300 of 300 when nothing else runs; 39-92 % while
-  // another process keeps a core busy (every answered frame was trusted; the rest were dropped
-  // before tracking), so this test needs the machine to itself.
+  // on 2 cores). Measured on the 2-core VM: 300 of 300 when nothing else runs; 28-100 % (9 of
+  // 14 runs below 90 %) while other builds or runs share the cores (every answered frame was
+  // trusted; the rest were dropped before tracking), so this test needs the machine to itself.
   EXPECT_GE(trusted_fraction, min_posed_fraction);
   EXPECT_GE(posed_fraction, min_posed_fraction);
   EXPECT_EQ(rec.pose_frames, std::set<std::string>{"map"});
