@@ -6,6 +6,7 @@ endif()
 
 add_library(dypho_bag
   ${CMAKE_CURRENT_SOURCE_DIR}/src/bag_conversions.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/bag_layout.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/bag_writer.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/bag_reader.cpp)
 target_include_directories(dypho_bag PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)

@@ -16,10 +16,18 @@ ros::Time toRosTime(Timestamp stamp_ns);
 /// ns stamp of a ros::Time.
 Timestamp fromRosTime(const ros::Time& t);
 
-/// BGR CV_8UC3 -> `rgb8` image.
-sensor_msgs::Image colourToMsg(const cv::Mat& bgr, const std_msgs::Header& header);
-/// CV_32FC1 metres -> `32FC1` image, invalid (0, NaN, negative) -> NaN.
-sensor_msgs::Image depthToMsg(const cv::Mat& depth_m, const std_msgs::Header& header);
+/// BGR CV_8UC3 -> `rgb8` (default) or `bgr8` image; another encoding throws std::invalid_argument.
+sensor_msgs::Image colourToMsg(const cv::Mat& bgr, const std_msgs::Header& header,
+                               const std::string& encoding = "rgb8");
+/// CV_32FC1 metres -> `32FC1` image with invalid (0, NaN, negative) -> NaN (default), or -> `16UC1`
+/// millimetres (depthToMillimetres); another encoding throws std::invalid_argument.
+sensor_msgs::Image depthToMsg(const cv::Mat& depth_m, const std_msgs::Header& header,
+                              const std::string& encoding = "32FC1");
+/// CV_32FC1 metres -> CV_16UC1 millimetres rounded to nearest; no measurement (0, NaN, inf,
+/// negative) and depth that does not fit (rounds above 65535 mm) -> 0, as RGB-D drivers publish.
+cv::Mat depthToMillimetres(const cv::Mat& depth_m);
+/// Throws std::invalid_argument unless colour/depth encodings can be written by the functions above.
+void checkWritableEncodings(const std::string& colour_encoding, const std::string& depth_encoding);
 /// plumb_bob CameraInfo with D, K, R = I, P.
 sensor_msgs::CameraInfo cameraToMsg(const CameraIntrinsics& camera, const std_msgs::Header& header);
 

@@ -1,4 +1,4 @@
-// BagRgbdWriter: RgbdFrames -> TUM-style rosbag topics.
+// BagRgbdWriter: RgbdFrames -> rosbag topics (TUM, RealSense or OpenNI2 layout).
 #include <stdexcept>
 
 #include <rosbag/bag.h>
@@ -18,6 +18,7 @@ struct BagRgbdWriter::Impl {
 };
 
 BagRgbdWriter::BagRgbdWriter(const std::string& path, BagTopics topics) : impl_(std::make_unique<Impl>()) {
+  bag_detail::checkWritableEncodings(topics.colour_encoding, topics.depth_encoding);
   impl_->topics = std::move(topics);
   impl_->path = path;
   try {
@@ -47,8 +48,9 @@ void BagRgbdWriter::write(const RgbdFrame& f) {
   header.stamp = bag_detail::toRosTime(f.stamp_ns);
   header.frame_id = impl_->topics.frame_id;
   try {
-    impl_->bag.write(impl_->topics.rgb, header.stamp, bag_detail::colourToMsg(f.bgr, header));
-    impl_->bag.write(impl_->topics.depth, header.stamp, bag_detail::depthToMsg(f.depth_m, header));
+    const BagTopics& t = impl_->topics;
+    impl_->bag.write(t.rgb, header.stamp, bag_detail::colourToMsg(f.bgr, header, t.colour_encoding));
+    impl_->bag.write(t.depth, header.stamp, bag_detail::depthToMsg(f.depth_m, header, t.depth_encoding));
     impl_->bag.write(impl_->topics.camera_info, header.stamp, bag_detail::cameraToMsg(f.camera, header));
   } catch (const rosbag::BagException& e) {
     throw std::runtime_error("writing bag '" + impl_->path + "' failed: " + e.what());

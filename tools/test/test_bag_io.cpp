@@ -4,9 +4,12 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <unistd.h>
@@ -17,6 +20,7 @@ namespace fs = std::filesystem;
 using dypho::RgbdFrame;
 using dypho::tools::BagRgbdReader;
 using dypho::tools::BagRgbdWriter;
+using dypho::tools::BagLayout;
 using dypho::tools::BagTopics;
 
 namespace {
@@ -192,6 +196,133 @@ TEST(BagIo, DepthFartherThanMaxDtDoesNotAssociate) {
   const std::string msg = errorOf([&] { BagRgbdReader r(path); });
   EXPECT_NE(msg.find("within"), std::string::npos) << msg;
   EXPECT_EQ(BagRgbdReader(path, BagTopics{}, 0.1).size(), 1u);
+  fs::remove(path);
+}
+
+/// The one message of `topic` in the bag at `path` (fails the test when there is not exactly one).
+template <typename M>
+M onlyMessage(const std::string& path, const std::string& topic) {
+  rosbag::Bag bag(path, rosbag::bagmode::Read);
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  std::vector<M> found;
+  for (const rosbag::MessageInstance& m : view) {
+    if (auto p = m.instantiate<M>()) found.push_back(*p);
+  }
+  EXPECT_EQ(found.size(), 1u) << topic;
+  return found.empty() ? M() : found.front();
+}
+
+TEST(BagLayout, NamesParseAndUnknownNamesAreRefused) {
+  for (BagLayout l : {BagLayout::kTum, BagLayout::kRealSense, BagLayout::kOpenNi}) {
+    EXPECT_EQ(dypho::tools::parseBagLayout(dypho::tools::bagLayoutName(l)), l);
+  }
+  try {
+    dypho::tools::parseBagLayout("kinect");
+    FAIL() << "an unknown layout must throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("tum, realsense, openni"), std::string::npos) << e.what();
+  }
+  // tum = the defaults (today's bags).
+  const BagTopics tum = dypho::tools::bagTopicsFor(BagLayout::kTum);
+  EXPECT_EQ(tum.rgb, BagTopics{}.rgb);
+  EXPECT_EQ(tum.depth_encoding, "32FC1");
+  // An encoding the writer cannot produce is refused before the bag is created.
+  BagTopics bad;
+  bad.depth_encoding = "16UC3";
+  const std::string path = tempBag("badenc");
+  try {
+    BagRgbdWriter w(path, bad);
+    FAIL() << "depth encoding 16UC3 must be refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("16UC3"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("32FC1 (metres), 16UC1 (millimetres)"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(path));
+}
+
+// RealSense (align_depth) names and encodings; depth in millimetres rounded to nearest, every kind
+// of "no measurement" and depth beyond 16 bits written as 0; read back by BagRgbdReader.
+TEST(BagLayout, RealSenseWritesMillimetresWithZeroForNoDepth) {
+  const std::string path = tempBag("realsense");
+  const BagTopics topics = dypho::tools::bagTopicsFor(BagLayout::kRealSense);
+  cv::RNG rng(3);
+  RgbdFrame f = randomFrame(0, rng);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  // {metres written, millimetres expected}
+  const std::vector<std::pair<float, std::uint16_t>> cases = {
+      {1.2344f, 1234}, {1.2346f, 1235}, {0.0006f, 1}, {0.0004f, 0}, {0.f, 0}, {nan, 0},
+      {-1.f, 0},       {inf, 0},        {65.535f, 65535}, {65.6f, 0}, {3.f, 3000}};
+  for (std::size_t i = 0; i < cases.size(); ++i) f.depth_m.at<float>(47, static_cast<int>(i)) = cases[i].first;
+  {
+    BagRgbdWriter w(path, topics);
+    w.write(f);
+    w.close();
+  }
+  const auto rgb = onlyMessage<sensor_msgs::Image>(path, "/camera/color/image_raw");
+  const auto depth = onlyMessage<sensor_msgs::Image>(path, "/camera/aligned_depth_to_color/image_raw");
+  const auto info = onlyMessage<sensor_msgs::CameraInfo>(path, "/camera/color/camera_info");
+  EXPECT_EQ(rgb.encoding, "rgb8");
+  EXPECT_EQ(depth.encoding, "16UC1");
+  EXPECT_EQ(depth.step, 64u * 2u);
+  for (const std::string& frame : {rgb.header.frame_id, depth.header.frame_id, info.header.frame_id}) {
+    EXPECT_EQ(frame, "camera_color_optical_frame");
+  }
+  EXPECT_EQ(depth.header.stamp, rgb.header.stamp);
+  ASSERT_EQ(depth.data.size(), 64u * 48u * 2u);
+  auto mmAt = [&](int row, int col) {
+    std::uint16_t v;
+    std::memcpy(&v, depth.data.data() + static_cast<std::size_t>(row) * depth.step + 2 * col, 2);
+    return v;
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    EXPECT_EQ(mmAt(47, static_cast<int>(i)), cases[i].second) << "case " << i << ": " << cases[i].first << " m";
+  }
+  EXPECT_EQ(mmAt(0, 0), 0) << "the 0 m block of randomFrame";
+  // rgb8: the first pixel's channels swapped from BGR.
+  const cv::Vec3b bgr = f.bgr.at<cv::Vec3b>(0, 0);
+  EXPECT_EQ(rgb.data[0], bgr[2]);
+  EXPECT_EQ(rgb.data[2], bgr[0]);
+
+  // Read back with the layout's topics: within half a millimetre, 0 where there is no depth.
+  const BagRgbdReader r(path, topics);
+  ASSERT_EQ(r.size(), 1u);
+  const RgbdFrame back = r.load(0);
+  EXPECT_EQ(back.stamp_ns, f.stamp_ns);
+  EXPECT_EQ(cv::norm(back.bgr, f.bgr, cv::NORM_INF), 0.0);
+  cv::Mat valid = f.depth_m > 0.f & f.depth_m < 65.5f;  // NaN compares false
+  valid.row(47).setTo(0);                               // the edge cases, checked above
+  cv::Mat diff;
+  cv::absdiff(back.depth_m, f.depth_m, diff);
+  double max_diff = 0;
+  cv::minMaxLoc(diff, nullptr, &max_diff, nullptr, nullptr, valid);
+  EXPECT_LE(max_diff, 0.0005 + 1e-6) << "mm rounding is within half a millimetre";
+  EXPECT_FLOAT_EQ(back.depth_m.at<float>(47, 1), 1.235f);
+  EXPECT_EQ(back.depth_m.at<float>(47, 5), 0.f) << "NaN -> 0 mm -> 0 m (no depth)";
+  EXPECT_DOUBLE_EQ(r.camera().fx, testCamera().fx);
+  fs::remove(path);
+}
+
+TEST(BagLayout, OpenNiNamesAndBgr8Colour) {
+  const std::string path = tempBag("openni");
+  BagTopics topics = dypho::tools::bagTopicsFor(BagLayout::kOpenNi);
+  EXPECT_EQ(topics.colour_encoding, "rgb8") << "openni2_camera publishes rgb8";
+  topics.colour_encoding = "bgr8";  // what image_proc gives when asked for bgr8: also accepted
+  cv::RNG rng(4);
+  const RgbdFrame f = randomFrame(0, rng);
+  {
+    BagRgbdWriter w(path, topics);
+    w.write(f);
+  }
+  const auto rgb = onlyMessage<sensor_msgs::Image>(path, "/camera/rgb/image_rect_color");
+  const auto depth = onlyMessage<sensor_msgs::Image>(path, "/camera/depth_registered/image_raw");
+  const auto info = onlyMessage<sensor_msgs::CameraInfo>(path, "/camera/rgb/camera_info");
+  EXPECT_EQ(rgb.encoding, "bgr8");
+  EXPECT_EQ(depth.encoding, "16UC1");
+  EXPECT_EQ(info.header.frame_id, "camera_rgb_optical_frame");
+  EXPECT_EQ(rgb.data[0], f.bgr.at<cv::Vec3b>(0, 0)[0]);
+  const BagRgbdReader r(path, topics);
+  EXPECT_EQ(cv::norm(r.load(0).bgr, f.bgr, cv::NORM_INF), 0.0);
   fs::remove(path);
 }
 

@@ -5,7 +5,8 @@
 /// in-process pipeline runs. Renders run on this nodelet's own render thread, so no ROS callback
 /// waits for the optimiser.
 ///
-/// Outputs: rendered/color (bgr8) and rendered/depth (32FC1 m) at the latest tracked pose;
+/// Outputs: rendered/color (bgr8) and rendered/depth (32FC1 m) at the latest tracked pose, at
+/// ~rendered_scale of the input resolution;
 /// rendered/depth_predicted (32FC1 m, R_d) at the constant-velocity prediction of the next frame's
 /// pose, at the mask's working resolution (~predicted_depth_scale), header stamp = the expected
 /// stamp of that frame; gaussian_cloud (XYZRGB Gaussian centres) and map_cloud (keyframe points).
@@ -50,6 +51,9 @@ struct MappingRosParams {
   std::string map_frame = "map";     ///< frame of the published clouds (the tracking world frame)
   double publish_period_s = 1.0;     ///< cloud publication period [s] (only with subscribers)
   double render_period_s = 0.2;      ///< minimum interval of rendered/color and rendered/depth [s]
+  /// rendered/color and rendered/depth at this fraction of the input resolution, (0, 1]; below 1
+  /// for a viewer on another host (0.5 = a quarter of the bytes)
+  double rendered_scale = 1.0;
   int keyframe_queue_size = 8;       ///< jobs waiting for the worker before the oldest keyframe is dropped
   /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
   double predicted_depth_scale = 0.5;
@@ -120,6 +124,10 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("map_frame", params_.map_frame, "");
     reader("publish_period_s", params_.publish_period_s, "");
     reader("render_period_s", params_.render_period_s, "");
+    reader("rendered_scale", params_.rendered_scale, "");
+    if (!(params_.rendered_scale > 0 && params_.rendered_scale <= 1)) {
+      throw std::invalid_argument("~rendered_scale must be in (0, 1]");
+    }
     reader("keyframe_queue_size", params_.keyframe_queue_size, "");
     reader("predicted_depth_scale", params_.predicted_depth_scale, "");
     reader("output_dir", params_.output_dir, "");
@@ -253,7 +261,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         const bool want_view = color_pub_.getNumSubscribers() > 0 || depth_pub_.getNumSubscribers() > 0;
         if (want_view && (ros::WallTime::now() - last_view).toSec() >= params_.render_period_s) {
           last_view = ros::WallTime::now();
-          const mapping::RenderedView v = stage_->renderView(r.T_world_camera, camera);
+          const mapping::RenderedView v = stage_->renderView(
+              r.T_world_camera, params_.rendered_scale < 1 ? scaledCamera(camera, params_.rendered_scale) : camera);
           if (v.bgr.empty()) continue;
           std_msgs::Header header;
           header.stamp = r.stamp;

@@ -1,0 +1,128 @@
+#!/usr/bin/python3
+"""Resolves the launch files with roslaunch's own loader (no master, no nodes started) and checks
+what they would start: live_camera.launch's topic layouts (realsense, openni, an unknown one is an
+error), dypho_slam.launch standalone:=true (no manager, each nodelet its own node) and
+distributed.launch (which host runs what, ssh users, env-loader). Exit code 0 only when every
+check passed; each failure is printed."""
+
+import os
+import sys
+
+import rospkg
+import roslaunch.config
+from roslaunch.core import RLException
+
+FAILURES = []
+
+
+def check(condition, what):
+    print(("ok:   " if condition else "FAIL: ") + what)
+    if not condition:
+        FAILURES.append(what)
+
+
+def load(launch, *args):
+    """The ROSLaunchConfig of `launch` (a file of this package) with `args` (name:=value)."""
+    path = os.path.join(rospkg.RosPack().get_path("dypho_slam"), "launch", launch)
+    saved = sys.argv
+    sys.argv = [saved[0]] + list(args)  # roslaunch's loader reads the args from sys.argv
+    try:
+        return roslaunch.config.load_config_default([path], None, verbose=False, assign_machines=False)
+    finally:
+        sys.argv = saved
+
+
+def nodes(config):
+    return {n.namespace + n.name: n for n in config.nodes}
+
+
+def remaps(node):
+    return dict(node.remap_args)
+
+
+LAYOUTS = {
+    "realsense": ("/camera/color/image_raw", "/camera/aligned_depth_to_color/image_raw",
+                  "/camera/color/camera_info"),
+    "openni": ("/camera/rgb/image_rect_color", "/camera/depth_registered/image_raw",
+               "/camera/rgb/camera_info"),
+}
+
+
+def check_live_camera():
+    for camera, (rgb, depth, info) in LAYOUTS.items():
+        n = nodes(load("live_camera.launch", "camera:=" + camera, "rviz:=false"))
+        for name in ("/dypho/mask", "/dypho/tracking"):
+            check(name in n, "live_camera camera:=%s starts %s" % (camera, name))
+            if name in n:
+                r = remaps(n[name])
+                check((r.get("rgb/image"), r.get("depth/image"), r.get("rgb/camera_info")) == (rgb, depth, info),
+                      "live_camera camera:=%s: %s reads %s, %s, %s (got %s)" % (camera, name, rgb, depth, info, r))
+        check("/dypho/mapping" in n, "live_camera camera:=%s starts /dypho/mapping" % camera)
+        check("/dypho_rviz" not in n, "live_camera rviz:=false starts no rviz")
+    try:
+        load("live_camera.launch", "camera:=kinect")
+        check(False, "live_camera camera:=kinect is refused")
+    except RLException as e:
+        check("camera_must_be_realsense_or_openni" in str(e),
+              "live_camera camera:=kinect is refused (%s)" % str(e).strip().splitlines()[-1])
+
+
+def check_standalone():
+    n = nodes(load("dypho_slam.launch"))
+    check("/dypho/dypho_manager" in n, "dypho_slam.launch starts a manager by default")
+    check(all(n[x].args.startswith("load ") for x in ("/dypho/mask", "/dypho/tracking", "/dypho/mapping")),
+          "dypho_slam.launch loads the three nodelets into it")
+    n = nodes(load("dypho_slam.launch", "standalone:=true"))
+    check("/dypho/dypho_manager" not in n, "standalone:=true starts no manager")
+    for name, cls in (("/dypho/mask", "DynamicMaskNodelet"), ("/dypho/tracking", "TrackingNodelet"),
+                      ("/dypho/mapping", "GaussianMappingNodelet")):
+        check(name in n and n[name].args.split() == ["standalone", "dypho_slam/" + cls],
+              "standalone:=true runs %s as 'nodelet standalone dypho_slam/%s' (got %s)"
+              % (name, cls, n[name].args if name in n else "no node"))
+    config = load("dypho_slam.launch", "standalone:=true")
+    check(not any(p.endswith("/num_worker_threads") for p in config.params),
+          "standalone nodes get no num_worker_threads parameter (an unknown key to the nodelets)")
+
+
+def check_distributed():
+    config = load("distributed.launch", "camera_host:=cam.example", "mapping_host:=gpu.example",
+                  "mapping_user:=slam", "camera:=openni")
+    n = nodes(config)
+    check(sorted(n) == ["/dypho/dypho_manager", "/dypho/mapping", "/dypho/mask", "/dypho/tracking"],
+          "distributed.launch starts manager, mask, tracking, mapping (got %s)" % sorted(n))
+    for name in ("/dypho/dypho_manager", "/dypho/mask", "/dypho/tracking"):
+        check(name in n and n[name].machine_name == "dypho_camera_host", "%s runs on camera_host" % name)
+    check(n["/dypho/mask"].args.split()[0] == "load" and n["/dypho/tracking"].args.split()[0] == "load",
+          "mask and tracking share the manager on camera_host")
+    check("/dypho/mapping" in n and n["/dypho/mapping"].machine_name == "dypho_mapping_host",
+          "mapping runs on mapping_host")
+    check(n["/dypho/mapping"].args.split() == ["standalone", "dypho_slam/GaussianMappingNodelet"],
+          "mapping runs standalone (got %s)" % n["/dypho/mapping"].args)
+    check(remaps(n["/dypho/tracking"]).get("rgb/image") == LAYOUTS["openni"][0],
+          "distributed camera:=openni: tracking reads %s" % LAYOUTS["openni"][0])
+    m = config.machines
+    check(m["dypho_camera_host"].address == "cam.example" and m["dypho_camera_host"].user is None,
+          "camera_host machine: address cam.example, no ssh user given")
+    check(m["dypho_mapping_host"].address == "gpu.example" and m["dypho_mapping_host"].user == "slam",
+          "mapping_host machine: address gpu.example, ssh user slam")
+    loader = m["dypho_mapping_host"].env_loader
+    check(loader.endswith("/scripts/env_loader.sh") and os.access(loader, os.X_OK),
+          "env-loader defaults to this checkout's executable scripts/env_loader.sh (%s)" % loader)
+    n = nodes(load("distributed.launch"))
+    check(sorted(n) == ["/dypho/dypho_manager", "/dypho/mapping", "/dypho/mask", "/dypho/tracking"],
+          "distributed.launch with the defaults (both hosts localhost) resolves")
+
+
+def main():
+    check_live_camera()
+    check_standalone()
+    check_distributed()
+    if FAILURES:
+        print("%d launch-file check(s) failed" % len(FAILURES))
+        return 1
+    print("all launch-file checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
