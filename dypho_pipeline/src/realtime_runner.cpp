@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <exception>
 #include <mutex>
 #include <optional>
@@ -33,12 +35,66 @@ struct Masked {
 
 /// Longest single sleep while waiting for a frame's due time, so that `stop` is seen [ms].
 constexpr int kStopPollMs = 20;
+/// A release later than its due time by more than this counts as late (scheduler wake-up jitter
+/// is not) [ms].
+constexpr std::chrono::milliseconds kLateTolerance{5};
+
+/// A frame read ahead of its release.
+struct Loaded {
+  std::size_t index = 0;
+  RealtimeInput input;
+};
+
+/// Frames read ahead: the loader waits while `capacity` are ready (nothing is dropped here).
+class PrefetchQueue {
+ public:
+  explicit PrefetchQueue(std::size_t capacity) : capacity_(capacity) {}
+  /// Waits for room; false when closed (the item is discarded).
+  bool push(Loaded item) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    room_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
+    if (closed_) return false;
+    items_.push_back(std::move(item));
+    lock.unlock();
+    ready_.notify_one();
+    return true;
+  }
+  /// Waits for the next frame; nullopt once closed and empty.
+  std::optional<Loaded> pop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    std::optional<Loaded> item(std::move(items_.front()));
+    items_.pop_front();
+    lock.unlock();
+    room_.notify_one();
+    return item;
+  }
+  void close() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closed_ = true;
+    }
+    ready_.notify_all();
+    room_.notify_all();
+  }
+
+ private:
+  const std::size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable ready_, room_;
+  std::deque<Loaded> items_;
+  bool closed_ = false;
+};
 
 }  // namespace
 
 void RealtimeOptions::validate() const {
   if (!(speed > 0.0) || !std::isfinite(speed)) {
     throw std::invalid_argument("realtime speed must be a finite factor > 0 (got " + std::to_string(speed) + ")");
+  }
+  if (prefetch_frames < 1) {
+    throw std::invalid_argument("realtime prefetch_frames must be >= 1 (got " + std::to_string(prefetch_frames) + ")");
   }
   if (queue_capacity_frames < 1) {
     throw std::invalid_argument("realtime queue_capacity_frames must be >= 1 (got " +
@@ -94,11 +150,12 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
   std::atomic<bool> aborted{false};  // a stage threw: release nothing more
   auto stopped = [&] { return aborted.load() || (stop != nullptr && stop->load()); };
 
-  std::optional<Clock::time_point> first_release;
-  auto producer = [&] {
-    std::optional<Timestamp> first_stamp;
+  // Loader: reads frames ahead of their release (at most prefetch_frames waiting), so that a slow
+  // read delays no release while the reads keep ahead.
+  PrefetchQueue prefetched(static_cast<std::size_t>(options_.prefetch_frames));
+  auto loader = [&] {
     for (std::size_t i = 0; i < num_frames && !stopped(); ++i) {
-      RealtimeInput input;
+      std::optional<RealtimeInput> input;
       try {
         input = load(i);
       } catch (const std::exception& e) {
@@ -106,15 +163,27 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
         result.unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
         continue;
       }
+      if (!prefetched.push({i, std::move(*input)})) break;  // closed: the release stopped
+    }
+    prefetched.close();
+  };
+
+  // Camera: releases each frame at its due time; never waits for the pipeline.
+  std::optional<Clock::time_point> first_release;
+  auto producer = [&] {
+    std::optional<Timestamp> first_stamp;
+    while (!stopped()) {
+      std::optional<Loaded> next = prefetched.pop();
+      if (!next) break;
       Clock::time_point now = Clock::now();
       if (!first_stamp) {
-        first_stamp = input.frame.stamp_ns;
+        first_stamp = next->input.frame.stamp_ns;
         first_release = now;
       } else {
-        const double offset_s = timestampToSeconds(input.frame.stamp_ns - *first_stamp) / options_.speed;
+        const double offset_s = timestampToSeconds(next->input.frame.stamp_ns - *first_stamp) / options_.speed;
         const Clock::time_point due =
             *first_release + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(offset_s));
-        if (now > due) {
+        if (now > due + kLateTolerance) {
           std::lock_guard<std::mutex> lock(result_mutex);
           ++result.late_releases;
         }
@@ -124,11 +193,12 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
         }
         if (stopped()) break;
       }
-      std::optional<Released> dropped = camera_to_mask.push({i, now, std::move(input)});
+      std::optional<Released> dropped = camera_to_mask.push({next->index, now, std::move(next->input)});
       std::lock_guard<std::mutex> lock(result_mutex);
       ++result.frames_in;
       if (dropped) result.dropped_before_mask.push_back(dropped->index);
     }
+    prefetched.close();  // lets the loader end
     camera_to_mask.close();
   };
 
@@ -146,6 +216,7 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
     } catch (...) {
       mask_error = std::current_exception();
       aborted = true;
+      prefetched.close();
       camera_to_mask.close();
     }
     mask_to_tracking.close();
@@ -160,6 +231,7 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
     result.processed.push_back(std::move(f));
   };
 
+  std::thread loader_thread(loader);
   std::thread producer_thread(producer);
   std::thread mask_thread;
   std::exception_ptr error;
@@ -176,12 +248,14 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
     error = std::current_exception();
   }
   if (error) {
-    // Let the other threads run out: nothing more is released or taken.
+    // Let the other threads run out: nothing more is read, released or taken.
     aborted = true;
+    prefetched.close();
     camera_to_mask.close();
     mask_to_tracking.close();
   }
   producer_thread.join();
+  loader_thread.join();
   if (mask_thread.joinable()) mask_thread.join();
   if (error) std::rethrow_exception(error);
   if (mask_error) std::rethrow_exception(mask_error);

@@ -46,6 +46,9 @@ TEST(RealtimeOptions, RejectsBadValues) {
   o.speed = 1.0;
   o.queue_capacity_frames = 0;
   EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.queue_capacity_frames = 2;
+  o.prefetch_frames = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
 TEST(RealtimeRunner, PercentileIsTheNearestRank) {

@@ -228,7 +228,7 @@ std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, con
      << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
      << " of the sequence), " << r.framesDropped() << " dropped, no pose (" << r.dropped_before_mask.size()
      << " before the mask, " << r.dropped_before_tracking.size() << " before tracking), " << r.late_releases
-     << " released late (loading)\n"
+     << " released late (reading fell behind)\n"
      << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
      << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
      << ", hand-overs of " << o.queue_capacity_frames << ", " << (o.pipelined ? "pipelined" : "one thread")

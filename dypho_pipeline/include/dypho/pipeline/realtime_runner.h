@@ -3,9 +3,10 @@
 /// Runs a recorded sequence through SlamPipeline as a live camera would deliver it, so that the
 /// offline numbers predict the graph's (dypho_run_dataset --realtime).
 ///
-///  - A producer thread loads frame i and releases it at its stamp on the wall clock, counted
-///    from the first frame's release: due(i) = t_0 + (stamp_i - stamp_0) / speed. The camera never
-///    waits: a frame whose loading took longer is released at once (counted as late).
+///  - A loader thread reads frames ahead (at most `prefetch_frames`), and a camera thread releases
+///    frame i at its stamp on the wall clock, counted from the first frame's release:
+///    due(i) = t_0 + (stamp_i - stamp_0) / speed. The camera never waits for the pipeline; a frame
+///    not read by its due time is released as soon as it is (counted as late).
 ///  - Released frames go into a bounded hand-over (BoundedHandOver, `queue_capacity_frames`);
 ///    when the pipeline has not taken them in time the oldest is dropped and counted. Dropped
 ///    frames are never processed and have no pose in the trajectory.
@@ -40,6 +41,9 @@ struct RealtimeOptions {
   /// Frames each hand-over holds (camera -> mask, mask -> tracking) before the oldest is dropped
   /// [count]; default 2, >= 1. With 1 the pipeline always takes the newest frame.
   int queue_capacity_frames = 2;
+  /// Frames read ahead of their release, so that a slow read does not delay one [count];
+  /// default 8, >= 1.
+  int prefetch_frames = 8;
   /// Mask and tracking on two threads, overlapping consecutive frames (the graph's nodelets);
   /// default true. false: mask then tracking on one thread per frame.
   bool pipelined = true;
@@ -72,7 +76,7 @@ struct RealtimeResult {
   std::vector<std::size_t> dropped_before_mask;      ///< indices dropped at the camera -> mask hand-over
   std::vector<std::size_t> dropped_before_tracking;  ///< indices dropped at the mask -> tracking hand-over
   std::vector<std::string> unreadable;  ///< frames the loader could not read ("frame i: why"), never released
-  std::size_t late_releases = 0;  ///< frames released after their due time (loading took longer)
+  std::size_t late_releases = 0;  ///< frames released over 5 ms after their due time (reading fell behind)
   double wall_s = 0.0;            ///< from the first release to the last frame's pose [s]
   bool stopped = false;           ///< the stop flag ended the run early
 
