@@ -5,7 +5,9 @@
 # fr1/rpy first 150 from ../shared/data) with the flow mask and with the YOLOX-nano detector
 # (../shared/models/yolox_nano.onnx), each in the default deterministic mode and with --realtime,
 # and prints one markdown table row per run: ms/frame median, frames posed of the sequence,
-# dropped, latency p50/p95 (realtime only), ATE, and the 1-minute load average before the run.
+# dropped, latency p50/p95 (realtime only), ATE, and the CPU the machine's other processes used
+# during the run, in cores (busy time from /proc/stat minus the run's own user+system time, over
+# its wall time; 0.0 = quiet, 2.0 = both cores taken by others).
 # The runs' outputs stay in OUT/<dataset>_<mask>_<mode>/ (log.txt is the runner's summary).
 # DYPHO_BIN: folder of dypho_run_dataset (default build/devel/lib/dypho_slam).
 set -euo pipefail
@@ -22,7 +24,10 @@ model="$SHARED/models/yolox_nano.onnx"
 mkdir -p "$out"
 printf 'mask:\n  yolo_model_path: "%s"\n' "$model" > "$out/detector.yaml"
 
-echo "| sequence | mask | mode | ms/frame median | posed / frames | dropped | latency p50 / p95 | ATE | load before |"
+busy_s() {  # CPU busy seconds of the whole machine since boot (user nice system irq softirq steal)
+  awk -v hz="$(getconf CLK_TCK)" '/^cpu / { print ($2 + $3 + $4 + $7 + $8 + $9) / hz }' /proc/stat
+}
+echo "| sequence | mask | mode | ms/frame median | posed / frames | dropped | latency p50 / p95 | ATE | others' CPU [cores] |"
 echo "|---|---|---|---|---|---|---|---|---|"
 for dataset in "${datasets[@]}"; do
   [[ -d "$dataset" ]] || { echo "realtime_runner.sh: no dataset folder $dataset" >&2; exit 2; }
@@ -35,10 +40,13 @@ for dataset in "${datasets[@]}"; do
       extra=()
       [[ $mode == realtime ]] && extra=(--realtime)
       dir="$out/${name}_${mask}_${mode}"
-      load="$(cut -d' ' -f1 /proc/loadavg)"
-      "$BIN/dypho_run_dataset" --dataset "$dataset" --out "$dir" --quiet "${config[@]}" "${extra[@]}" > "$dir.log" 2>&1 \
+      busy0="$(busy_s)"
+      /usr/bin/time -f "%e %U %S" -o "$dir.cpu" \
+        "$BIN/dypho_run_dataset" --dataset "$dataset" --out "$dir" --quiet "${config[@]}" "${extra[@]}" > "$dir.log" 2>&1 \
         || { echo "realtime_runner.sh: run failed, see $dir.log" >&2; exit 1; }
-      mv "$dir.log" "$dir/log.txt"
+      busy1="$(busy_s)"
+      others=$(awk -v b0="$busy0" -v b1="$busy1" '{ printf "%.2f", (b1 - b0 - $2 - $3) / $1 }' "$dir.cpu")
+      mv "$dir.log" "$dir/log.txt"; mv "$dir.cpu" "$dir/cpu.txt"
       ms=$(sed -n 's/^time: *\([0-9.]*\) ms.*/\1/p' "$dir/log.txt")
       posed=$(grep -vc '^#' "$dir/trajectory.txt" || true)
       ate=$(sed -n 's/^ATE RMSE: *\([0-9.]*\) cm.*/\1 cm/p' "$dir/log.txt")
@@ -47,7 +55,7 @@ for dataset in "${datasets[@]}"; do
         dropped=$(sed -n 's/.* \([0-9]*\) dropped, no pose.*/\1/p' "$dir/log.txt")
         latency=$(sed -n 's/^latency: *\([0-9.]*\) ms p50, \([0-9.]*\) ms p95.*/\1 \/ \2 ms/p' "$dir/log.txt")
       fi
-      echo "| $name | $mask | $mode | $ms | $posed / $frames | $dropped | $latency | $ate | $load |"
+      echo "| $name | $mask | $mode | $ms | $posed / $frames | $dropped | $latency | $ate | $others |"
     done
   done
 done
