@@ -23,8 +23,13 @@ bool SlamPipeline::wantsRenderedDepth() const {
 }
 
 FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& external_mask) {
-  FrameReport report;
-  cv::Mat mask;
+  return trackFrame(maskFrame(frame, external_mask));
+}
+
+MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask) {
+  MaskedFrame out;
+  out.frame = frame;
+  FrameReport& report = out.report;
   if (wantsRenderedDepth() && frame.camera.valid()) {
     const auto t_render = std::chrono::steady_clock::now();
     cv::Mat rendered = mapping_.predictedDepth(frame.stamp_ns, mask_.workingCamera(frame.camera));
@@ -38,19 +43,24 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
       report.dropped = true;
       report.message = result.message;
       report.tracking.stamp_ns = frame.stamp_ns;
-      return report;
+      return out;
     }
-    mask = result.mask;
+    out.mask = result.mask;
     report.masked_fraction = result.degraded ? 0.0 : result.masked_fraction;
     report.mask_degraded = result.degraded;
     report.rendered_depth_used = result.rendered_depth_used;
   } else if (options_.mask_source == MaskSource::kExternal && !external_mask.empty()) {
-    mask = external_mask;
-    report.masked_fraction = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
+    out.mask = external_mask;
+    report.masked_fraction = static_cast<double>(cv::countNonZero(out.mask)) / static_cast<double>(out.mask.total());
   }
   report.mask_ms = msSince(t_mask);
+  return out;
+}
 
-  tracking::TrackingOutput out = tracking_.process(frame, mask);
+FrameReport SlamPipeline::trackFrame(MaskedFrame masked) {
+  FrameReport report = std::move(masked.report);
+  if (report.dropped) return report;
+  tracking::TrackingOutput out = tracking_.process(masked.frame, masked.mask);
   if (out.dropped) {
     report.dropped = true;
     report.message = out.result.message;

@@ -1,8 +1,11 @@
 /// dypho_run_dataset: runs the mask, tracking and mapping cores in one process (no ROS master) on
 /// a TUM-layout folder or a bag, as fast as possible, and writes the trajectory, timing and map.
+/// With --realtime the frames arrive at their stamps instead and the live policy is used
+/// (realtime_runner.h): what the graph would get on this machine.
 ///
 ///   dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML] [--config YAML]
 ///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--quiet]
+///                     [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]
 ///   dypho_run_dataset --print-config
 ///
 /// This command line is stable: scripts depend on it.
@@ -13,11 +16,13 @@
 #include <atomic>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -29,6 +34,7 @@
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
 #include "dypho/common/trajectory_io.h"
+#include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
 
@@ -52,12 +58,16 @@ struct Args {
   bool eval = true;
   bool quiet = false;
   bool print_config = false;
+  bool realtime = false;                ///< --realtime: frames at their stamps, live policy
+  pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue, --realtime-one-thread
+  bool realtime_option_given = false;   ///< one of those was given (needs --realtime)
 };
 
 void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
         "                         [--config YAML] [--mask flow|gt|none] [--max-frames N]\n"
         "                         [--no-eval] [--quiet]\n"
+        "                         [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
         "              /camera/rgb/image_color, /camera/depth/image, /camera/rgb/camera_info\n"
@@ -68,7 +78,28 @@ void usage(std::ostream& os) {
         "              and with ground truth: evaluation.txt, trajectory.png\n"
         "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
         "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
-        "  --mask      flow (default, the mask core), gt (DIR/mask/*.png, synthetic data), none\n";
+        "  --mask      flow (default, the mask core), gt (DIR/mask/*.png, synthetic data), none\n"
+        "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
+        "              live policy runs: live mapping, the network asynchronous (yolo_async forced on),\n"
+        "              mask and tracking on two threads; a frame not taken in time is dropped and\n"
+        "              counted (no pose). Adds realtime.csv. Not repeatable. Default: deterministic,\n"
+        "              every frame processed as fast as possible.\n"
+        "  --realtime-speed S     playback speed factor, > 0 (default 1.0)\n"
+        "  --realtime-queue N     frames waiting per hand-over before the oldest is dropped, >= 1 (default 2)\n"
+        "  --realtime-one-thread  mask and tracking one after the other on one thread (default: pipelined)\n";
+}
+
+/// A whole-string number for option `key`; a clear error otherwise.
+double parseNumber(const std::string& key, const std::string& text) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size()) throw std::runtime_error(key + " needs a number (got '" + text + "')");
+  return v;
 }
 
 Args parseArgs(int argc, char** argv) {
@@ -88,11 +119,30 @@ Args parseArgs(int argc, char** argv) {
     else if (k == "--no-eval") a.eval = false;
     else if (k == "--quiet") a.quiet = true;
     else if (k == "--print-config") a.print_config = true;
+    else if (k == "--realtime") a.realtime = true;
+    else if (k == "--realtime-speed") { a.realtime_options.speed = parseNumber(k, value()); a.realtime_option_given = true; }
+    else if (k == "--realtime-queue") {
+      const double frames = parseNumber(k, value());
+      if (frames != std::floor(frames) || frames < 1 || frames > 1000) {
+        throw std::runtime_error("--realtime-queue needs a whole number of frames in [1, 1000]");
+      }
+      a.realtime_options.queue_capacity_frames = static_cast<int>(frames);
+      a.realtime_option_given = true;
+    }
+    else if (k == "--realtime-one-thread") { a.realtime_options.pipelined = false; a.realtime_option_given = true; }
     else if (k == "-h" || k == "--help") { usage(std::cout); std::exit(0); }
     else throw std::runtime_error("unknown argument '" + k + "'");
   }
   if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
     throw std::runtime_error("--dataset and --out are required");
+  }
+  if (a.realtime_option_given && !a.realtime) {
+    throw std::runtime_error("--realtime-speed, --realtime-queue and --realtime-one-thread need --realtime");
+  }
+  try {
+    a.realtime_options.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(e.what());
   }
   return a;
 }
@@ -144,6 +194,48 @@ void writeTiming(const std::string& path, const std::vector<TimingRow>& rows) {
   });
 }
 
+/// realtime.csv: one row per frame of the sequence: what happened to it in the realtime run.
+void writeRealtimeCsv(const std::string& path, const RealtimeResult& r, std::size_t num_frames) {
+  std::vector<std::string> fate(num_frames, "unreadable");  // never released: the loader failed
+  std::vector<double> latency_ms(num_frames, -1.0);
+  for (const RealtimeProcessedFrame& f : r.processed) {
+    fate[f.index] = f.report.dropped ? "rejected_stamp" : "posed";
+    if (!f.report.dropped) latency_ms[f.index] = f.latency_ms;
+  }
+  for (std::size_t i : r.dropped_before_mask) fate[i] = "dropped_before_mask";
+  for (std::size_t i : r.dropped_before_tracking) fate[i] = "dropped_before_tracking";
+  if (r.stopped) {
+    // Frames after a stop were never released.
+    std::vector<bool> released(num_frames, false);
+    for (const RealtimeProcessedFrame& f : r.processed) released[f.index] = true;
+    for (std::size_t i : r.dropped_before_mask) released[i] = true;
+    for (std::size_t i : r.dropped_before_tracking) released[i] = true;
+    for (std::size_t i = 0; i < num_frames; ++i) {
+      if (!released[i] && fate[i] == "unreadable") fate[i] = "not_released";
+    }
+  }
+  writeFileAtomically(path, [&](std::ostream& os) {
+    os << "frame,fate,latency_ms\n" << std::fixed << std::setprecision(3);
+    for (std::size_t i = 0; i < num_frames; ++i) os << i << ',' << fate[i] << ',' << latency_ms[i] << '\n';
+  });
+}
+
+/// The realtime run in two lines for the summary.
+std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, const RealtimeOptions& o) {
+  std::ostringstream os;
+  os << std::fixed << "realtime:     " << r.frames_in << " frames in, " << r.processed.size() << " processed ("
+     << r.framesPosed() << " posed, " << std::setprecision(3)
+     << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
+     << " of the sequence), " << r.framesDropped() << " dropped, no pose (" << r.dropped_before_mask.size()
+     << " before the mask, " << r.dropped_before_tracking.size() << " before tracking), " << r.late_releases
+     << " released late (reading fell behind)\n"
+     << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
+     << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
+     << ", hand-overs of " << o.queue_capacity_frames << ", " << (o.pipelined ? "pipelined" : "one thread")
+     << ", " << std::setprecision(1) << r.wall_s << " s wall; per frame: realtime.csv";
+  return os.str();
+}
+
 int run(const Args& args) {
   const std::string config_dir = defaultConfigDir();
   PipelineOptions options = loadPipelineOptions(config_dir, args.config);
@@ -167,7 +259,11 @@ int run(const Args& args) {
   sigaction(SIGINT, &stop_action, nullptr);
   sigaction(SIGTERM, &stop_action, nullptr);
 
-  SlamPipeline pipeline(options);  // deterministic: the same run gives the same bits
+  if (args.realtime) {
+    for (const std::string& change : applyLivePolicy(options)) std::cerr << "dypho_run_dataset: realtime: " << change << "\n";
+  }
+  // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.
+  SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
   std::size_t num_keyframes = 0;
   std::vector<TimingRow> rows;
   std::vector<double> totals;
@@ -177,7 +273,38 @@ int run(const Args& args) {
   std::vector<std::string> unreadable;  // frames skipped because their files could not be read
   std::vector<std::string> out_of_order;  // frames dropped for a repeated or late stamp (stamp_gate.h)
   std::size_t processed = 0;
-  for (std::size_t i = 0; i < n && !g_stop; ++i) {
+  std::optional<RealtimeResult> realtime;
+  if (args.realtime) {
+    std::cerr << "dypho_run_dataset: realtime: frames released at their stamps x" << args.realtime_options.speed
+              << ", hand-overs of " << args.realtime_options.queue_capacity_frames << " frames (oldest dropped), "
+              << (args.realtime_options.pipelined ? "mask and tracking pipelined on two threads" : "mask and tracking on one thread")
+              << ", live mapping\n";
+    std::vector<double> load_ms(n, 0.0);  // written by the producer thread, read after run()
+    const RealtimeFrameLoader load = [&](std::size_t i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      SourceFrame sf = source->load(i);
+      load_ms[i] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      return RealtimeInput{std::move(sf.frame), std::move(sf.mask)};
+    };
+    realtime = RealtimeRunner(pipeline, args.realtime_options).run(n, load, &g_stop);
+    unreadable = realtime->unreadable;
+    for (const RealtimeProcessedFrame& f : realtime->processed) {
+      ++processed;
+      if (f.report.dropped) {
+        out_of_order.push_back("frame " + std::to_string(f.index) + ": " + f.report.message);
+        continue;
+      }
+      const auto& tr = f.report.tracking;
+      if (tr.state != tracking::TrackingState::kOk) ++lost;
+      if (tr.keyframe) ++num_keyframes;
+      // Work on this frame, not the waits between the stages: render + mask + tracking + mapping.
+      const double work_ms = f.report.render_ms + f.report.mask_ms + tr.times.total + f.report.mapping_ms;
+      rows.push_back({f.index, timestampToSeconds(tr.stamp_ns), load_ms[f.index], f.report, work_ms});
+      totals.push_back(work_ms);
+    }
+    writeRealtimeCsv(args.out + "/realtime.csv", *realtime, n);
+  }
+  for (std::size_t i = 0; !args.realtime && i < n && !g_stop; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     SourceFrame sf;
     try {
@@ -233,12 +360,15 @@ int run(const Args& args) {
             << "), " << num_final_keyframes << " keyframes\n";
   for (const std::string& u : unreadable) std::cout << "  skipped " << u << "\n";
   for (const std::string& u : out_of_order) std::cout << "  dropped " << u << "\n";
+  if (realtime) std::cout << realtimeSummary(*realtime, n, args.realtime_options) << "\n";
   std::cout
             << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion\n"
             << "time:         " << std::fixed << std::setprecision(1) << median(totals)
-            << " ms/frame median (mask + tracking + mapping)\n"
+            << (realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
+                           "waits between the stages not counted)\n"
+                         : " ms/frame median (mask + tracking + mapping)\n")
             << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n"
@@ -277,6 +407,12 @@ int run(const Args& args) {
        << "RPE (1 s):    " << rpe_line << "\n"
        << "ATE online:   " << ate_online.rmse_m * 100
        << " cm (trajectory_online.txt, poses as published at frame time)\n";
+    if (realtime) {
+      // Realtime: the ATE covers the frames that got a pose; how many did belongs beside it.
+      ev << "posed:        " << realtime->framesPosed() << " of " << n << " frames (fraction "
+         << std::setprecision(3) << static_cast<double>(realtime->framesPosed()) / static_cast<double>(std::max<std::size_t>(n, 1))
+         << "; " << realtime->framesDropped() << " dropped by --realtime have no pose)\n";
+    }
     writeFileAtomically(args.out + "/evaluation.txt", [&](std::ostream& os) { os << ev.str(); });
     writeTrajectoryPlotPng(args.out + "/trajectory.png", ate, source->description());
     std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out

@@ -16,7 +16,13 @@
 ///  5. Corrections of earlier keyframes, then the new keyframe, go to mapping (graph: topics
 ///     keyframe_corrections, keyframe).
 /// R_d is rendered only when MaskStage::wantsRenderedDepth() (background model on, tau > 0).
-/// Not thread-safe: call process() from one thread.
+///
+/// process() is maskFrame() (steps 1-2) then trackFrame() (steps 3-5). Threads: process() from
+/// one thread; or, pipelined like the graph's mask and tracking nodelets, maskFrame() on one
+/// thread and trackFrame() on another, so that frame k is tracked while frame k+1 is masked (the
+/// stages' shared state is thread-safe: MaskStage's prior, MappingStage). Frame k+1's ego-motion
+/// prior and R_d then predict from the newest pose tracking has handed on, at least frame k-1's
+/// (the constant-velocity model extrapolates to both stamps; motion_prior.h).
 
 #include <string>
 #include <memory>
@@ -46,15 +52,32 @@ struct FrameReport {
   std::string message;                ///< why the frame was dropped
 };
 
+/// A frame after the mask stage, on its way to tracking (maskFrame() -> trackFrame()).
+struct MaskedFrame {
+  RgbdFrame frame;     ///< the input frame (images shared, not copied)
+  cv::Mat mask;        ///< CV_8UC1, 255 = dynamic; empty = all static
+  FrameReport report;  ///< render/mask fields filled; `dropped` when the mask stage rejected the stamp
+};
+
 class SlamPipeline {
  public:
   /// `mode`: kDeterministic for repeatable offline runs (see MappingStage).
   explicit SlamPipeline(const PipelineOptions& options,
                         mapping::MappingMode mode = mapping::MappingMode::kDeterministic);
+  /// kDeterministic or kLive, as constructed.
+  mapping::MappingMode mappingMode() const { return mapping_.mode(); }
 
   /// Processes one frame. `external_mask` (CV_8UC1, 255 = dynamic) is used only with
   /// MaskSource::kExternal; an empty one means "all static".
   FrameReport process(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat());
+
+  /// Steps 1-2 of process(): R_d for the frame, then its mask (or `external_mask`, see process()).
+  /// A frame the mask stage drops (repeated or late stamp) comes back with report.dropped set.
+  MaskedFrame maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat());
+  /// Steps 3-5 of process(): tracks a masked frame, hands its pose to the mask and mapping stages
+  /// and its corrections and keyframe to mapping. A frame already dropped by the mask stage is
+  /// returned as it is.
+  FrameReport trackFrame(MaskedFrame masked);
 
   /// End of the sequence: the mapping stage finishes its queue and runs the final refinement.
   void finish() { mapping_.finish(); }

@@ -1,0 +1,209 @@
+/// The realtime runner (dypho_run_dataset --realtime) on a short synthetic sequence: every
+/// released frame is either processed or dropped and counted, dropped frames have no pose, and the
+/// default deterministic path is unchanged. Invariants only: which frames are dropped depends on
+/// the machine's load, so no assertion depends on timing except where the margin is three orders
+/// of magnitude (stated at the test).
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dypho/pipeline/bounded_hand_over.h"
+#include "dypho/pipeline/realtime_runner.h"
+#include "dypho/pipeline/slam_pipeline.h"
+#include "dypho/tools/synthetic_scene.h"
+
+namespace dypho {
+namespace {
+
+TEST(BoundedHandOver, KeepsOrderDropsTheOldestWhenFullAndDrainsAfterClose) {
+  pipeline::BoundedHandOver<int> q(2);
+  EXPECT_FALSE(q.push(1).has_value());
+  EXPECT_FALSE(q.push(2).has_value());
+  const std::optional<int> dropped = q.push(3);  // full: 1 makes room
+  ASSERT_TRUE(dropped.has_value());
+  EXPECT_EQ(*dropped, 1);
+  EXPECT_EQ(q.pop(), std::optional<int>(2));
+  q.close();
+  EXPECT_EQ(q.pop(), std::optional<int>(3));  // what waited is still handed out
+  EXPECT_EQ(q.pop(), std::nullopt);
+  EXPECT_EQ(q.push(4), std::optional<int>(4));  // after close nothing is taken
+  EXPECT_THROW(pipeline::BoundedHandOver<int>(0), std::invalid_argument);
+}
+
+TEST(RealtimeOptions, RejectsBadValues) {
+  pipeline::RealtimeOptions o;
+  EXPECT_NO_THROW(o.validate());
+  o.speed = 0.0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.speed = std::nan("");
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.speed = 1.0;
+  o.queue_capacity_frames = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o.queue_capacity_frames = 2;
+  o.prefetch_frames = 0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+}
+
+TEST(RealtimeRunner, PercentileIsTheNearestRank) {
+  EXPECT_EQ(pipeline::percentile({}, 0.5), 0.0);
+  EXPECT_EQ(pipeline::percentile({3.0, 1.0, 2.0, 4.0}, 0.5), 2.0);
+  EXPECT_EQ(pipeline::percentile({3.0, 1.0, 2.0, 4.0}, 0.95), 4.0);
+  EXPECT_EQ(pipeline::percentile({3.0, 1.0, 2.0, 4.0}, 0.0), 1.0);
+}
+
+TEST(RealtimeRunner, LivePolicyTurnsTheNetworkAsynchronousOnlyWithAModel) {
+  pipeline::PipelineOptions o;
+  EXPECT_TRUE(pipeline::applyLivePolicy(o).empty()) << "no model: nothing to change";
+  EXPECT_FALSE(o.mask.yolo.async);
+  o.mask.yolo.model_path = "model.onnx";
+  EXPECT_EQ(pipeline::applyLivePolicy(o).size(), 1u);
+  EXPECT_TRUE(o.mask.yolo.async);
+  EXPECT_TRUE(pipeline::applyLivePolicy(o).empty()) << "already asynchronous";
+}
+
+constexpr int kFrames = 30;
+
+/// A short synthetic sequence, rendered once for all tests (rendering is not what is measured).
+const std::vector<tools::SynthFrame>& frames() {
+  static const std::vector<tools::SynthFrame> rendered = [] {
+    tools::SynthOptions so;
+    so.frames = kFrames;
+    so.people = 1;
+    so.seed = 7;
+    const tools::SyntheticScene scene(so);
+    std::vector<tools::SynthFrame> f;
+    for (int i = 0; i < kFrames; ++i) f.push_back(scene.render(i));
+    return f;
+  }();
+  return rendered;
+}
+
+pipeline::PipelineOptions shortOptions() {
+  pipeline::PipelineOptions options;
+  options.mapping.gaussian.iterations_per_keyframe = 2;  // keeps the test short
+  options.mapping.gaussian.final_refine_iterations = 0;
+  return options;
+}
+
+pipeline::RealtimeFrameLoader loader(std::set<std::size_t> unreadable = {}) {
+  return [unreadable](std::size_t i) {
+    if (unreadable.count(i) != 0) throw std::runtime_error("unreadable on purpose");
+    return pipeline::RealtimeInput{frames().at(i).frame, cv::Mat()};
+  };
+}
+
+/// The invariants of any realtime run of `released` frames through `slam`.
+void checkAccounting(const pipeline::RealtimeResult& r, std::size_t released, pipeline::SlamPipeline& slam) {
+  EXPECT_EQ(r.frames_in, released);
+  EXPECT_EQ(r.frames_in, r.processed.size() + r.framesDropped()) << "every released frame is processed or dropped";
+  std::set<std::size_t> seen;
+  for (const auto& f : r.processed) EXPECT_TRUE(seen.insert(f.index).second) << "frame " << f.index << " twice";
+  for (std::size_t i : r.dropped_before_mask) EXPECT_TRUE(seen.insert(i).second) << "frame " << i << " twice";
+  for (std::size_t i : r.dropped_before_tracking) EXPECT_TRUE(seen.insert(i).second) << "frame " << i << " twice";
+  EXPECT_EQ(seen.size(), released);
+  // Hand-overs keep arrival order: tracking finishes frames in sequence order.
+  for (std::size_t k = 1; k < r.processed.size(); ++k) EXPECT_LT(r.processed[k - 1].index, r.processed[k].index);
+  for (const auto& f : r.processed) {
+    EXPECT_TRUE(std::isfinite(f.latency_ms) && f.latency_ms >= 0.0) << "frame " << f.index << ": " << f.latency_ms;
+    EXPECT_FALSE(f.report.dropped) << "distinct increasing stamps: the stamp gate rejects none";
+  }
+  // Exactly the processed frames have a pose, with their stamps; dropped frames have none.
+  const tracking::PoseList trajectory = slam.tracking().onlineTrajectory();
+  ASSERT_EQ(trajectory.size(), r.framesPosed());
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    EXPECT_EQ(trajectory[k].first, frames().at(r.processed[k].index).frame.stamp_ns) << "pose " << k;
+  }
+  EXPECT_LE(r.latencyPercentileMs(0.5), r.latencyPercentileMs(0.95));
+}
+
+class RealtimeRun : public ::testing::TestWithParam<bool> {};  // parameter: pipelined
+
+// At the camera's rate (speed 1.0) with the live policy: frames are processed, the count adds
+// up, one unreadable frame is skipped and named, never released.
+TEST_P(RealtimeRun, AtCameraRateEveryFrameIsProcessedOrDropped) {
+  pipeline::SlamPipeline slam(shortOptions(), mapping::MappingMode::kLive);
+  pipeline::RealtimeOptions ro;
+  ro.pipelined = GetParam();
+  pipeline::RealtimeRunner runner(slam, ro);
+  const pipeline::RealtimeResult r = runner.run(kFrames, loader({5}));
+  slam.finish();
+  ASSERT_EQ(r.unreadable.size(), 1u);
+  EXPECT_NE(r.unreadable[0].find("frame 5"), std::string::npos) << r.unreadable[0];
+  checkAccounting(r, kFrames - 1, slam);
+  EXPECT_GT(r.framesPosed(), 0u);
+  EXPECT_FALSE(r.stopped);
+  EXPECT_GT(r.wall_s, 0.0);
+}
+
+// All frames released at once (speed 1e6: 30 frames within 1 us of stamp time) into hand-overs
+// of one frame: the pipeline cannot take them in time (a frame costs milliseconds, three orders
+// of magnitude more), so frames are dropped, deliberately and counted, and nothing piles up.
+TEST_P(RealtimeRun, FasterThanThePipelineDropsAndCountsFrames) {
+  pipeline::SlamPipeline slam(shortOptions(), mapping::MappingMode::kLive);
+  pipeline::RealtimeOptions ro;
+  ro.pipelined = GetParam();
+  ro.speed = 1e6;
+  ro.queue_capacity_frames = 1;
+  pipeline::RealtimeRunner runner(slam, ro);
+  const pipeline::RealtimeResult r = runner.run(kFrames, loader());
+  slam.finish();
+  checkAccounting(r, kFrames, slam);
+  EXPECT_GT(r.framesDropped(), 0u);
+  EXPECT_GT(r.processed.size(), 0u) << "the first frame is always taken";
+  if (!GetParam()) {
+    EXPECT_TRUE(r.dropped_before_tracking.empty()) << "one thread: no second hand-over";
+  }
+}
+
+// A stop flag set before the run releases nothing.
+TEST_P(RealtimeRun, StopFlagReleasesNothingMore) {
+  pipeline::SlamPipeline slam(shortOptions(), mapping::MappingMode::kLive);
+  pipeline::RealtimeOptions ro;
+  ro.pipelined = GetParam();
+  pipeline::RealtimeRunner runner(slam, ro);
+  const std::atomic<bool> stop{true};
+  const pipeline::RealtimeResult r = runner.run(kFrames, loader(), &stop);
+  EXPECT_TRUE(r.stopped);
+  EXPECT_EQ(r.frames_in, 0u);
+  EXPECT_TRUE(r.processed.empty());
+  EXPECT_EQ(slam.tracking().numFrames(), 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Threads, RealtimeRun, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                           return info.param ? std::string("Pipelined") : std::string("OneThread");
+                         });
+
+std::vector<Eigen::Isometry3d> deterministicPoses(bool split) {
+  pipeline::SlamPipeline slam(shortOptions());
+  std::vector<Eigen::Isometry3d> poses;
+  for (const tools::SynthFrame& f : frames()) {
+    const pipeline::FrameReport r = split ? slam.trackFrame(slam.maskFrame(f.frame)) : slam.process(f.frame);
+    poses.push_back(r.tracking.T_world_camera);
+  }
+  return poses;
+}
+
+// The default path is untouched: process() is maskFrame() then trackFrame() to the bit, and a
+// realtime run in between leaves no state behind that changes a deterministic run.
+TEST(RealtimeRunner, DefaultDeterministicRunIsUnaffected) {
+  const std::vector<Eigen::Isometry3d> a = deterministicPoses(false);
+  {
+    pipeline::SlamPipeline slam(shortOptions(), mapping::MappingMode::kLive);
+    pipeline::RealtimeRunner(slam, pipeline::RealtimeOptions()).run(kFrames, loader());
+    slam.finish();
+  }
+  const std::vector<Eigen::Isometry3d> b = deterministicPoses(true);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_TRUE(a[i].matrix() == b[i].matrix()) << "frame " << i;
+}
+
+}  // namespace
+}  // namespace dypho
