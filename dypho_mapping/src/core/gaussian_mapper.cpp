@@ -65,7 +65,9 @@ void GaussianMapper::start(std::size_t queue_capacity, bool live) {
 }
 
 bool GaussianMapper::idleStep() {
-  if (idle_paused_ || hurry_ || worker_->stopping()) return false;
+  // Called by the worker thread, which may start before worker_ is assigned: no use of worker_
+  // here (the worker checks its own stop flag before each idle step).
+  if (idle_paused_ || hurry_) return false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (trainer_->keyframes.empty()) return false;

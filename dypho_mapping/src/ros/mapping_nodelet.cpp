@@ -84,6 +84,8 @@ struct RenderRequest {
 class GaussianMappingNodelet : public nodelet::Nodelet {
  public:
   ~GaussianMappingNodelet() override {
+    timer_.stop();
+    diagnostics_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
       stop_ = true;
@@ -431,8 +433,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
-  ros::WallTimer timer_, diagnostics_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer timer_, diagnostics_timer_;  ///< after what their callbacks use: destroyed first
   ros::WallTime last_diagnosis_{0.0};           ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;
   std::size_t dropped_at_last_diagnosis_ = 0;

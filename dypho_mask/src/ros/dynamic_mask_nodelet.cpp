@@ -148,6 +148,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   }
 
  ~DynamicMaskNodelet() override {
+    diagnostics_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       stop_ = true;

@@ -180,6 +180,8 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   ~TrackingNodelet() override {
+    path_timer_.stop();
+    diagnostics_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       stop_ = true;
@@ -533,8 +535,8 @@ class TrackingNodelet : public nodelet::Nodelet {
 
   ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
-  ros::WallTimer path_timer_, diagnostics_timer_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer path_timer_, diagnostics_timer_;  ///< after what their callbacks use: destroyed first
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::SubscriberFilter rgb_sub_, depth_sub_;
