@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "dypho/pipeline/bounded_hand_over.h"
+#include "dypho/common/bounded_hand_over.h"
 
 namespace dypho::pipeline {
 namespace {

@@ -13,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "dypho/pipeline/bounded_hand_over.h"
+#include "dypho/common/bounded_hand_over.h"
 #include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/synthetic_scene.h"
@@ -22,7 +22,7 @@ namespace dypho {
 namespace {
 
 TEST(BoundedHandOver, KeepsOrderDropsTheOldestWhenFullAndDrainsAfterClose) {
-  pipeline::BoundedHandOver<int> q(2);
+  dypho::BoundedHandOver<int> q(2);
   EXPECT_FALSE(q.push(1).has_value());
   EXPECT_FALSE(q.push(2).has_value());
   const std::optional<int> dropped = q.push(3);  // full: 1 makes room
@@ -33,7 +33,7 @@ TEST(BoundedHandOver, KeepsOrderDropsTheOldestWhenFullAndDrainsAfterClose) {
   EXPECT_EQ(q.pop(), std::optional<int>(3));  // what waited is still handed out
   EXPECT_EQ(q.pop(), std::nullopt);
   EXPECT_EQ(q.push(4), std::optional<int>(4));  // after close nothing is taken
-  EXPECT_THROW(pipeline::BoundedHandOver<int>(0), std::invalid_argument);
+  EXPECT_THROW(dypho::BoundedHandOver<int>(0), std::invalid_argument);
 }
 
 TEST(RealtimeOptions, RejectsBadValues) {

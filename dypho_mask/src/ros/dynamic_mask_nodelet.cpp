@@ -5,16 +5,15 @@
 /// map's depth at the predicted pose of the frame with the same stamp).
 ///
 /// Threads: the synchronised callback only stores the message pointers; one worker thread masks
-/// the oldest waiting frame. When more than ~max_waiting_frames wait (the mask is slower than the
+/// the oldest waiting frame (BoundedHandOver). When more than ~max_waiting_frames wait (the mask is slower than the
 /// camera), the oldest is skipped and counted: tracking then carries the nearest mask to it. The
 /// network (yolo_async) runs on its own lower-priority thread beside it. `~cores` sets OpenCV's
 /// pool for the whole process (thread_budget.h).
 
-#include <chrono>
-#include <condition_variable>
-#include <deque>
+#include <atomic>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -32,6 +31,7 @@
 #include <opencv2/core.hpp>
 #include <sensor_msgs/image_encodings.h>
 
+#include "dypho/common/bounded_hand_over.h"
 #include "dypho/common/rolling_stats.h"
 #include "dypho/common/thread_budget.h"
 
@@ -47,10 +47,6 @@ namespace dypho::mask_ros {
 namespace rc = dypho::ros_conversions;
 using sensor_msgs::CameraInfo;
 using sensor_msgs::Image;
-
-double steadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 class DynamicMaskNodelet : public nodelet::Nodelet {
   using ApproxPolicy = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
@@ -121,6 +117,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     diagnostics_->add("mask", this, &DynamicMaskNodelet::diagnose);
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
                                             [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    waiting_ = std::make_unique<BoundedHandOver<FrameMsgs>>(static_cast<std::size_t>(max_waiting_frames_));
     worker_ = std::thread([this] { workerLoop(); });
 
     // 4. Inputs.
@@ -149,11 +146,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
 
  ~DynamicMaskNodelet() override {
     diagnostics_timer_.stop();
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      stop_ = true;
-    }
-    queue_cv_.notify_all();
+    stopping_ = true;  // the frames still waiting are not masked
+    if (waiting_) waiting_->close();
     if (worker_.joinable()) worker_.join();
   }
 
@@ -168,31 +162,18 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   void callback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                 const sensor_msgs::CameraInfoConstPtr& info) {
     watchdog_->tick();
-    const double now = steadySeconds();
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      waiting_.push_back(FrameMsgs{rgb, depth, info, now});
-      ++frames_in_;
-      input_rate_.add(now);
-      while (static_cast<int>(waiting_.size()) > max_waiting_frames_) {
-        waiting_.pop_front();
-        ++frames_dropped_busy_;
-      }
-    }
-    queue_cv_.notify_one();
+    const double now = steadyClockSeconds();
+    const bool dropped = waiting_->push(FrameMsgs{rgb, depth, info, now}).has_value();
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++frames_in_;
+    if (dropped) ++frames_dropped_busy_;
+    input_rate_.add(now);
   }
 
   void workerLoop() {
-    for (;;) {
-      FrameMsgs msgs;
-      {
-        std::unique_lock<std::mutex> lock(queue_mutex_);
-        queue_cv_.wait(lock, [&] { return stop_ || !waiting_.empty(); });
-        if (stop_) return;
-        msgs = std::move(waiting_.front());
-        waiting_.pop_front();
-      }
-      processFrame(msgs);
+    while (std::optional<FrameMsgs> msgs = waiting_->pop()) {
+      if (stopping_) return;
+      processFrame(*msgs);
     }
   }
 
@@ -225,7 +206,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     publishIfWanted(raw_pub_, result.raw_flow_mask, rgb->header);
     publishIfWanted(raw_segment_pub_, result.raw_segment_mask, rgb->header);
     publishIfWanted(consistency_pub_, result.consistency_mask, rgb->header);
-    publishStatus(result, rgb->header, (steadySeconds() - msgs.arrival_s) * 1e3);
+    publishStatus(result, rgb->header, (steadyClockSeconds() - msgs.arrival_s) * 1e3);
   }
 
   void publishStatus(const mask::MaskResult& result, const std_msgs::Header& header, double latency_ms) {
@@ -249,14 +230,14 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
                                                                 : dypho_slam::MaskStatus::SEGMENT_NONE;
     status->segment_age_frames = result.segment_age_frames;
     {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
+      std::lock_guard<std::mutex> lock(counters_mutex_);
       latency_ms_.add(latency_ms);
       status->frames_in = frames_in_;
       status->frames_dropped_busy = frames_dropped_busy_;
       status->latency_ms = static_cast<float>(latency_ms);
       status->latency_p50_ms = static_cast<float>(latency_ms_.percentile(0.5));
       status->latency_p95_ms = static_cast<float>(latency_ms_.percentile(0.95));
-      status->input_rate_hz = static_cast<float>(input_rate_.rateHz(steadySeconds()));
+      status->input_rate_hz = static_cast<float>(input_rate_.rateHz(steadyClockSeconds()));
       last_status_ = *status;
     }
     status_pub_.publish(status);
@@ -272,7 +253,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
 
   /// /diagnostics: the mask's live figures, with a level a user can act on.
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
+    std::lock_guard<std::mutex> lock(counters_mutex_);
     const dypho_slam::MaskStatus& s = last_status_;
     const std::uint64_t dropped_now = s.frames_dropped_busy - dropped_at_last_diagnosis_;
     dropped_at_last_diagnosis_ = s.frames_dropped_busy;
@@ -322,10 +303,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   std::unique_ptr<mask::MaskStage> stage_;  ///< the worker thread (and the optional-input callbacks, through its own lock)
   int max_waiting_frames_ = 2;
 
-  std::mutex queue_mutex_;  ///< guards the queue, the counters and stop_
-  std::condition_variable queue_cv_;
-  std::deque<FrameMsgs> waiting_;
-  bool stop_ = false;
+  std::unique_ptr<BoundedHandOver<FrameMsgs>> waiting_;  ///< frames for the worker; the oldest is skipped when full
+  std::atomic<bool> stopping_{false};
+  std::mutex counters_mutex_;  ///< guards the counters and figures below
   std::uint64_t frames_in_ = 0, frames_dropped_busy_ = 0, dropped_at_last_diagnosis_ = 0;
   RollingSamples latency_ms_;
   EventRate input_rate_;

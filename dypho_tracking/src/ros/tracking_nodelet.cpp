@@ -67,10 +67,6 @@ struct TrackingRosParams {
   tracking::MaskPairingOptions mask_pairing;  ///< ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s
 };
 
-double steadySeconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 std::uint8_t toStatusMaskSource(tracking::MaskSource source) {
   switch (source) {
     case tracking::MaskSource::kMatched: return dypho_slam::TrackingStatus::MASK_MATCHED;
@@ -201,7 +197,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   void frameCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                      const sensor_msgs::CameraInfoConstPtr& info) {
     watchdog_->tick();
-    const double now = steadySeconds();
+    const double now = steadyClockSeconds();
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       pairer_->addFrame(rc::toTimestamp(rgb->header.stamp), FrameMsgs{rgb, depth, info}, now);
@@ -222,9 +218,9 @@ class TrackingNodelet : public nodelet::Nodelet {
   void workerLoop() {
     std::unique_lock<std::mutex> lock(queue_mutex_);
     while (!stop_) {
-      std::vector<Pairer::Ready> ready = pairer_->takeReady(steadySeconds());
+      std::vector<Pairer::Ready> ready = pairer_->takeReady(steadyClockSeconds());
       if (ready.empty()) {
-        const std::optional<double> wait_s = pairer_->secondsUntilDeadline(steadySeconds());
+        const std::optional<double> wait_s = pairer_->secondsUntilDeadline(steadyClockSeconds());
         if (wait_s) {
           queue_cv_.wait_for(lock, std::chrono::duration<double>(*wait_s + 1e-4));
         } else {
@@ -260,7 +256,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       return;
     }
     tracking::TrackingOutput out;
-    const double t0 = steadySeconds();
+    const double t0 = steadyClockSeconds();
     try {
       std::lock_guard<std::mutex> lock(stage_mutex_);
       out = stage_->process(frame, mask);
@@ -269,7 +265,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
-    const double tracking_ms = (steadySeconds() - t0) * 1e3;
+    const double tracking_ms = (steadyClockSeconds() - t0) * 1e3;
     if (out.dropped) {  // repeated or late stamp: nothing to publish for it
       if (input_log_.pass(out.result.message)) NODELET_WARN_STREAM(out.result.message);
       return;
@@ -351,7 +347,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     status.latency_p95_ms = static_cast<float>(latency_ms_.percentile(0.95));
     status.tracking_p50_ms = static_cast<float>(tracking_ms_.percentile(0.5));
     status.tracking_p95_ms = static_cast<float>(tracking_ms_.percentile(0.95));
-    status.input_rate_hz = static_cast<float>(input_rate_.rateHz(steadySeconds()));
+    status.input_rate_hz = static_cast<float>(input_rate_.rateHz(steadyClockSeconds()));
     status.frames_in = pairing.frames_in;
     status.frames_processed = frames_processed_;
     status.frames_dropped = pairing.dropped;

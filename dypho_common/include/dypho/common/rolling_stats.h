@@ -1,15 +1,22 @@
 #pragma once
 /// \file rolling_stats.h
-/// Percentiles of the newest samples of a quantity (stage latencies for diagnostics) and the rate
-/// of events over a time window (input rate). Not thread-safe: one owner, or the owner's lock.
+/// The monotonic clock in seconds, percentiles of the newest samples of a quantity (stage
+/// latencies for diagnostics) and the rate of events over a time window (input rate). The classes
+/// are not thread-safe: one owner, or the owner's lock.
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <deque>
 #include <vector>
 
 namespace dypho {
+
+/// Seconds of the monotonic clock (arrival times, rates, waits of the live figures).
+inline double steadyClockSeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 /// The newest `capacity` samples; percentile() over them.
 class RollingSamples {

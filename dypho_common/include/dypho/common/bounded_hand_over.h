@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <utility>
 
-namespace dypho::pipeline {
+namespace dypho {
 
 template <typename T>
 class BoundedHandOver {
@@ -69,4 +69,4 @@ class BoundedHandOver {
   bool closed_ = false;
 };
 
-}  // namespace dypho::pipeline
+}  // namespace dypho
