@@ -46,7 +46,7 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
       return out;
     }
     out.mask = result.mask;
-    report.masked_fraction = result.degraded ? 0.0 : result.masked_fraction;
+    report.masked_fraction = result.masked_fraction;
     report.mask_degraded = result.degraded;
     report.rendered_depth_used = result.rendered_depth_used;
   } else if (options_.mask_source == MaskSource::kExternal && !external_mask.empty()) {

@@ -1,7 +1,8 @@
 /// dypho_evaluate: ATE / RPE of an estimated TUM trajectory against ground truth.
 ///
 ///   dypho_evaluate --estimate FILE --groundtruth FILE [--bonn-correction] [--plot OUT.png]
-///                  [--delta S]... [--max-gap S] [--json OUT.json] [--title TEXT]
+///                  [--delta S]... [--max-gap S] [--json OUT.json] [--errors OUT.txt]
+///                  [--title TEXT]
 
 #include <cstdio>
 #include <cstdlib>
@@ -25,6 +26,7 @@ struct Args {
   bool bonn_correction = false;
   std::string plot;
   std::string json;
+  std::string errors;
   std::string title;
   std::vector<double> deltas_s;
   double max_gap_s = 0.1;
@@ -39,6 +41,7 @@ constexpr const char* kUsage =
     "  --delta S            RPE time delta in seconds (repeatable; default 1.0)\n"
     "  --max-gap S          max ground-truth gap for interpolation and RPE pairing [s] (default 0.1)\n"
     "  --json OUT.json      write all numbers as JSON\n"
+    "  --errors OUT.txt     write the ATE position error of every pose (\"stamp_s error_m\" per line)\n"
     "  --title TEXT         plot title (default: the estimate file name)\n";
 
 double parsePositive(const std::string& flag, const std::string& value) {
@@ -73,6 +76,7 @@ Args parseArgs(int argc, char** argv) {
     else if (flag == "--groundtruth") a.groundtruth = value;
     else if (flag == "--plot") a.plot = value;
     else if (flag == "--json") a.json = value;
+    else if (flag == "--errors") a.errors = value;
     else if (flag == "--title") a.title = value;
     else if (flag == "--delta") a.deltas_s.push_back(parsePositive(flag, value));
     else if (flag == "--max-gap") a.max_gap_s = parsePositive(flag, value);
@@ -153,6 +157,16 @@ int main(int argc, char** argv) {
     if (!args.plot.empty()) {
       writeTrajectoryPlotPng(args.plot, ate, args.title);
       std::printf("plot written to %s\n", args.plot.c_str());
+    }
+    if (!args.errors.empty()) {
+      dypho::writeFileAtomically(args.errors, [&ate](std::ostream& out) {
+        out << "# stamp_s ate_error_m (estimate rigidly aligned onto the ground truth)\n";
+        out.precision(6);
+        for (std::size_t i = 0; i < ate.stamps_s.size(); ++i) {
+          out << std::fixed << ate.stamps_s[i] << ' ' << (ate.est_aligned_xyz[i] - ate.gt_xyz[i]).norm() << '\n';
+        }
+      });
+      std::printf("per-pose errors written to %s\n", args.errors.c_str());
     }
     if (!args.json.empty()) {
       std::ostringstream js;

@@ -58,6 +58,7 @@ struct Args {
   bool eval = true;
   bool quiet = false;
   bool print_config = false;
+  bool save_masks = false;
   bool realtime = false;                ///< --realtime: frames at their stamps, live policy
   pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue, --realtime-one-thread
   bool realtime_option_given = false;   ///< one of those was given (needs --realtime)
@@ -65,7 +66,7 @@ struct Args {
 
 void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
-        "                         [--config YAML] [--mask flow|gt|none] [--max-frames N]\n"
+        "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
         "                         [--no-eval] [--quiet]\n"
         "                         [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
@@ -79,6 +80,8 @@ void usage(std::ostream& os) {
         "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
         "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
         "  --mask      flow (default, the mask core), gt (DIR/mask/*.png, synthetic data), none\n"
+        "  --save-masks  writes the mask tracking used for each frame to OUT/mask/<stamp>.png (8-bit,\n"
+        "              255 = dynamic) and OUT/mask.txt (the dypho_synth layout: --mask gt reads it back)\n"
         "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
         "              live policy runs: live mapping, the network asynchronous (yolo_async forced on),\n"
         "              mask and tracking on two threads; a frame not taken in time is dropped and\n"
@@ -119,6 +122,7 @@ Args parseArgs(int argc, char** argv) {
     else if (k == "--no-eval") a.eval = false;
     else if (k == "--quiet") a.quiet = true;
     else if (k == "--print-config") a.print_config = true;
+    else if (k == "--save-masks") a.save_masks = true;
     else if (k == "--realtime") a.realtime = true;
     else if (k == "--realtime-speed") { a.realtime_options.speed = parseNumber(k, value()); a.realtime_option_given = true; }
     else if (k == "--realtime-queue") {
@@ -136,6 +140,7 @@ Args parseArgs(int argc, char** argv) {
   if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
     throw std::runtime_error("--dataset and --out are required");
   }
+  if (a.save_masks && a.realtime) throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
   if (a.realtime_option_given && !a.realtime) {
     throw std::runtime_error("--realtime-speed, --realtime-queue and --realtime-one-thread need --realtime");
   }
@@ -175,6 +180,35 @@ struct TimingRow {
   double load_ms;
   FrameReport report;
   double total_ms;
+};
+
+/// --save-masks: OUT/mask/<stamp>.png (8-bit, 255 = dynamic; an empty mask is written all static)
+/// and OUT/mask.txt ("stamp mask/<stamp>.png"), the layout dypho_synth writes for --mask gt.
+class MaskWriter {
+ public:
+  explicit MaskWriter(std::string out_dir) : out_dir_(std::move(out_dir)) {}
+  void write(Timestamp stamp_ns, const cv::Mat& mask, const cv::Size& size) {
+    if (lines_.empty()) makeDirs(out_dir_ + "/mask");
+    char stamp[64];
+    std::snprintf(stamp, sizeof(stamp), "%lld.%06lld", static_cast<long long>(stamp_ns / 1000000000),
+                  static_cast<long long>((stamp_ns % 1000000000) / 1000));
+    const cv::Mat img = mask.empty() ? cv::Mat::zeros(size, CV_8UC1) : mask;
+    std::vector<std::uint8_t> png;
+    if (!cv::imencode(".png", img, png)) throw std::runtime_error(std::string("PNG encoding failed for mask ") + stamp);
+    writeFileAtomically(out_dir_ + "/mask/" + stamp + ".png", [&](std::ostream& os) {
+      os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    }, true);
+    lines_ += std::string(stamp) + " mask/" + stamp + ".png\n";
+  }
+  /// Writes mask.txt (after all images, so it never names a missing one).
+  void finish() const {
+    if (lines_.empty()) return;
+    writeFileAtomically(out_dir_ + "/mask.txt", [&](std::ostream& os) { os << "# timestamp filename\n" << lines_; });
+  }
+
+ private:
+  std::string out_dir_;
+  std::string lines_;
 };
 
 void writeTiming(const std::string& path, const std::vector<TimingRow>& rows) {
@@ -304,6 +338,7 @@ int run(const Args& args) {
     }
     writeRealtimeCsv(args.out + "/realtime.csv", *realtime, n);
   }
+  MaskWriter mask_writer(args.out);
   for (std::size_t i = 0; !args.realtime && i < n && !g_stop; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     SourceFrame sf;
@@ -319,7 +354,9 @@ int run(const Args& args) {
     const double load_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const auto t1 = std::chrono::steady_clock::now();
-    FrameReport report = pipeline.process(sf.frame, sf.mask);
+    MaskedFrame masked = pipeline.maskFrame(sf.frame, sf.mask);
+    if (args.save_masks && !masked.report.dropped) mask_writer.write(sf.frame.stamp_ns, masked.mask, sf.frame.bgr.size());
+    FrameReport report = pipeline.trackFrame(std::move(masked));
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     if (report.dropped) {  // repeated or late stamp in the list: counted and named, no pose
@@ -349,6 +386,7 @@ int run(const Args& args) {
   const std::vector<StampedPose> trajectory = toStampedPoses(pipeline.tracking().onlineTrajectory());
   const std::size_t num_final_keyframes = pipeline.tracking().keyframePoses().size();
   writeTiming(args.out + "/timing.csv", rows);
+  mask_writer.finish();
   pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
   makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
   const mapping::KeyframeEvaluation map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");

@@ -66,6 +66,7 @@ DynamicMasker::~DynamicMasker() = default;
 
 void DynamicMasker::reset() {
   background_updates_ = 0;
+  previous_mask_.release();
   flow_.reset();
   segment_->reset();
   background_.reset();
@@ -121,7 +122,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
         for (int task = range.start; task < range.end; ++task) {
           try {
             if (task == 0) {
-              flow = flow_.compute(frame, prior.T_prev_cur);
+              flow = flow_.compute(frame, prior.T_prev_cur, previous_mask_);
             } else if (run_background) {
               background_test();
             }
@@ -176,7 +177,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
       cv::resize(seg.mask, seg_small_, small, 0, 0, cv::INTER_NEAREST);
       raw_small_ |= seg_small_;
     }
-    if (flow.raw_flow_mask.empty() && seg.mask.empty()) {
+    if (background_updates_ == 0 && flow.raw_flow_mask.empty() && seg.mask.empty()) {
       // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the
       // consistency test above changed nothing that the next frame reads).
       finish(raw_small_, size, true, result);
@@ -216,6 +217,11 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
 }
 
 void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {
+  finishMask(dynamic, size, at_background, result);
+  previous_mask_ = result.mask;  // carried into the next frame by the flow masker
+}
+
+void DynamicMasker::finishMask(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {
   cv::Mat m = dynamic.clone();
   const int kept = (at_background ? small_cleaner_ : full_cleaner_).apply(m);
   if (at_background && kept > 0 && !margin_kernel_small_.empty() && depth_small_.size() == m.size()) {

@@ -103,7 +103,8 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
 }
 
 FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
-                                         const std::optional<Eigen::Isometry3d>& T_prev_cur) {
+                                         const std::optional<Eigen::Isometry3d>& T_prev_cur,
+                                         const cv::Mat& previous_dynamic) {
   const auto t0 = Clock::now();
   last_flow_valid_ = false;
   FlowMaskResult result;
@@ -161,39 +162,66 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR,
             cv::BORDER_CONSTANT, cv::Scalar(nan, nan));
-
-  bool residual_done = false;
-  if (T_prev_cur && frame.camera.valid() && !frame.depth_m.empty()) {
-    // Ego-motion from depth + predicted pose; a homography between predicted and measured
-    // previous positions absorbs the prediction's rotation error (exact for a pure rotation).
+  carryPrevious(previous_dynamic);
+  // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
+  // plain homography. It is tried again without the previous frame's dynamic pixels when it
+  // fails (people fill the view) or when it follows them (their pixels agree with it better than
+  // the rest: the fit locked onto a group of people). Only then: the exclusion feeds the mask
+  // back into its own fit, which must not happen on frames that fit anyway (a region masked once
+  // would stay masked).
+  const bool with_pose = T_prev_cur && frame.camera.valid() && !frame.depth_m.empty();
+  if (with_pose) {
     cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
     predictRigidPrevious(grid_px_, depth_small_, frame.camera, *T_prev_cur, predicted_px_);
     cv::Mat channels[2];
     cv::split(predicted_px_, channels);
     cv::compare(channels[0], channels[0], usable_, cv::CMP_EQ);  // NaN != NaN
     if (!textured_.empty()) usable_ &= textured_;
-    const GlobalMotionFit fit = global_motion_.fit(predicted_px_, prev_px_, usable_);
-    if (fit.ok) {
-      result.inlier_ratio = fit.inlierRatio();
-      result.H_prev_cur = fit.H_prev_cur;
-      result.ego_motion_from_pose = true;
-      computeResidualMagnitude(predicted_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
-      residual_done = true;
+  }
+  // Ego-motion from depth + predicted pose: a homography between predicted and measured previous
+  // positions absorbs the prediction's rotation error (exact for a pure rotation).
+  auto fitOnce = [&](bool exclude_previous, bool* from_pose) {
+    GlobalMotionFit fit;
+    for (const bool pose_attempt : {true, false}) {
+      if (pose_attempt && !with_pose) continue;
+      const cv::Mat& usable = pose_attempt ? usable_ : textured_;
+      if (exclude_previous) {
+        cv::bitwise_not(carried_, fit_usable_);
+        if (!usable.empty()) fit_usable_ &= usable;
+      }
+      fit = global_motion_.fit(pose_attempt ? predicted_px_ : grid_px_, prev_px_, exclude_previous ? fit_usable_ : usable);
+      *from_pose = pose_attempt;
+      if (fit.ok) break;
+    }
+    return fit;
+  };
+  auto residualOf = [&](const GlobalMotionFit& fit, bool from_pose) {
+    computeResidualMagnitude(from_pose ? predicted_px_ : grid_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
+    if (options_.aperture_aware && !txx_.empty()) applyAperture(residual_vec_, residual_);
+  };
+  const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
+  bool from_pose = false;
+  GlobalMotionFit fit = fitOnce(false, &from_pose);
+  if (fit.ok) residualOf(fit, from_pose);
+  if (can_exclude && (!fit.ok || followsCarried())) {
+    bool refit_from_pose = false;
+    const GlobalMotionFit refit = fitOnce(true, &refit_from_pose);
+    if (refit.ok) {
+      fit = refit;
+      from_pose = refit_from_pose;
+      result.fit_excluded_previous_mask = true;
+      residualOf(fit, from_pose);
     }
   }
-  if (!residual_done) {
-    const GlobalMotionFit fit = global_motion_.fit(grid_px_, prev_px_, textured_);
-    result.inlier_ratio = fit.inlierRatio();
-    if (!fit.ok) {
-      result.degraded = true;
-      result.message = "global motion not found: " + fit.message;
-      result.total_ms = msSince(t0);
-      return result;
-    }
-    result.H_prev_cur = fit.H_prev_cur;
-    computeResidualMagnitude(grid_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
+  result.inlier_ratio = fit.inlierRatio();
+  if (!fit.ok) {
+    result.message = "global motion not found: " + fit.message;
+    useCarried(size, result);
+    result.total_ms = msSince(t0);
+    return result;
   }
-  if (options_.aperture_aware && !txx_.empty()) applyAperture(residual_vec_, residual_);
+  result.H_prev_cur = fit.H_prev_cur;
+  result.ego_motion_from_pose = from_pose;
   cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
   residual_.convertTo(small_mask_, CV_8U);
   if (!textured_.empty()) small_mask_ &= textured_;
@@ -276,6 +304,62 @@ void FlowMotionMasker::applyAperture(const cv::Mat& residual_vec, cv::Mat& resid
   }
 }
 
+void FlowMotionMasker::carryPrevious(const cv::Mat& previous_dynamic) {
+  if (previous_dynamic.empty() || previous_dynamic.type() != CV_8UC1 || previous_dynamic.size() != input_size_) {
+    carried_.release();
+    return;
+  }
+  cv::resize(previous_dynamic, carried_, flow_.size(), 0, 0, cv::INTER_AREA);
+  cv::threshold(carried_, carried_, 127, 255, cv::THRESH_BINARY);
+  // Backward flow: each current pixel reads the previous mask where it came from.
+  cv::remap(carried_, carried_, flow_target_, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+bool FlowMotionMasker::followsCarried() const {
+  // Share of textured pixels the fit explains (residual below the threshold), inside and outside
+  // the carried mask. A fit on the static scene explains the outside and not the moving inside;
+  // a fit on a group of people does the opposite.
+  int n_in = 0, ok_in = 0, n_out = 0, ok_out = 0;
+  const float threshold = static_cast<float>(options_.residual_threshold_px);
+  for (int y = 0; y < residual_.rows; ++y) {
+    const float* r = residual_.ptr<float>(y);
+    const uchar* c = carried_.ptr<uchar>(y);
+    const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
+    for (int x = 0; x < residual_.cols; ++x) {
+      if (t != nullptr && t[x] == 0) continue;
+      const bool explained = r[x] < threshold;
+      if (c[x] != 0) {
+        ++n_in;
+        ok_in += explained;
+      } else {
+        ++n_out;
+        ok_out += explained;
+      }
+    }
+  }
+  constexpr int kMinPixels = 20;     // flow pixels on each side for the shares to mean something
+  constexpr double kMinLead = 0.25;  // the inside must lead clearly (noise moves both shares)
+  if (n_in < kMinPixels || n_out < kMinPixels) return false;
+  return static_cast<double>(ok_in) / n_in > static_cast<double>(ok_out) / n_out + kMinLead;
+}
+
+void FlowMotionMasker::useCarried(const cv::Size& size, FlowMaskResult& result) {
+  result.degraded = true;
+  if (carried_.empty() || cv::countNonZero(carried_) == 0) return;  // nothing known: all static
+  // The previous mask already holds the margin, which the caller adds again: take it off first
+  // so that a run of degraded frames does not grow the mask by a margin per frame.
+  const int r = cleanerSettings(options_).dilate_radius_px;
+  if (r > 0) {
+    cv::erode(carried_, small_mask_, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+  } else {
+    carried_.copyTo(small_mask_);
+  }
+  cv::resize(small_mask_, result.mask, size, 0, 0, cv::INTER_LINEAR);
+  cv::threshold(result.mask, result.mask, 127, 255, cv::THRESH_BINARY);
+  result.masked_fraction = static_cast<double>(cv::countNonZero(result.mask)) / static_cast<double>(size.area());
+  result.message += "; the previous mask carried along the flow is used";
+}
+
 void FlowMotionMasker::finishMask(const cv::Size& size, FlowMaskResult& result) {
   cleaner_.apply(small_mask_);
   // Linear upsampling then a mid-level threshold gives boundaries without blocky steps.
@@ -288,8 +372,10 @@ void FlowMotionMasker::finishMask(const cv::Size& size, FlowMaskResult& result) 
     result.message = "masked fraction " + std::to_string(result.masked_fraction) +
                      " exceeds max_masked_fraction " +
                      std::to_string(options_.max_masked_fraction) +
-                     ": global motion model considered wrong, mask emptied";
+                     ": global motion model considered wrong";
     result.mask.setTo(0);
+    result.masked_fraction = 0.0;
+    useCarried(size, result);
   }
 }
 

@@ -111,6 +111,7 @@ class DynamicMasker {
   /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
   /// when `at_background`, else at input resolution).
   void finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
+  void finishMask(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
 
   DynamicMaskOptions options_;
   FlowMotionMasker flow_;
@@ -126,6 +127,7 @@ class DynamicMasker {
   cv::Mat depth_small_, raw_small_, rendered_small_, consistency_small_, combined_;
   cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
   cv::Mat margin_depth_, margin_grown_;
+  cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 
 }  // namespace mask

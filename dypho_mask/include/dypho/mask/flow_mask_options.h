@@ -21,7 +21,8 @@ struct FlowMaskOptions {
   /// Safety margin grown around the final mask [full-res px], >= 0. Default 8.
   int dilate_px = 8;
   /// Above this masked fraction of the image (in (0, 1]) the global-motion model is considered
-  /// wrong: the result is an empty mask with `degraded = true`. Default 0.6.
+  /// wrong: the result is degraded and carries the previous mask (FlowMotionMasker::compute).
+  /// Default 0.6.
   double max_masked_fraction = 0.6;
   /// Radius of the morphological opening that removes speckles [full-res px], >= 0 (0 = none).
   /// Default 4.

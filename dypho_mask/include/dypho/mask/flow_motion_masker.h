@@ -19,7 +19,8 @@
 /// dilate (at flow resolution) -> upsample to the input size -> reject when above
 /// max_masked_fraction. Known limits: textureless moving surfaces are only masked through their
 /// textured border plus the margin; when moving objects cover most of the textured view the fit
-/// is rejected (degraded, empty mask).
+/// is tried again without the previous frame's dynamic pixels, and when it still fails the result
+/// is degraded and carries the previous mask along the flow.
 
 #include <memory>
 #include <optional>
@@ -42,16 +43,17 @@ namespace mask {
 
 /// Output of `FlowMotionMasker::compute`.
 struct FlowMaskResult {
-  /// Final mask, CV_8UC1, input size, 255 = dynamic, 0 = static (all zero when degraded).
+  /// Final mask, CV_8UC1, input size, 255 = dynamic, 0 = static. When degraded: the previous
+  /// frame's mask carried along the flow (see compute()), all static when there is none.
   cv::Mat mask;
   /// Thresholded residual before opening, region filtering and margin, CV_8UC1, input size,
   /// 255 = residual above threshold (empty when no flow was computed).
   cv::Mat raw_flow_mask;
-  /// Fraction of `mask` pixels that are dynamic, in [0, 1]; for a degraded result the fraction the
-  /// mask would have had before it was rejected (0 when none was computed).
+  /// Fraction of `mask` pixels that are dynamic, in [0, 1].
   double masked_fraction = 0.0;
   /// True when the mask could not be trusted: bad input, size change, failed global-motion fit or
-  /// too much of the image masked. `mask` is then all static and `message` says why.
+  /// too much of the image masked. `mask` is then all static (bad input, size change) or the
+  /// carried previous mask, and `message` says why.
   bool degraded = false;
   /// Human-readable note: why degraded, or "first frame" (empty otherwise).
   std::string message;
@@ -64,6 +66,9 @@ struct FlowMaskResult {
   /// refined by a homography for rotation errors of the prediction); false when the global
   /// homography alone was used (no pose, no depth, no valid camera, or the pose did not fit).
   bool ego_motion_from_pose = false;
+  /// True when the global motion was found only without the previous frame's dynamic pixels
+  /// (the plain fit had too few inliers; see compute()).
+  bool fit_excluded_previous_mask = false;
   double flow_ms = 0.0;   ///< wall time of the optical flow [ms]
   double total_ms = 0.0;  ///< wall time of the whole `compute` call [ms]
 };
@@ -92,8 +97,19 @@ class FlowMotionMasker {
   /// thresholded. Pixels without depth carry no evidence in that mode. When the prediction does
   /// not fit the measured flow (fewer than min_inlier_ratio agree), or without a pose, the global
   /// homography of the plain flow is removed instead (the fallback).
+  ///
+  /// `previous_dynamic` (optional, CV_8UC1 of the input size, non-zero = dynamic): the final mask
+  /// of the previous frame. It is carried into the current frame along the flow. When fewer than
+  /// min_inlier_ratio of the samples follow one motion, or when the fit explains the carried
+  /// pixels clearly better than the rest (it locked onto a group of people), the fit is tried
+  /// again without the carried pixels (in a crowd most flow samples lie on people, and the static
+  /// remainder alone defines the camera's motion; the inlier ratio then counts the remainder).
+  /// When the fit fails all the same, the result is degraded but its mask is the carried previous
+  /// mask (shrunk by the margin, which the caller grows again) instead of an empty one: an empty
+  /// mask would hand every person to the tracker.
   FlowMaskResult compute(const RgbdFrame& frame,
-                         const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt);
+                         const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
+                         const cv::Mat& previous_dynamic = cv::Mat());
 
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
   /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
@@ -108,6 +124,14 @@ class FlowMotionMasker {
  private:
   bool checkInput(const RgbdFrame& frame, FlowMaskResult& result) const;
   void finishMask(const cv::Size& input_size, FlowMaskResult& result);
+  /// carried_ = `previous_dynamic` moved along the flow into the current frame (flow resolution);
+  /// empty when `previous_dynamic` is empty or of another size.
+  void carryPrevious(const cv::Mat& previous_dynamic);
+  /// True when the fit behind residual_ explains the carried (previously dynamic) pixels clearly
+  /// better than the others: it follows moving objects, not the camera.
+  bool followsCarried() const;
+  /// Degraded result whose mask is the carried previous mask (all static when there is none).
+  void useCarried(const cv::Size& input_size, FlowMaskResult& result);
   void computeTexture(const cv::Mat& grey_small);
   void applyAperture(const cv::Mat& residual_vec, cv::Mat& residual) const;
   void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size,
@@ -140,6 +164,8 @@ class FlowMotionMasker {
   cv::Mat depth_small_;    ///< depth at flow resolution [m] (nearest sample)
   cv::Mat predicted_px_;   ///< rigid prediction of the previous position, CV_32FC2
   cv::Mat usable_;         ///< textured cells with a rigid prediction
+  cv::Mat carried_;        ///< previous final mask carried along the flow (flow resolution)
+  cv::Mat fit_usable_;     ///< usable cells outside carried_ (the retried fit's samples)
   cv::Mat empty_;
   bool last_flow_valid_ = false;
   cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow
