@@ -103,6 +103,30 @@ TEST(DynamicMasker, DepthAwareMarginStaysOffTheBackgroundBehindPeople) {
   EXPECT_LE(missed_px[1], missed_px[0] + 0.01 * dynamic_px);
 }
 
+// Safe start: with unjudged_is_dynamic the first frame (no flow yet, no network) is all dynamic,
+// the second is judged by the flow; by default the first frame is all static as before.
+TEST(DynamicMasker, UnjudgedFirstFrameIsAllDynamicWhenAsked) {
+  tools::SynthOptions so;
+  so.frames = 3;
+  so.people = 2;
+  so.motion = tools::SynthMotion::kStatic;
+  const tools::SyntheticScene scene(so);
+  for (const bool unjudged_is_dynamic : {true, false}) {
+    DynamicMaskOptions o;
+    o.unjudged_is_dynamic = unjudged_is_dynamic;
+    DynamicMasker masker(o);
+    const MaskResult first = masker.compute(scene.render(0).frame);
+    EXPECT_EQ(first.unjudged, unjudged_is_dynamic);
+    EXPECT_DOUBLE_EQ(first.masked_fraction, unjudged_is_dynamic ? 1.0 : 0.0);
+    EXPECT_EQ(cv::countNonZero(first.mask), unjudged_is_dynamic ? static_cast<int>(first.mask.total()) : 0);
+    const MaskResult second = masker.compute(scene.render(1).frame);
+    EXPECT_FALSE(second.unjudged);
+    EXPECT_LT(second.masked_fraction, 0.9);
+    masker.reset();  // a reset starts unjudged again
+    EXPECT_EQ(masker.compute(scene.render(2).frame).unjudged, unjudged_is_dynamic);
+  }
+}
+
 TEST(DynamicMaskOptions, RejectsANegativeVetoWarmUp) {
   DynamicMaskOptions o;
   o.background.veto_after_updates = -1;

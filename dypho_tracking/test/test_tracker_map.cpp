@@ -93,6 +93,25 @@ TEST(TrackerMap, CullsPointsRarelyFound) {
   EXPECT_EQ(map.keyframe(0)->map_point_ids[1], -1);
 }
 
+TEST(TrackerMap, CullsMovingPointsButNotStaticOnesTheMaskCovered) {
+  TrackerMap map{TrackingOptions()};
+  const auto ids = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));
+  // ids[0]: a pose inlier in 5 frames (static), then covered by the mask twice: kept.
+  // ids[1]: never found, seen on a dynamic surface twice: removed on the second sighting.
+  // ids[2]: seen on a dynamic surface once: kept.
+  for (int f = 0; f < 5; ++f) map.updateVisibility(ids, {ids[0]});
+  EXPECT_TRUE(map.cullMovingPoints({ids[0], ids[1], ids[2]}, 2).empty());
+  const std::vector<std::int64_t> removed = map.cullMovingPoints({ids[0], ids[1]}, 2);
+  ASSERT_EQ(removed.size(), 1u);
+  EXPECT_EQ(removed[0], ids[1]);
+  EXPECT_EQ(map.point(ids[1]), nullptr);
+  EXPECT_EQ(map.keyframe(0)->map_point_ids[1], -1);
+  EXPECT_NE(map.point(ids[0]), nullptr);
+  EXPECT_NE(map.point(ids[2]), nullptr);
+  // min_hits 0 disables the test.
+  EXPECT_TRUE(map.cullMovingPoints({ids[2], ids[2], ids[2]}, 0).empty());
+}
+
 TEST(TrackerMap, MergeAndPoseCorrection) {
   TrackerMap map{TrackingOptions()};
   const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));

@@ -1,6 +1,8 @@
 #include "dypho/tracking/rgbd_odometry.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -33,6 +35,7 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
 void RgbdOdometry::reset() {
   map_.clear();
   reference_id_ = -1;
+  views_stale_ = false;
   local_view_ = KeyframePoints();
   own_view_ = KeyframePoints();
   T_world_last_.setIdentity();
@@ -96,6 +99,7 @@ std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFe
 
 void RgbdOdometry::setReference(std::int64_t keyframe_id) {
   reference_id_ = keyframe_id;
+  views_stale_ = false;
   local_view_ = map_.localPoints(keyframe_id);
   own_view_ = map_.keyframePoints(keyframe_id);
 }
@@ -194,23 +198,48 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
                     " points fused)";
 }
 
-void RgbdOdometry::updateVisibility(const AlignmentResult& aligned, const Pinhole& pinhole,
-                                    int width, int height) {
-  std::vector<std::int64_t> visible, found;
+void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
+                                         const FrameFeatures& features, const RgbdFrame& frame,
+                                         const cv::Mat& mask, TrackingResult* result) {
+  const int width = frame.bgr.cols, height = frame.bgr.rows;
+  const double tolerance_m = options_.moving_point_depth_tolerance_m;
+  auto depthAgrees = [tolerance_m](double z_point, double z_measured) {
+    return std::abs(z_measured - z_point) < std::max(tolerance_m, 0.015 * z_point * z_point);
+  };
+  std::vector<std::int64_t> visible, found, on_dynamic;
   for (size_t i = 0; i < local_view_.size(); ++i) {
     const Eigen::Vector3d p_c = aligned.T_camera_world * local_view_.p_world_m[i];
     if (p_c.z() < 1e-3) continue;
     const Eigen::Vector2d uv = pinhole.project(p_c);
     if (uv.x() < 0 || uv.y() < 0 || uv.x() >= width || uv.y() >= height) continue;
     visible.push_back(local_view_.map_point_ids[i]);
+    // On the dynamic mask at its own depth: the point lies on the moving surface (a point behind
+    // it, occluded by a person, is farther than the measured depth and stays).
+    if (mask.empty()) continue;
+    const int u = static_cast<int>(uv.x()), v = static_cast<int>(uv.y());
+    if (mask.at<uchar>(v, u) == 0) continue;
+    const float z_measured = frame.depth_m.at<float>(v, u);
+    if (z_measured > 0.f && std::isfinite(z_measured) && depthAgrees(p_c.z(), z_measured)) {
+      on_dynamic.push_back(local_view_.map_point_ids[i]);
+    }
   }
   const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
   for (size_t m = 0; m < aligned.matches.size(); ++m) {
-    if (aligned.inliers[m]) {
-      found.push_back(ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)]);
-    }
+    if (!aligned.inliers[m]) continue;
+    const auto r = static_cast<size_t>(aligned.matches[m].reference_index);
+    found.push_back(ref.map_point_ids[r]);
+    // Matched where the image says, but not at the depth measured there: the point moved along
+    // the line of sight (someone walking towards the camera).
+    const double z_point = (aligned.T_camera_world * ref.p_world_m[r]).z();
+    const double z_measured = features.depth_m[static_cast<size_t>(aligned.matches[m].frame_index)];
+    if (!depthAgrees(z_point, z_measured)) on_dynamic.push_back(ref.map_point_ids[r]);
   }
   map_.updateVisibility(visible, found);
+  const std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits);
+  result->num_moving_points_removed = static_cast<int>(moving.size());
+  // The views must not offer removed points to the next frame; this frame's matches still index
+  // the current views (keyframe creation below), so they are refreshed before the next frame.
+  if (!moving.empty()) views_stale_ = true;
 }
 
 TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) {
@@ -287,6 +316,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     return finish();
   }
 
+  if (views_stale_) setReference(reference_id_);
   AlignmentResult aligned;
   if (result.num_features >= options_.min_inliers) {
     const Eigen::Isometry3d T_world_predicted = motion_.predict(frame.stamp_ns).value_or(T_world_last_);
@@ -307,7 +337,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
     result.T_world_camera = T_world_camera;
     result.num_matches = static_cast<int>(aligned.matches.size());
     result.num_inliers = aligned.num_inliers;
-    updateVisibility(aligned, pinhole, frame.bgr.cols, frame.bgr.rows);
+    updatePointStatistics(aligned, pinhole, features, frame, mask, &result);
     KeyframeQuery query;
     query.T_world_keyframe = map_.keyframe(reference_id_)->T_world_camera;
     query.T_world_camera = T_world_camera;
@@ -323,8 +353,8 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
       std::vector<std::int64_t> ids(features.size(), -1);
       for (size_t m = 0; m < aligned.matches.size(); ++m) {
         if (!aligned.inliers[m]) continue;
-        ids[static_cast<size_t>(aligned.matches[m].frame_index)] =
-            ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
+        const std::int64_t id = ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
+        if (map_.point(id) != nullptr) ids[static_cast<size_t>(aligned.matches[m].frame_index)] = id;
       }
       addKeyframe(frame, mask, features, T_world_camera, ids, pinhole, &result);
     }

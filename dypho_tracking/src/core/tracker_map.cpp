@@ -143,6 +143,15 @@ void TrackerMap::updateVisibility(const std::vector<std::int64_t>& visible,
   }
 }
 
+void TrackerMap::detachObservations(const MapPoint& p) {
+  for (const auto& obs : p.observations) {
+    auto kf = keyframes_.find(obs.first);
+    if (kf != keyframes_.end() && obs.second < static_cast<int>(kf->second.map_point_ids.size())) {
+      kf->second.map_point_ids[static_cast<size_t>(obs.second)] = -1;
+    }
+  }
+}
+
 int TrackerMap::cullPoints() {
   int removed = 0;
   for (auto it = points_.begin(); it != points_.end();) {
@@ -153,14 +162,24 @@ int TrackerMap::cullPoints() {
       ++it;
       continue;
     }
-    for (const auto& obs : p.observations) {
-      auto kf = keyframes_.find(obs.first);
-      if (kf != keyframes_.end() && obs.second < static_cast<int>(kf->second.map_point_ids.size())) {
-        kf->second.map_point_ids[static_cast<size_t>(obs.second)] = -1;
-      }
-    }
+    detachObservations(p);
     it = points_.erase(it);
     ++removed;
+  }
+  return removed;
+}
+
+std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits) {
+  std::vector<std::int64_t> removed;
+  for (std::int64_t id : on_dynamic) {
+    auto it = points_.find(id);
+    if (it == points_.end()) continue;
+    MapPoint& p = it->second;
+    ++p.num_on_dynamic;
+    if (min_hits <= 0 || p.num_on_dynamic < min_hits || p.num_on_dynamic < p.num_found) continue;
+    detachObservations(p);
+    points_.erase(it);
+    removed.push_back(id);
   }
   return removed;
 }

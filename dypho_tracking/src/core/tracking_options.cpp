@@ -65,6 +65,8 @@ void TrackingOptions::validate() const {
   requireRange("local_map_keyframes", local_map_keyframes, 0, 100);
   requireRange("covisibility_min_shared", covisibility_min_shared, 1, 10000);
   requireRange("cull_min_found_ratio", cull_min_found_ratio, 0.0, 1.0);
+  requireRange("moving_point_min_hits", moving_point_min_hits, 0, 1000);
+  requireRange("moving_point_depth_tolerance_m", moving_point_depth_tolerance_m, 0.0, 1.0, true);
   requireRange("keyframe_cull_redundant_ratio", keyframe_cull_redundant_ratio, 0.0, 1.0);
   requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
   requireRange("local_ba_iterations", local_ba_iterations, 1, 100);

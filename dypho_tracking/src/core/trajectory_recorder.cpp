@@ -4,6 +4,7 @@ namespace dypho {
 namespace tracking {
 
 void TrajectoryRecorder::add(const TrackingResult& result) {
+  if (result.state == TrackingState::kNotInitialized) return;  // no world yet: no pose
   RecordedPose r;
   r.stamp_ns = result.stamp_ns;
   r.reference_keyframe_id =

@@ -100,6 +100,11 @@ struct DynamicMaskOptions {
   bool margin_depth_aware = true;
   /// Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.
   int min_region_area_px = 400;
+  /// A frame that no mask could judge yet (the first frame after a start or a reset: no flow, no
+  /// fresh network mask) is returned all dynamic, so that tracking does not build its first
+  /// keyframe from people nothing has recognised yet; tracking starts one frame later.
+  /// Default true.
+  bool unjudged_is_dynamic = false;
 
   /// Throws std::invalid_argument naming the first bad field (of any part).
   void validate() const;

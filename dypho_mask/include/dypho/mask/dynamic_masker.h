@@ -64,6 +64,9 @@ struct MaskResult {
   /// Set by MaskStage only: the frame's stamp was repeated or late (stamp_gate.h); it was not
   /// masked, `mask` is empty and `message` says why.
   bool dropped = false;
+  /// No mask could judge this frame (first frame, no network mask): with
+  /// DynamicMaskOptions::unjudged_is_dynamic the mask is all dynamic.
+  bool unjudged = false;
   std::string message;             ///< why degraded, warnings, "first frame"
   bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
   bool rendered_depth_used = false;   ///< R_d entered the background model B_i on this frame

@@ -20,7 +20,7 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
   visitor("residual_threshold_px", options.residual_threshold_px, "A pixel is dynamic when its flow differs from the camera-induced global motion by more than this [full-res px], > 0. Default 2.0.");
   visitor("min_region_area_px", options.min_region_area_px, "Connected dynamic regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.");
   visitor("dilate_px", options.dilate_px, "Safety margin grown around the final mask [full-res px], >= 0. Default 8.");
-  visitor("max_masked_fraction", options.max_masked_fraction, "Above this masked fraction of the image (in (0, 1]) the global-motion model is considered wrong: the result is an empty mask with `degraded = true`. Default 0.6.");
+  visitor("max_masked_fraction", options.max_masked_fraction, "Above this masked fraction of the image (in (0, 1]) the global-motion model is considered wrong: the result is degraded and carries the previous frame's mask along the flow. Default 0.6.");
   visitor("open_radius_px", options.open_radius_px, "Radius of the morphological opening that removes speckles [full-res px], >= 0 (0 = none). Default 4.");
   visitor("sample_step_px", options.sample_step_px, "Spacing of the grid of flow samples used to fit the global motion [full-res px], >= 1. Default 16 (1200 samples at 640x480).");
   visitor("ransac_threshold_px", options.ransac_threshold_px, "RANSAC inlier threshold of the global homography fit [full-res px], > 0. Default 1.0.");
@@ -83,6 +83,7 @@ void visitOptions(DynamicMaskOptions& options, Visitor&& visitor) {
   visitor("margin_px", options.margin_px, "Safety margin grown around the final mask [full-res px], >= 0. Default 4.");
   visitor("margin_depth_aware", options.margin_depth_aware, "With depth and the background model: the margin does not grow onto pixels whose depth lies more than background_sigma_m behind the farthest masked depth within margin_px (the wall behind a person's outline); it still grows where depth is missing or close. Default true.");
   visitor("min_region_area_px", options.min_region_area_px, "Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.");
+  visitor("unjudged_is_dynamic", options.unjudged_is_dynamic, "A frame that no mask could judge yet (the first frame after a start or a reset: no flow, no fresh network mask) is returned all dynamic, so that tracking does not build its first keyframe from people nothing has recognised yet; tracking starts one frame later. Default true.");
 }
 
 }  // namespace dypho::mask

@@ -100,10 +100,14 @@ class RgbdOdometry {
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
   void setReference(std::int64_t keyframe_id);
   /// Counts visible / found map points of the local map for culling.
-  void updateVisibility(const AlignmentResult& aligned, const Pinhole& pinhole, int width,
-                        int height);
+  /// Bookkeeping after a tracked frame: visible / found counts of the local map's points, and
+  /// the moving-point test (TrackingOptions::moving_point_min_hits) with its culling.
+  void updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
+                             const FrameFeatures& features, const RgbdFrame& frame,
+                             const cv::Mat& mask, TrackingResult* result);
 
   TrackingOptions options_;
+  bool views_stale_ = false;  ///< points of local_view_/own_view_ were removed: refresh them
   OrbExtractor extractor_;
   KeyframeAligner aligner_;
   KeyframeSelector selector_;

@@ -32,6 +32,8 @@ struct MapPoint {
   std::map<std::int64_t, int> observations;  ///< keyframe id -> keypoint index in that keyframe
   int num_visible = 0;  ///< frames in whose local map the point was projected into the image [count]
   int num_found = 0;    ///< frames where it was a pose inlier [count]
+  /// tracked frames that saw it on a dynamic surface (TrackerMap::cullMovingPoints) [count]
+  int num_on_dynamic = 0;
 };
 
 /// A keyframe as the map stores it: its features (undistorted, with depth) and their map points.
@@ -103,6 +105,12 @@ class TrackerMap {
   /// Removes bad points (see class comment); returns how many.
   int cullPoints();
 
+  /// Counts one more sighting on a dynamic surface for each id in `on_dynamic`, then removes
+  /// every point seen so at least `min_hits` times and at least as often as it was a pose inlier
+  /// (a moving point, not a static one the mask happened to cover). Returns the removed points'
+  /// ids.
+  std::vector<std::int64_t> cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits);
+
   /// True when the keyframe is redundant (see class comment, ratio in (0, 1]); false when
   /// unknown or it has no map points.
   bool isRedundant(std::int64_t keyframe_id, double redundant_ratio) const;
@@ -139,6 +147,8 @@ class TrackerMap {
   void clear();
 
  private:
+  /// Sets the point's slot in every keyframe that observes it to -1 (before erasing it).
+  void detachObservations(const MapPoint& p);
   /// Points of the keyframes `kfs` without duplicates; `keyframe` of the result = keyframe_id's.
   KeyframePoints collectPoints(std::int64_t keyframe_id, const std::vector<std::int64_t>& kfs) const;
 

@@ -143,6 +143,17 @@ struct TrackingOptions {
   /// A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction
   /// of them is removed [-]; default 0.25, range [0, 1]; 0 disables culling.
   double cull_min_found_ratio = 0.25;
+  /// A map point is removed as moving once it was seen on a dynamic surface in at least this
+  /// many tracked frames and in at least as many as it was a pose inlier: its projection fell on
+  /// the dynamic mask at its own depth, or it was matched but the depth measured there disagreed
+  /// with it [count]; default 2, range [0, 1000]; 0 disables. Removes points of people who stood
+  /// still when their keyframe was made (the first keyframe, stop-and-go) and of people walking
+  /// towards the camera.
+  int moving_point_min_hits = 2;
+  /// Depth agreement of a map point with the depth measured at its projection, for the
+  /// moving-point test: |z_measured - z_point| below max(this, 0.015 z^2) [m] (z in metres; the
+  /// quadratic part follows the RGB-D noise); default 0.05, range (0, 1].
+  double moving_point_depth_tolerance_m = 0.05;
   /// After each keyframe, a keyframe of its local map (not the oldest) is removed when at least
   /// this fraction of its map points is seen by >= 3 other keyframes at the same or a finer scale
   /// (ORB-SLAM's rule; bounds the map while the camera stays in known places) [-]; default 0.9,

@@ -75,6 +75,8 @@ struct TrackingResult {
   /// T_world_camera expressed in the reference keyframe, T_world_reference^-1 T_world_camera.
   Eigen::Isometry3d T_reference_camera = Eigen::Isometry3d::Identity();
   int num_map_points = 0;      ///< map points in the tracker's map [count]
+  /// map points removed on this frame as moving (TrackingOptions::moving_point_min_hits) [count]
+  int num_moving_points_removed = 0;
   int num_keyframes = 0;       ///< keyframes in the tracker's map [count]
   TrackingTimesMs times;       ///< stage timings [ms]
 };

@@ -4,9 +4,9 @@
 /// pipeline and TrackingNodelet (which only converts and publishes).
 ///
 /// Policy, in one place:
-///  - Every frame is recorded (TrajectoryRecorder): the final trajectory follows the later
-///    local-BA and loop corrections of each frame's keyframe; a frame that was not tracked keeps
-///    the pose it was published with.
+///  - Every frame from the first keyframe on is recorded (TrajectoryRecorder): the final
+///    trajectory follows the later local-BA and loop corrections of each frame's keyframe; a lost
+///    frame keeps the pose it was published with; frames before the first keyframe have none.
 ///  - Stamps (stamp_gate.h): a repeated stamp, or one at most 1 s before the newest (a late frame),
 ///    is dropped (TrackingOutput::dropped, not tracked, not recorded); a jump back by more (a
 ///    looped bag) resets the tracker and clears the recorded trajectory: a new world begins.

@@ -27,8 +27,10 @@ struct RecordedPose {
 /// Records tracked frames; `finalPoses` re-expresses them with the keyframes' current poses.
 class TrajectoryRecorder {
  public:
-  /// Records `result`. A frame that was not tracked (state not kOk) keeps the pose it was
-  /// published with (the last trusted one), so there is one pose per frame, as published.
+  /// Records `result`. A lost frame keeps the pose it was published with (the last trusted one),
+  /// so there is one pose per frame from the first keyframe on, as published. A frame before
+  /// the first keyframe (kNotInitialized: no world yet, e.g. the unjudged first frame) has no
+  /// pose and is not recorded.
   void add(const TrackingResult& result);
 
   /// T_world_camera of every recorded frame, in order: T_world_reference (current, from
