@@ -67,6 +67,8 @@ struct SynthOptions {
 struct SynthFrame {
   RgbdFrame frame;       ///< BGR CV_8UC3 colour, CV_32FC1 depth [m] (noisy if depth_noise), camera
   cv::Mat mask_gt;       ///< CV_8UC1, 255 where a person is the first surface hit, else 0
+  /// CV_8UC1, k + 1 where person k (0 <= k < people) is the first surface hit, else 0
+  cv::Mat person_id_gt;
   cv::Mat static_depth_m;  ///< CV_32FC1 noise-free depth [m] of the room without people
   /// camera optical frame in the world (ground truth)
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
