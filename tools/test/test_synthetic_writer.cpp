@@ -148,7 +148,7 @@ TEST(SyntheticWriter, UnwritableFolderIsAClearError) {
   }
   fs::remove(file);
   SynthOptions bad = smallOptions();
-  bad.people = 5;
+  bad.people = 9;
   EXPECT_THROW(dypho::tools::writeSyntheticDataset(bad, freshDir("synth_bad").string()), std::runtime_error);
 }
 
