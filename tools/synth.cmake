@@ -5,6 +5,7 @@ add_library(dypho_synth_core
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_scene.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_geometry.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_motion.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_people.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_texture.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_writer.cpp)
 target_include_directories(dypho_synth_core PUBLIC
@@ -33,7 +34,7 @@ if(TARGET dypho_tools)
   list(APPEND _dypho_synth_test_libs dypho_tools)
   set(_dypho_synth_test_defs DYPHO_HAVE_TOOLS_IO=1)
 endif()
-foreach(_t test_synthetic_scene test_synthetic_motion test_synthetic_writer)
+foreach(_t test_synthetic_scene test_synthetic_motion test_synthetic_writer test_synthetic_people)
   if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/test/${_t}.cpp)
     dypho_add_gtest(${_t} SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test/${_t}.cpp
       LIBS ${_dypho_synth_test_libs} ${OpenCV_LIBS})
@@ -42,3 +43,7 @@ foreach(_t test_synthetic_scene test_synthetic_motion test_synthetic_writer)
     endif()
   endif()
 endforeach()
+if(TARGET test_synthetic_people)
+  # Checks the people's paths directly: the private header synthetic_internal.h.
+  target_include_directories(test_synthetic_people PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+endif()

@@ -1,6 +1,7 @@
 // dypho_synth: writes a synthetic dynamic RGB-D sequence as a TUM-layout folder (+ a rosbag when
 // built with dypho_bag).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -20,11 +21,30 @@ namespace {
 
 const char* kUsage =
     "usage: dypho_synth --out DIR [--frames N] [--motion xyz|halfsphere|static|rpy|loop]\n"
-    "                   [--people 0-3] [--seed N] [--no-bag] [--no-noise]\n"
+    "                   [--people 0-8] [--walk cross|stop-and-go|towards|group] [--people-in-view]\n"
+    "                   [--people-distance M] [--seed N] [--no-bag] [--no-noise]\n"
     "Writes a synthetic room with walking people in the TUM RGB-D layout to DIR (rgb/, depth/,\n"
     "mask/, rgb.txt, depth.txt, groundtruth.txt, camera.yaml, README.txt) and, unless --no-bag,\n"
     "DIR/synthetic.bag with the TUM topic names. Defaults: 300 frames, halfsphere, 2 people,\n"
-    "seed 1, Kinect-like depth noise.\n";
+    "walk cross, people distance 0 (auto), seed 1, Kinect-like depth noise.\n"
+    "  --people N           walking people, 0..8 (default 2)\n"
+    "  --walk STYLE         cross: back and forth across the view (default); stop-and-go: as cross,\n"
+    "                       standing still for 1-3 s now and then; towards: towards the camera from\n"
+    "                       the back of the room (3.2 m) and away again; group: side by side as one\n"
+    "                       group. The loop motion takes cross only.\n"
+    "  --people-in-view     every person is inside the image at frame 0 (default: off; towards and\n"
+    "                       loop: at most 5 people)\n"
+    "  --people-distance M  distance [m] of the nearest lane (towards: of the near turning point)\n"
+    "                       in front of the camera's home position; 0 = auto (default): 1.4, or\n"
+    "                       less where 8 people or a group need the room; towards 1.0. At least\n"
+    "                       0.6 (static, rpy) or 0.8 (xyz, halfsphere), at most 1.1-2.75 by walk\n"
+    "                       and people (the error names the range). With a static camera 6 people\n"
+    "                       at 0.9 cover about 30 % of the image, 8 at 0.8 about 45 %. Not for loop.\n"
+    "With at most 3 people, walk cross and neither --people-in-view nor --people-distance, the\n"
+    "people walk as in earlier versions (same images for the same seed).\n"
+    "Hard cases (static camera):\n"
+    "  dypho_synth --out DIR --motion static --people 6 --people-in-view --people-distance 0.9\n"
+    "  dypho_synth --out DIR --motion static --people 8 --people-distance 0.8\n";
 
 long parseInteger(const std::string& flag, const std::string& text, long lo, long hi) {
   std::size_t used = 0;
@@ -37,6 +57,20 @@ long parseInteger(const std::string& flag, const std::string& text, long lo, lon
   if (used != text.size() || text.empty() || value < lo || value > hi) {
     throw std::runtime_error(flag + " expects an integer in " + std::to_string(lo) + ".." +
                              std::to_string(hi) + ", got '" + text + "'");
+  }
+  return value;
+}
+
+double parseNumber(const std::string& flag, const std::string& text) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !std::isfinite(value)) {
+    throw std::runtime_error(flag + " expects a number, got '" + text + "'");
   }
   return value;
 }
@@ -62,7 +96,13 @@ Args parseArgs(int argc, char** argv) {
     } else if (flag == "--motion") {
       a.options.motion = dypho::tools::parseSynthMotion(value());
     } else if (flag == "--people") {
-      a.options.people = static_cast<int>(parseInteger(flag, value(), 0, 3));
+      a.options.people = static_cast<int>(parseInteger(flag, value(), 0, 8));
+    } else if (flag == "--walk") {
+      a.options.walk = dypho::tools::parseSynthWalk(value());
+    } else if (flag == "--people-in-view") {
+      a.options.people_in_view_at_start = true;
+    } else if (flag == "--people-distance") {
+      a.options.people_distance_m = parseNumber(flag, value());
     } else if (flag == "--seed") {
       a.options.seed = static_cast<std::uint32_t>(parseInteger(flag, value(), 0, 4294967295L));
     } else if (flag == "--no-bag") {
@@ -132,8 +172,10 @@ int main(int argc, char** argv) {
     std::printf("dypho_synth: wrote %d frames (%.2f s of %s motion, camera path %.2f m) to %s\n",
                 s.frames, s.duration_s, dypho::tools::synthMotionName(args.options.motion).c_str(),
                 s.path_length_m, args.out_dir.c_str());
-    std::printf("  people: %d, dynamic pixels: mean %.1f %%, max %.1f %%; depth noise: %s; seed %u\n",
-                args.options.people, 100.0 * s.mean_dynamic_fraction, 100.0 * s.max_dynamic_fraction,
+    std::printf("  people: %d (walk %s), dynamic pixels: mean %.1f %%, max %.1f %%; depth noise: %s; "
+                "seed %u\n",
+                args.options.people, dypho::tools::synthWalkName(args.options.walk).c_str(),
+                100.0 * s.mean_dynamic_fraction, 100.0 * s.max_dynamic_fraction,
                 args.options.depth_noise ? "on" : "off", args.options.seed);
     if (!bag_path.empty()) std::printf("  bag: %s\n", bag_path.c_str());
     std::printf("  took %.1f s (%.1f ms per frame incl. PNG writing)\n", secs, 1000.0 * secs / s.frames);

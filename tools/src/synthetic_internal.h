@@ -61,6 +61,21 @@ Eigen::Vector2d faceSize(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, i
 
 /// Ground-truth camera pose at time `t_s` after the start for the options' motion.
 Eigen::Isometry3d cameraPoseAt(const SynthOptions& options, double t_s);
+/// Radius of the loop motion's camera circle [m]: min(1.5 m, 0.45 m/s * duration / 2pi).
+double loopRadiusM(const SynthOptions& options);
+
+/// The camera's home position on the floor plan [m] (static, rpy; centre of xyz), looking along +y.
+constexpr double kCameraHomeXM = 0.0;
+constexpr double kCameraHomeYM = -0.6;
+/// Nearest allowed people_distance_m [m] for cameras that stay at home (static, rpy) and for those
+/// that come up to 0.2 m closer (xyz, halfsphere): body axes stay >= 0.6 m from the camera.
+constexpr double kMinPeopleDistanceStillM = 0.6;
+constexpr double kMinPeopleDistanceMovingM = 0.8;
+/// Most people the formation of the loop motion and the lanes of kTowards can show at frame 0.
+constexpr int kMaxPeopleInViewLoop = 5;
+constexpr int kMaxPeopleInViewTowards = 5;
+/// A group of more than 4 walks in two ranks; it fits into the view at frame 0 from this distance.
+constexpr double kMinGroupTwoRankInViewDistanceM = 1.0;
 
 /// Person geometry [m]: elliptic cylinder body (semi-axes forward/side) + spherical head.
 constexpr double kBodyHalfDepthM = 0.15;
@@ -74,8 +89,23 @@ constexpr double kPersonHeightM = kHeadCentreM + kHeadRadiusM;  // 1.70
 /// Circumference of the body's elliptic cross-section [m] (width of the clothing texture).
 double bodyCircumferenceM();
 
-/// A smooth closed walking path: an ellipse x = cx + ax cos(a), y = cy + ay sin(a) with
-/// a(t) = omega t + phase + wobble_amp sin(wobble_omega t + wobble_phase).
+/// One piece of a piecewise walking path (PersonPath::legs), in the path's cycle time: a walk in a
+/// straight line (smooth start and stop), standing still, or a turn on the spot.
+struct PathLeg {
+  double start_s = 0.0;        ///< start within the cycle [s]
+  double duration_s = 1.0;     ///< > 0 [s]
+  Eigen::Vector2d from{0, 0};  ///< position at the start [m]
+  Eigen::Vector2d to{0, 0};    ///< position at the end [m]; == from when standing or turning
+  double heading_from = 0.0;   ///< heading at the start [rad]
+  double heading_to = 0.0;     ///< heading at the end [rad]; != heading_from only for a turn
+  /// Walk: the speed rises from 0 to its cruise value over ramp_s (raised cosine) and falls back
+  /// to 0 over the last ramp_s [s]; 2 ramp_s <= duration_s.
+  double ramp_s = 0.0;
+};
+
+/// A smooth closed walking path. Either (legs empty) an ellipse x = cx + ax cos(a),
+/// y = cy + ay sin(a) with a(t) = omega t + phase + wobble_amp sin(wobble_omega t + wobble_phase),
+/// or a cycle of legs that repeats every cycle_s, shifted by `offset`.
 struct PersonPath {
   Eigen::Vector2d centre{0, 0};  ///< [m]
   double ax = 1.0;               ///< semi-axis along x [m]
@@ -85,6 +115,11 @@ struct PersonPath {
   double wobble_amp = 0.0;       ///< amplitude of the speed variation of a [rad]
   double wobble_omega = 0.0;     ///< its angular frequency [rad/s]
   double wobble_phase = 0.0;     ///< its phase [rad]
+
+  std::vector<PathLeg> legs;     ///< one cycle, back to back from 0 to cycle_s, ends where it began
+  double cycle_s = 0.0;          ///< length of the cycle [s]
+  double start_s = 0.0;          ///< cycle time at t = 0 [s], in [0, cycle_s)
+  Eigen::Vector2d offset{0, 0};  ///< added to every position (members of a group share the legs)
 };
 
 /// Where a person is at one time.
@@ -95,11 +130,35 @@ struct PersonState {
   double sin_heading = 0.0;        ///< sin(heading)
 };
 
-/// Paths of `options.people` people for the options' motion (lanes across the view, or a ring
-/// around the loop), deterministic in `rng`.
+/// true when the options keep the people layout of earlier versions (see SynthOptions).
+bool usesLegacyPeopleLayout(const SynthOptions& options);
+/// people_distance_m with 0 (auto) resolved for the options' walk and people count [m].
+double effectivePeopleDistanceM(const SynthOptions& options);
+/// Largest people_distance_m the options' walk and people count allow [m].
+double maxPeopleDistanceM(const SynthOptions& options);
+/// Smallest people_distance_m the options' motion allows [m].
+double minPeopleDistanceM(const SynthOptions& options);
+
+/// Paths of `options.people` people for the options' motion and walk (see SynthOptions),
+/// deterministic in `rng`.
 std::vector<PersonPath> makePeoplePaths(const SynthOptions& options, cv::RNG& rng);
 /// State on `path` at time `t_s`.
 PersonState personStateAt(const PersonPath& path, double t_s);
+
+/// Where a person's body appears in an image.
+struct BodySpan {
+  bool in_front = false;  ///< every sample point of the body is >= 0.1 m in front of the camera
+  double u_lo = 0.0;      ///< leftmost image column of the body's full width [px]
+  double u_hi = 0.0;      ///< rightmost image column [px]
+  double v_chest = 0.0;   ///< image row of the body axis at 1.2 m height [px]
+  double depth_m = 0.0;   ///< camera-frame depth of the body axis at 1.2 m [m]
+  /// in_front, the whole width inside the image columns and the chest inside the image rows
+  bool inside = false;
+};
+/// The span of a body standing at `position` seen by `camera` at `T_world_camera` (the body's
+/// full width 2 kBodyHalfWidthM across the line of sight, at 0.3, 0.9 and 1.45 m height).
+BodySpan bodySpan(const Eigen::Vector2d& position, const Eigen::Isometry3d& T_world_camera,
+                  const CameraIntrinsics& camera);
 
 /// Ray against a person standing at `state`: ray o + t d (t = depth along d whose camera-frame
 /// z is 1). Returns the smallest t > 1e-6 or -1; fills the outward normal and clothing (u, v) [m].

@@ -1,4 +1,4 @@
-// Camera trajectories and walking people of the synthetic scene, plus the option helpers.
+// Camera trajectories of the synthetic scene, plus the option helpers.
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -36,6 +36,25 @@ SynthMotion parseSynthMotion(const std::string& name) {
                            "'; valid names: xyz, halfsphere, static, rpy, loop");
 }
 
+std::string synthWalkName(SynthWalk walk) {
+  switch (walk) {
+    case SynthWalk::kCross: return "cross";
+    case SynthWalk::kStopAndGo: return "stop-and-go";
+    case SynthWalk::kTowards: return "towards";
+    case SynthWalk::kGroup: return "group";
+  }
+  return "unknown";
+}
+
+SynthWalk parseSynthWalk(const std::string& name) {
+  for (SynthWalk w :
+       {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
+    if (synthWalkName(w) == name) return w;
+  }
+  throw std::runtime_error("unknown walk '" + name +
+                           "'; valid names: cross, stop-and-go, towards, group");
+}
+
 CameraIntrinsics defaultSynthCamera() {
   CameraIntrinsics c;
   c.fx = c.fy = 525.0;
@@ -46,10 +65,70 @@ CameraIntrinsics defaultSynthCamera() {
   return c;
 }
 
+namespace {
+
+std::string numberText(double v) {
+  std::ostringstream ss;
+  ss << v;
+  return ss.str();
+}
+
+/// Checks the people fields of `o` (its people count is checked by the caller).
+void validatePeople(const SynthOptions& o) {
+  auto fail = [](const std::string& what) { throw std::runtime_error("SynthOptions: " + what); };
+  const std::string n_people = std::to_string(o.people);
+  const std::string distance = "people_distance_m = " + numberText(o.people_distance_m);
+  if (!std::isfinite(o.people_distance_m) || o.people_distance_m < 0.0) {
+    fail(distance + " must be 0 (auto) or a distance in metres");
+  }
+  if (o.motion == SynthMotion::kLoop) {
+    if (o.walk != SynthWalk::kCross) {
+      fail("walk = " + synthWalkName(o.walk) + " needs a camera that stays near its home position "
+           "(motion static, xyz, rpy or halfsphere); with the loop motion the people walk round "
+           "with the camera (walk cross)");
+    }
+    if (o.people_distance_m != 0.0) {
+      fail(distance + " must be 0 (auto) for the loop motion: its people walk on rings around the "
+           "room centre");
+    }
+    if (o.people_in_view_at_start && o.people > synth_detail::kMaxPeopleInViewLoop) {
+      fail("people_in_view_at_start: at most " + std::to_string(synth_detail::kMaxPeopleInViewLoop) +
+           " people fit into the first view of the loop motion (people = " + n_people + ")");
+    }
+    return;
+  }
+  if (o.people_distance_m != 0.0) {
+    const double lo = synth_detail::minPeopleDistanceM(o);
+    const double hi = synth_detail::maxPeopleDistanceM(o);
+    if (o.people_distance_m < lo || o.people_distance_m > hi) {
+      fail(distance + " must be 0 (auto) or in [" + numberText(lo) + ", " + numberText(hi) +
+           "] m for motion " + synthMotionName(o.motion) + ", walk " + synthWalkName(o.walk) +
+           " and " + n_people + " people (nearer brings people within 0.6 m of the camera; "
+           "farther leaves too little room before the furniture at the back of the room for the "
+           "lanes, with >= 0.6 m of lane for everyone)");
+    }
+  }
+  if (o.people_in_view_at_start && o.walk == SynthWalk::kTowards &&
+      o.people > synth_detail::kMaxPeopleInViewTowards) {
+    fail("people_in_view_at_start: at most " + std::to_string(synth_detail::kMaxPeopleInViewTowards) +
+         " lanes of walk towards fit side by side into the view (people = " + n_people + ")");
+  }
+  const double distance_m = synth_detail::effectivePeopleDistanceM(o);
+  const double group_min_m = synth_detail::kMinGroupTwoRankInViewDistanceM;
+  if (o.people_in_view_at_start && o.walk == SynthWalk::kGroup && o.people > 4 &&
+      distance_m < group_min_m) {
+    fail("people_in_view_at_start: a group of " + n_people + " walks in two ranks and fits into "
+         "the view at frame 0 from people_distance_m = " + numberText(group_min_m) + " m on (got " +
+         numberText(distance_m) + ")");
+  }
+}
+
+}  // namespace
+
 void SynthOptions::validate() const {
   auto fail = [](const std::string& what) { throw std::runtime_error("SynthOptions: " + what); };
   if (frames < 1) fail("frames = " + std::to_string(frames) + " must be >= 1");
-  if (people < 0 || people > 3) fail("people = " + std::to_string(people) + " must be in 0..3");
+  if (people < 0 || people > 8) fail("people = " + std::to_string(people) + " must be in 0..8");
   if (!(fps > 0.0 && fps <= 1000.0)) fail("fps = " + std::to_string(fps) + " must be in (0, 1000]");
   if (!std::isfinite(start_stamp_s) || start_stamp_s < 0.0) {
     fail("start_stamp_s must be finite and >= 0 (seconds since the Unix epoch)");
@@ -71,12 +150,16 @@ void SynthOptions::validate() const {
       fail(ss.str());
     }
   }
+  validatePeople(*this);
 }
 
 std::string SynthOptions::toString() const {
   std::ostringstream ss;
   ss << "frames=" << frames << " motion=" << synthMotionName(motion) << " people=" << people
-     << " seed=" << seed << " fps=" << fps << " camera=" << camera.width << "x" << camera.height
+     << " walk=" << synthWalkName(walk)
+     << " people_in_view_at_start=" << (people_in_view_at_start ? "true" : "false")
+     << " people_distance_m=" << people_distance_m << " seed=" << seed << " fps=" << fps
+     << " camera=" << camera.width << "x" << camera.height
      << " fx=" << camera.fx << " fy=" << camera.fy << " cx=" << camera.cx << " cy=" << camera.cy
      << " depth_noise=" << (depth_noise ? "true" : "false") << " start_stamp_s=" << std::fixed
      << start_stamp_s;
@@ -110,16 +193,16 @@ double wave(double amp, double freq_hz, double phase, double t) {
   return amp * std::sin(2.0 * kPi * freq_hz * t + phase);
 }
 
-const Eigen::Vector3d kEye0(0.0, -0.6, 1.45);    // home position [m]
+const Eigen::Vector3d kEye0(kCameraHomeXM, kCameraHomeYM, 1.45);  // home position [m]
 const Eigen::Vector3d kTarget0(0.0, 3.0, 1.25);  // a point on the +y wall [m]
 const Eigen::Vector3d kRoomCentre(0.0, 0.0, 1.45);
 
-double loopRadius(const SynthOptions& o) {
+}  // namespace
+
+double loopRadiusM(const SynthOptions& o) {
   const double duration_s = std::max(o.frames - 1, 1) / o.fps;
   return std::min(1.5, kLoopSpeedMS * duration_s / (2.0 * kPi));
 }
-
-}  // namespace
 
 Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
   switch (o.motion) {
@@ -156,7 +239,7 @@ Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
       // alpha runs 0 -> 2pi from frame 0 to the last frame, so the last pose equals the first.
       const double duration_s = std::max(o.frames - 1, 1) / o.fps;
       const double alpha = 2.0 * kPi * t / duration_s;
-      const double r = loopRadius(o);
+      const double r = loopRadiusM(o);
       const Eigen::Vector3d radial(std::sin(alpha), -std::cos(alpha), 0.0);
       const Eigen::Vector3d eye = kRoomCentre + r * radial;
       const Eigen::Vector3d target = kRoomCentre - 2.0 * radial + Eigen::Vector3d(0, 0, -0.3);
@@ -164,53 +247,6 @@ Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
     }
   }
   return Eigen::Isometry3d::Identity();
-}
-
-std::vector<PersonPath> makePeoplePaths(const SynthOptions& o, cv::RNG& rng) {
-  std::vector<PersonPath> paths;
-  for (int k = 0; k < o.people; ++k) {
-    PersonPath p;
-    const double speed_ms = rng.uniform(0.7, 1.1);  // walking speed [m/s]
-    if (o.motion == SynthMotion::kLoop) {
-      // A ring outside the camera circle (>= 0.5 m gap) and inside the furniture. The people
-      // walk round with the camera, on the far side of the centre (the camera looks inwards),
-      // so they stay in view; the wobble moves them across the image.
-      const double r = loopRadius(o);
-      const double duration_s = std::max(o.frames - 1, 1) / o.fps;
-      p.centre = Eigen::Vector2d(0.0, 0.0);
-      p.ax = std::min(2.55, r + 1.1 + 0.15 * k);
-      p.ay = std::min(2.2, r + 0.8 + 0.15 * k);
-      p.omega = 2.0 * kPi / duration_s;
-      p.phase = 0.5 * kPi + 0.45 * (k - 1) + rng.uniform(-0.15, 0.15);
-      p.wobble_phase = rng.uniform(0.0, 2.0 * kPi);
-      p.wobble_omega = 2.0 * kPi / rng.uniform(4.0, 7.0);
-      // Keep da/dt > 0 (always walking forwards, no heading flips).
-      p.wobble_amp = std::min(rng.uniform(0.15, 0.3), 0.8 * p.omega / p.wobble_omega);
-    } else {
-      // Lanes across the view in front of the +y wall, 0.45 m apart, mostly inside the view.
-      p.centre = Eigen::Vector2d(rng.uniform(-0.2, 0.2), 0.8 + 0.45 * k + rng.uniform(-0.05, 0.05));
-      p.ax = rng.uniform(0.9, 1.5);
-      p.ay = 0.15;
-      const double mean_radius = std::sqrt(0.5 * (p.ax * p.ax + p.ay * p.ay));
-      p.omega = (rng.uniform(0, 2) == 0 ? -1.0 : 1.0) * speed_ms / mean_radius;
-      p.phase = rng.uniform(0.0, 2.0 * kPi);
-    }
-    paths.push_back(p);
-  }
-  return paths;
-}
-
-PersonState personStateAt(const PersonPath& p, double t) {
-  const double w = p.wobble_omega * t + p.wobble_phase;
-  const double a = p.omega * t + p.phase + p.wobble_amp * (std::sin(w) - std::sin(p.wobble_phase));
-  const double a_dot = p.omega + p.wobble_amp * p.wobble_omega * std::cos(w);
-  PersonState s;
-  s.position = p.centre + Eigen::Vector2d(p.ax * std::cos(a), p.ay * std::sin(a));
-  const Eigen::Vector2d v(-p.ax * std::sin(a) * a_dot, p.ay * std::cos(a) * a_dot);
-  s.heading = std::atan2(v.y(), v.x());
-  s.cos_heading = std::cos(s.heading);
-  s.sin_heading = std::sin(s.heading);
-  return s;
 }
 
 }  // namespace synth_detail

@@ -227,6 +227,7 @@ SynthFrame SyntheticScene::render(int index) const {
   out.frame.stamp_ns = stampNs(index);
   out.frame.bgr.create(cam.height, cam.width, CV_8UC3);
   out.mask_gt.create(cam.height, cam.width, CV_8UC1);
+  out.person_id_gt.create(cam.height, cam.width, CV_8UC1);
   out.static_depth_m.create(cam.height, cam.width, CV_32FC1);
   cv::Mat depth_clean(cam.height, cam.width, CV_32FC1);
 
@@ -251,6 +252,7 @@ SynthFrame SyntheticScene::render(int index) const {
     for (int v = rows.start; v < rows.end; ++v) {
       auto* bgr = out.frame.bgr.ptr<cv::Vec3b>(v);
       auto* mask = out.mask_gt.ptr<std::uint8_t>(v);
+      auto* person_id = out.person_id_gt.ptr<std::uint8_t>(v);
       auto* sdepth = out.static_depth_m.ptr<float>(v);
       auto* depth = depth_clean.ptr<float>(v);
       for (int u = 0; u < cam.width; ++u) {
@@ -306,6 +308,7 @@ SynthFrame SyntheticScene::render(int index) const {
                            cv::saturate_cast<std::uint8_t>(albedo[1] * shade),
                            cv::saturate_cast<std::uint8_t>(albedo[2] * shade));
         mask[u] = person >= 0 ? kMaskDynamic : kMaskStatic;
+        person_id[u] = static_cast<std::uint8_t>(person + 1);
         depth[u] = static_cast<float>(t);
       }
     }

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dypho/common/atomic_file.h"
+#include "synthetic_internal.h"
 
 namespace fs = std::filesystem;
 
@@ -50,12 +51,49 @@ cv::Mat depthToPng16(const cv::Mat& depth_m) {
   return out;
 }
 
+const char* walkText(SynthWalk walk) {
+  switch (walk) {
+    case SynthWalk::kCross: return "back and forth across the view";
+    case SynthWalk::kStopAndGo:
+      return "across the view, standing still for 1-3 s at irregular intervals";
+    case SynthWalk::kTowards: return "towards the camera and away again along its view direction";
+    case SynthWalk::kGroup: return "side by side as one group";
+  }
+  return "";
+}
+
+std::string peopleLayoutText(const SynthOptions& o) {
+  std::ostringstream ss;
+  const bool legacy = synth_detail::usesLegacyPeopleLayout(o);
+  if (o.motion == SynthMotion::kLoop) {
+    ss << (legacy ? "on rings around the room centre" : "in a formation on two rings")
+       << ", walking round with the camera";
+    return ss.str();
+  }
+  if (legacy) {
+    return "on elliptic lanes 1.4-2.3 m in front of the camera's home position (layout of "
+           "earlier versions)";
+  }
+  const double d = synth_detail::effectivePeopleDistanceM(o);
+  switch (o.walk) {
+    case SynthWalk::kTowards: ss << "lanes along the view from 3.2 m to " << d << " m"; break;
+    case SynthWalk::kGroup: ss << "front row " << d << " m"; break;
+    default: ss << "nearest lane " << d << " m, lanes 0.55 m apart"; break;
+  }
+  ss << " in front of the camera's home position" << (o.people_distance_m == 0.0 ? " (auto)" : "");
+  return ss.str();
+}
+
 std::string readme(const SynthOptions& o, const SynthWriteOptions& w, const SynthWriteSummary& s) {
   std::ostringstream ss;
   ss << "DyPho-SLAM synthetic dynamic RGB-D sequence (generated, not recorded).\n\n"
      << "Scene: a 7 x 6 x 3 m room (x in [-3.5, 3.5], y in [-3, 3], z in [0, 3] m, z up) with\n"
      << "procedurally textured walls, floor, ceiling and five furniture boxes, and " << o.people << "\n"
      << "walking people (elliptic cylinders 0.5 m wide, 1.7 m tall, textured clothing).\n"
+     << "People: walk " << synthWalkName(o.walk) << " (" << walkText(o.walk) << "); "
+     << (o.people_in_view_at_start ? "all inside the image at frame 0" : "random start positions")
+     << "; "
+     << peopleLayoutText(o) << ".\n"
      << "Rendered by ray casting with Lambertian shading (one point light + ambient).\n\n"
      << "Options: " << o.toString() << "\n"
      << "Frames: " << s.frames << " over " << s.duration_s << " s; camera path " << s.path_length_m

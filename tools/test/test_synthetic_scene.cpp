@@ -199,7 +199,7 @@ TEST(SyntheticScene, RenderIsRepeatableInAnyOrder) {
 
 TEST(SyntheticScene, RejectsBadOptionsWithClearErrors) {
   SynthOptions o;
-  o.people = 4;
+  o.people = 9;
   EXPECT_THROW(SyntheticScene{o}, std::runtime_error);
   o = SynthOptions{};
   o.frames = 0;

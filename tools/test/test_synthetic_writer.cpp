@@ -137,6 +137,30 @@ TEST(SyntheticWriter, TumDatasetReadsTheFolderBack) {
 }
 #endif
 
+TEST(SyntheticWriter, ReadmeRecordsThePeopleOptions) {
+  SynthOptions o = smallOptions();
+  o.frames = 2;
+  o.people = 3;
+  o.walk = dypho::tools::SynthWalk::kTowards;
+  o.people_in_view_at_start = true;
+  o.people_distance_m = 1.2;
+  o.camera.width = 160;
+  o.camera.height = 120;
+  o.camera.fx = o.camera.fy = 131.25;
+  o.camera.cx = 79.5;
+  o.camera.cy = 59.5;
+  const fs::path dir = freshDir("synth_readme");
+  const auto summary = dypho::tools::writeSyntheticDataset(o, dir.string());
+  EXPECT_GT(summary.mean_dynamic_fraction, 0.0) << "people in view from frame 0";
+  const std::string readme = readText(dir / "README.txt");
+  for (const char* part :
+       {"people=3 walk=towards people_in_view_at_start=true people_distance_m=1.2",
+        "People: walk towards", "all inside the image at frame 0", "from 3.2 m to 1.2 m"}) {
+    EXPECT_NE(readme.find(part), std::string::npos) << "'" << part << "' missing in:\n" << readme;
+  }
+  fs::remove_all(dir);
+}
+
 TEST(SyntheticWriter, UnwritableFolderIsAClearError) {
   const fs::path file = freshDir("synth_file");
   { std::ofstream(file.string()) << "x"; }
@@ -148,7 +172,7 @@ TEST(SyntheticWriter, UnwritableFolderIsAClearError) {
   }
   fs::remove(file);
   SynthOptions bad = smallOptions();
-  bad.people = 5;
+  bad.people = 9;
   EXPECT_THROW(dypho::tools::writeSyntheticDataset(bad, freshDir("synth_bad").string()), std::runtime_error);
 }
 

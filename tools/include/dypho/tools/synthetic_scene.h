@@ -38,16 +38,66 @@ std::string synthMotionName(SynthMotion motion);
 /// std::runtime_error listing the valid names for anything else.
 SynthMotion parseSynthMotion(const std::string& name);
 
+/// How the people of a synthetic sequence walk (SynthOptions::walk; see there for the layout).
+enum class SynthWalk {
+  kCross,      ///< back and forth across the view on lanes parallel to the image plane (default)
+  kStopAndGo,  ///< as kCross, but each person stands still for 1-3 s at irregular intervals
+               ///< (smooth speed ramps; the heading is kept while standing)
+  kTowards,    ///< towards the camera and away again along its view direction, from the back of
+               ///< the room (3.2 m) to people_distance_m; the near ends fan out to the image edges
+  kGroup,      ///< all people side by side as one group (same velocity, small offsets) on one lane
+};
+
+/// Name of a walk as accepted by parseSynthWalk ("cross", "stop-and-go", "towards", "group").
+std::string synthWalkName(SynthWalk walk);
+
+/// Parses "cross" | "stop-and-go" | "towards" | "group" (case-sensitive). Throws
+/// std::runtime_error listing the valid names for anything else.
+SynthWalk parseSynthWalk(const std::string& name);
+
 /// The default synthetic camera: 640x480, fx = fy = 525, cx = 319.5, cy = 239.5, no distortion
 /// (the ROS/TUM default registered-depth camera).
 CameraIntrinsics defaultSynthCamera();
 
 /// Settings of a synthetic sequence. The same options (including the seed) always give
 /// bit-identical images.
+///
+/// People layout. With at most 3 people, walk kCross, people_in_view_at_start false and
+/// people_distance_m 0, the people walk as in earlier versions (same images for the same seed):
+/// on elliptic lanes 1.4, 1.85 and 2.3 m in front of the camera's home position, or on rings
+/// around the room for the loop motion. Anything else uses the lane layout: straight lanes
+/// across the view, 0.55 m apart from people_distance_m on, reaching 0.1 m beyond the edge of
+/// the first view (people turn round on the spot at the lane ends; a lane with several people is
+/// split into stretches 0.55 m apart); lanes along the view for kTowards; one lane for kGroup;
+/// and, for the loop motion, a formation on two rings that walks round with the camera. Body axes
+/// then stay >= 0.5 m (one body width) apart and >= 0.6 m from the camera, walking speeds
+/// <= 1.4 m/s. The lane layout does not depend on `frames` (the loop formation does, like the
+/// rings).
 struct SynthOptions {
   int frames = 300;                                ///< number of frames, >= 1 (loop: duration >= 9 s)
   SynthMotion motion = SynthMotion::kHalfsphere;   ///< camera trajectory
-  int people = 2;                                  ///< walking people, 0..3
+  int people = 2;                                  ///< walking people, 0..8
+  /// How the people walk. The loop motion takes kCross only (its people walk round with it).
+  SynthWalk walk = SynthWalk::kCross;
+  /// true = every person's body (its full width; top and bottom may be cut when close) is inside
+  /// the image at frame 0. The start positions are chosen for it, with as little overlap between
+  /// people as the lanes allow (members of a group of 5-8 may hide each other). validate()
+  /// accepts it for up to 5 people with kTowards, for a kGroup of 5-8 (two ranks) from
+  /// people_distance_m 1.0 m on, for up to 5 people with the loop motion (its formation starts
+  /// centred in the view), and for any number otherwise.
+  bool people_in_view_at_start = false;
+  /// Distance [m] in front of the camera's home position, along its view direction, of the
+  /// nearest lane (kCross, kStopAndGo), of the group's front row (kGroup) or of the near turning
+  /// point (kTowards). 0 = auto: 1.0 m for kTowards, else 1.4 m or, where that leaves too little
+  /// room, the largest allowed distance (1.1 m for 8 people on lanes, 1.22 m for a group of 4 or
+  /// more). Otherwise at least 0.6 m (static, rpy) or 0.8 m (xyz, halfsphere: those cameras come
+  /// up to 0.2 m closer), and at most 2.2 m (kTowards), 2.75 m less 0.51 m per row behind the
+  /// first (kGroup, up to 4 abreast), or the farthest distance at which the lanes in front of
+  /// the furniture give everyone >= 0.6 m of lane (kCross, kStopAndGo: 2.75 m for up to 3
+  /// people, 2.2 m for 4-5, 1.65 m for 6-7, 1.1 m for 8). Must be 0 for the loop motion. With a
+  /// static camera, 6 people at 0.9 m cover about 30 % of the image on average, 8 at 0.8 m
+  /// about 45 %.
+  double people_distance_m = 0.0;
   std::uint32_t seed = 1;                          ///< seeds textures, people paths and depth noise
   double fps = 30.0;                               ///< frame rate [Hz], (0, 1000]
   CameraIntrinsics camera = defaultSynthCamera();  ///< pinhole camera; distortion must be zero
@@ -59,7 +109,7 @@ struct SynthOptions {
 
   /// Throws std::runtime_error naming the bad field, its value and the accepted range.
   void validate() const;
-  /// One line "frames=300 motion=halfsphere people=2 ..." for logs and README files.
+  /// One line "frames=300 motion=halfsphere people=2 walk=cross ..." for logs and README files.
   std::string toString() const;
 };
 
@@ -67,6 +117,8 @@ struct SynthOptions {
 struct SynthFrame {
   RgbdFrame frame;       ///< BGR CV_8UC3 colour, CV_32FC1 depth [m] (noisy if depth_noise), camera
   cv::Mat mask_gt;       ///< CV_8UC1, 255 where a person is the first surface hit, else 0
+  /// CV_8UC1, k + 1 where person k (0 <= k < people) is the first surface hit, else 0
+  cv::Mat person_id_gt;
   cv::Mat static_depth_m;  ///< CV_32FC1 noise-free depth [m] of the room without people
   /// camera optical frame in the world (ground truth)
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
