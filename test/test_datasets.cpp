@@ -28,6 +28,12 @@ constexpr double DYPHO_FR1_ATE_BOUND_M = 0.04;
 constexpr double DYPHO_BONN_ATE_BOUND_M = 0.02;
 // Synthetic: the issue's own target (1 cm) is the bound; measured 0.46 cm.
 constexpr double DYPHO_SYNTH_ATE_BOUND_M = 0.01;
+// Bonn crowd with the flow mask only (no network): the goal (3 cm) is the bound;
+// measured 1.62 cm (6.85 cm before the crowd-aware global-motion fit).
+constexpr double DYPHO_BONN_FLOW_ATE_BOUND_M = 0.03;
+// Synthetic hard cases (static camera, people in view from frame 0, flow mask only): the issue's
+// goal (0.5 cm) is the bound; measured stop-and-go 0.11 cm, group 0.18 cm (150 frames, seed 1).
+constexpr double DYPHO_HARD_CASE_ATE_BOUND_M = 0.005;
 
 bool exists(const std::string& path) {
   struct stat st{};
@@ -89,6 +95,37 @@ TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
   std::cout << "Bonn crowd 200-399: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
   EXPECT_LT(ate, DYPHO_BONN_ATE_BOUND_M);
 }
+
+TEST(DatasetRun, BonnCrowdFrames200to399FlowMaskOnly) {
+  const std::string data = sharedDir() + "/data/rgbd_bonn_crowd_frames200to399";
+  if (!exists(data)) GTEST_SKIP() << "SKIPPED: " << data << " not found (needs ../shared beside the repo)";
+  const std::string out = std::string(DYPHO_TEST_OUT) + "/bonn_flow";
+  ASSERT_EQ(runDataset(data, out), 0);
+  const auto gt = dypho::tools::applyBonnCorrection(dypho::readTumTrajectory(data + "/groundtruth.txt"));
+  const double ate = ateOf(out, gt);
+  std::cout << "Bonn crowd 200-399, flow mask only: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
+  EXPECT_LT(ate, DYPHO_BONN_FLOW_ATE_BOUND_M);
+}
+
+/// Synthetic hard cases of a still camera in a crowd, flow mask only (dypho_synth arguments).
+class HardCase : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(HardCase, FlowMaskOnlyStaysOnTheStaticRoom) {
+  const std::string name = std::string("hard_") + (std::string(GetParam()).find("group") != std::string::npos ? "group" : "stop_and_go");
+  const std::string data = std::string(DYPHO_TEST_OUT) + "/" + name;
+  const std::string cmd = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data +
+                          "' --frames 150 --motion static --people-in-view --seed 1 --no-bag " + GetParam() + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::string out = data + "_run";
+  ASSERT_EQ(runDataset(data, out), 0);
+  const double ate = ateOf(out, dypho::readTumTrajectory(data + "/groundtruth.txt"));
+  std::cout << name << ": ATE RMSE " << ate * 100 << " cm\n";
+  EXPECT_LT(ate, DYPHO_HARD_CASE_ATE_BOUND_M);
+}
+
+INSTANTIATE_TEST_SUITE_P(StaticCamera, HardCase,
+                         ::testing::Values("--people 5 --walk stop-and-go --people-distance 0.9",  // 34 % mean, 54 % max
+                                           "--people 4 --walk group"));                           // up to 36 %
 
 TEST(DatasetRun, SyntheticDefaultInput) {
   const std::string data = std::string(DYPHO_TEST_OUT) + "/synth";
