@@ -299,6 +299,66 @@ TEST(FlowMotionMasker, PreviousMaskStopsTheFitFromFollowingACrowd) {
   EXPECT_GT(static_cast<double>(cv::countNonZero(r.mask & truth)) / cv::countNonZero(truth), 0.9);
 }
 
+// A person who moves slowly (1 px per frame, under the 2 px threshold frame to frame) in front
+// of a still camera: frame to frame the residual never reaches the threshold; the residual
+// memory (0.7) carries it along the flow and adds it up to 1 / (1 - 0.7) = 3.3 px, so after a
+// few frames (1 + 0.7 + 0.49 + 0.34 = 2.5 px after 4) the person is masked. Only pixels whose
+// residual reaches the sustainable level (1 - 0.7) * 2 px = 0.6 px keep their memory; DIS at the
+// 1/4 flow resolution measures the quarter-pixel step short on part of the square (its weakly
+// textured spots, the border band of one flow pixel), and those pixels start afresh.
+TEST(FlowMotionMasker, ResidualMemoryFindsASlowMover) {
+  FlowMaskOptions frame_to_frame;
+  frame_to_frame.residual_memory = 0.0;
+  FlowMotionMasker with_memory{FlowMaskOptions()}, without_memory(frame_to_frame);
+  ASSERT_GT(FlowMaskOptions().residual_memory, 0.0);
+  const cv::Mat bg = makeTexture(kSize, 31);
+  const cv::Mat person = makeTexture(cv::Size(160, 160), 32);
+  for (int k = 0; k < 10; ++k) {
+    const cv::Rect square(200 + k, 160, 140, 140);
+    const cv::Mat frame = squareScene(bg, {0, 0}, person, square);
+    const FlowMaskResult r = with_memory.compute(frameOf(frame));
+    const FlowMaskResult r0 = without_memory.compute(frameOf(frame));
+    if (k == 0) continue;
+    ASSERT_FALSE(r.degraded) << r.message;
+    ASSERT_FALSE(r0.degraded) << r0.message;
+    cv::Mat truth = cv::Mat::zeros(kSize, CV_8UC1);
+    truth(square).setTo(255);
+    const double covered = static_cast<double>(cv::countNonZero(r.mask & truth)) / square.area();
+    const double covered0 = static_cast<double>(cv::countNonZero(r0.mask & truth)) / square.area();
+    std::printf("[ report ] slow mover frame %d: covered %.3f with memory, %.3f without\n", k, covered, covered0);
+    // Without memory: at most 10 % (flow noise at the square's edges can pass 2 px here and there).
+    EXPECT_LT(covered0, 0.1) << "frame " << k;
+    // With memory, from the 8th residual on (the ideal sum is then within 6 % of 3.3 px): the
+    // greater part of the square (>= 60 %; measured 73 %, see above for what is missed), where
+    // frame to frame finds nothing.
+    if (k >= 8) EXPECT_GE(covered, 0.6) << "frame " << k;
+    // Nothing far from the person is masked (< 1 % of the image outside the square + 24 px).
+    cv::Mat near = cv::Mat::zeros(kSize, CV_8UC1);
+    near(cv::Rect(square.x - 24, square.y - 24, square.width + 48, square.height + 48)).setTo(255);
+    EXPECT_LT(static_cast<double>(cv::countNonZero(r.mask & ~near)) / kSize.area(), 0.01) << "frame " << k;
+  }
+}
+
+// The memory would add up the ego-motion model's repeated errors, which grow with the camera's
+// image motion: while the camera moves fast (8 px per frame, above the 6 px fade-out) the memory
+// is off, and the masks are exactly those of the frame-to-frame masker.
+TEST(FlowMotionMasker, ResidualMemoryIsOffWhileTheCameraMovesFast) {
+  FlowMaskOptions frame_to_frame;
+  frame_to_frame.residual_memory = 0.0;
+  FlowMotionMasker with_memory{FlowMaskOptions()}, without_memory(frame_to_frame);
+  const cv::Mat bg = makeTexture(kSize, 33);
+  const cv::Mat person = makeTexture(cv::Size(160, 160), 34);
+  for (int k = 0; k < 6; ++k) {
+    const cv::Rect square(150 + 9 * k, 160, 120, 120);  // 1 px per frame relative to the background
+    const cv::Mat frame = squareScene(bg, {8.0 * k, 0}, person, square);
+    const FlowMaskResult r = with_memory.compute(frameOf(frame));
+    const FlowMaskResult r0 = without_memory.compute(frameOf(frame));
+    ASSERT_EQ(r.degraded, r0.degraded) << "frame " << k;
+    ASSERT_EQ(r.mask.size(), r0.mask.size());
+    EXPECT_EQ(cv::countNonZero(r.mask != r0.mask), 0) << "frame " << k;
+  }
+}
+
 TEST(FlowMotionMasker, BadInputIsDegradedNotACrash) {
   FlowMotionMasker masker{FlowMaskOptions()};
   const cv::Mat img = makeTexture(kSize, 8);

@@ -161,3 +161,36 @@ TEST(BoxDepthSegmenter, RegionHaloOnTheWallIsCut) {
   cutRegionsToDepthForeground(depth, BoxDepthSettings(), m);
   EXPECT_EQ(cv::countNonZero(m), 20 * 70);
 }
+
+// A crowd: one flow region spans a person at 1.5 m and another, partly behind, at 3 m, with a
+// 5 px halo on the wall (5 m). The nearest-layer cut keeps only the first person; the layered cut
+// keeps both and still nothing of the wall: neither its 5 px halo band (no wider than the halo)
+// nor a 25 px wide strip of it (wide, but the region's own far depth, not in front of it).
+TEST(BoxDepthSegmenter, CrowdRegionKeepsPeopleBehindPeopleNotTheWall) {
+  cv::Mat depth(120, 160, CV_32FC1, cv::Scalar(5.0f));
+  const cv::Rect near_person(20, 20, 30, 80), far_person(60, 20, 30, 80);
+  depth(near_person).setTo(1.5f);
+  depth(far_person).setTo(3.0f);
+  cv::Mat region = cv::Mat::zeros(depth.size(), CV_8UC1);
+  region(cv::Rect(15, 15, 100, 90)).setTo(255);  // both people + halo + 25 px of wall on the right
+  const int halo_px = 5;
+
+  cv::Mat nearest = region.clone();
+  cutRegionsToDepthLayers(depth, BoxDepthSettings(), halo_px, 1, nearest);
+  EXPECT_EQ(cv::countNonZero(nearest), near_person.area());
+  EXPECT_EQ(cv::countNonZero(nearest(near_person)), near_person.area());
+
+  cv::Mat layered = region.clone();
+  cutRegionsToDepthLayers(depth, BoxDepthSettings(), halo_px, 3, layered);
+  EXPECT_EQ(cv::countNonZero(layered(near_person)), near_person.area());
+  EXPECT_EQ(cv::countNonZero(layered(far_person)), far_person.area());
+  EXPECT_EQ(cv::countNonZero(layered), near_person.area() + far_person.area());  // no wall
+
+  // One person and the halo only: the same result as the nearest-layer cut.
+  cv::Mat single_depth(100, 100, CV_32FC1, cv::Scalar(4.0f));
+  single_depth(cv::Rect(40, 20, 20, 70)).setTo(2.0f);
+  cv::Mat single = cv::Mat::zeros(100, 100, CV_8UC1);
+  single(cv::Rect(35, 15, 30, 80)).setTo(255);
+  cutRegionsToDepthLayers(single_depth, BoxDepthSettings(), halo_px, 3, single);
+  EXPECT_EQ(cv::countNonZero(single), 20 * 70);
+}

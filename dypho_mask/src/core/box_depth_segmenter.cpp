@@ -100,6 +100,85 @@ void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings&
   }
 }
 
+void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, int halo_px, int max_layers,
+                             cv::Mat& mask) {
+  CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size());
+  // The far depth of every original region (95th percentile): the background behind its objects.
+  cv::Mat regions;
+  const int num_regions = cv::connectedComponents(mask, regions, 8, CV_32S);
+  if (num_regions <= 1) return;
+  std::vector<std::vector<float>> region_z(num_regions);
+  for (int y = 0; y < mask.rows; ++y) {
+    const int* l = regions.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      if (l[x] != 0 && d[x] > 0.f) region_z[l[x]].push_back(d[x]);
+    }
+  }
+  std::vector<float> region_far(num_regions, 0.f);
+  for (int i = 1; i < num_regions; ++i) {
+    auto& z = region_z[i];
+    if (z.empty()) continue;
+    const auto k = z.begin() + static_cast<std::ptrdiff_t>(0.95 * (z.size() - 1));
+    std::nth_element(z.begin(), k, z.end());
+    region_far[i] = *k;
+  }
+  const cv::Mat work = mask.clone();
+  cutRegionsToDepthForeground(depth_m, s, mask);  // layer 1: the nearest object of every region
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * halo_px + 1, 2 * halo_px + 1));
+  // What is left of a region mixes objects and background; an object may hold a small share.
+  BoxDepthSettings layer_settings = s;
+  layer_settings.min_cluster_share = std::min(s.min_cluster_share, 0.05);
+  constexpr float kInFrontM = 0.3f;  // a layer this far in front of its region's far depth is an object
+  cv::Mat rest, core, labels;
+  for (int layer = 1; layer < max_layers; ++layer) {
+    // What the layers so far left of the regions: objects farther back, and the halo on the
+    // background. The halo is a band about as wide as the flow's margin; an object is wider.
+    cv::bitwise_and(work, ~mask, rest);
+    cv::erode(rest, core, kernel);
+    if (cv::countNonZero(core) == 0) return;
+    const int n = cv::connectedComponents(rest, labels, 8, CV_32S);
+    std::vector<std::vector<float>> z(n);
+    std::vector<int> total(n, 0), parent(n, 0);
+    std::vector<bool> has_core(n, false);
+    for (int y = 0; y < rest.rows; ++y) {
+      const int* l = labels.ptr<int>(y);
+      const int* r = regions.ptr<int>(y);
+      const float* d = depth_m.ptr<float>(y);
+      const uchar* c = core.ptr<uchar>(y);
+      for (int x = 0; x < rest.cols; ++x) {
+        if (l[x] == 0) continue;
+        ++total[l[x]];
+        parent[l[x]] = r[x];
+        has_core[l[x]] = has_core[l[x]] || c[x] != 0;
+        if (d[x] > 0.f) z[l[x]].push_back(d[x]);
+      }
+    }
+    std::vector<float> lo(n, 1.f), hi(n, -1.f);  // empty range: nothing kept
+    bool any = false;
+    for (int i = 1; i < n; ++i) {
+      if (!has_core[i] || z[i].empty() || static_cast<double>(z[i].size()) < s.min_valid_share * total[i]) continue;
+      std::sort(z[i].begin(), z[i].end());
+      float near_lo = 0.f, near_hi = 0.f;
+      nearestCluster(z[i], layer_settings, near_lo, near_hi);
+      if (near_hi < region_far[parent[i]] - kInFrontM) {
+        lo[i] = near_lo;
+        hi[i] = near_hi;
+        any = true;
+      }
+    }
+    if (!any) return;
+    for (int y = 0; y < rest.rows; ++y) {
+      const int* l = labels.ptr<int>(y);
+      const float* d = depth_m.ptr<float>(y);
+      uchar* m = mask.ptr<uchar>(y);
+      for (int x = 0; x < rest.cols; ++x) {
+        if (l[x] != 0 && d[x] >= lo[l[x]] && d[x] <= hi[l[x]]) m[x] = 255;
+      }
+    }
+  }
+}
+
 void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, const DepthGrowSettings& g,
                         cv::Mat& mask) {
   CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size() &&

@@ -35,6 +35,8 @@ void FlowMaskOptions::validate() const {
           "min_inlier_ratio must be in [0, 1), got " + std::to_string(min_inlier_ratio));
   require(std::isfinite(min_texture_gradient) && min_texture_gradient >= 0.0,
           "min_texture_gradient must be >= 0, got " + std::to_string(min_texture_gradient));
+  require(std::isfinite(residual_memory) && residual_memory >= 0.0 && residual_memory < 1.0,
+          "residual_memory must be in [0, 1), got " + std::to_string(residual_memory));
   require(dis_refinement_iterations >= 0 && dis_refinement_iterations <= 100,
           "dis_refinement_iterations must be in [0, 100], got " + std::to_string(dis_refinement_iterations));
 }
@@ -47,7 +49,8 @@ std::string FlowMaskOptions::toString() const {
     << " sample_step_px=" << sample_step_px << " ransac_threshold_px=" << ransac_threshold_px
     << " ransac_max_iterations=" << ransac_max_iterations
     << " min_inlier_ratio=" << min_inlier_ratio
-    << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false") << " ultrafast=" << (ultrafast ? "true" : "false")
+    << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
+    << " residual_memory=" << residual_memory << " ultrafast=" << (ultrafast ? "true" : "false")
     << " dis_refinement_iterations=" << dis_refinement_iterations;
   return s.str();
 }

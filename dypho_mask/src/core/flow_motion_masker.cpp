@@ -71,6 +71,7 @@ FlowMotionMasker::~FlowMotionMasker() = default;
 
 void FlowMotionMasker::reset() {
   input_size_ = cv::Size();
+  memory_.release();
   last_flow_valid_ = false;
 }
 
@@ -136,6 +137,7 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
       result.message = "first frame: no previous image, mask empty";
     }
     input_size_ = size;
+    memory_.release();
     std::swap(prev_small_, cur_small_);
     result.total_ms = msSince(t0);
     return result;
@@ -216,12 +218,20 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   result.inlier_ratio = fit.inlierRatio();
   if (!fit.ok) {
     result.message = "global motion not found: " + fit.message;
+    memory_.release();  // no residual this frame: the slow-motion evidence starts again
     useCarried(size, result);
     result.total_ms = msSince(t0);
     return result;
   }
   result.H_prev_cur = fit.H_prev_cur;
   result.ego_motion_from_pose = from_pose;
+  {
+    // Full weight below kStillFlowPx of median flow, none from kMovingFlowPx on (full-res px).
+    constexpr double kStillFlowPx = 2.0, kMovingFlowPx = 6.0;
+    result.still_camera_weight =
+        std::clamp((kMovingFlowPx - medianFlowPx()) / (kMovingFlowPx - kStillFlowPx), 0.0, 1.0);
+  }
+  accumulateResidual(result.still_camera_weight);
   cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
   residual_.convertTo(small_mask_, CV_8U);
   if (!textured_.empty()) small_mask_ &= textured_;
@@ -313,6 +323,60 @@ void FlowMotionMasker::carryPrevious(const cv::Mat& previous_dynamic) {
   cv::threshold(carried_, carried_, 127, 255, cv::THRESH_BINARY);
   // Backward flow: each current pixel reads the previous mask where it came from.
   cv::remap(carried_, carried_, flow_target_, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+void FlowMotionMasker::setResidualMemoryEnabled(bool enabled) {
+  if (!enabled) memory_.release();
+  memory_enabled_ = enabled;
+}
+
+void FlowMotionMasker::accumulateResidual(double still_weight) {
+  if (options_.residual_memory <= 0.0 || !memory_enabled_) return;
+  // memory_ holds the residual vectors of the earlier frames, each pixel's own: carried along the
+  // backward flow like the previous mask, decayed, plus this frame's residual. A person moving
+  // 1 px per frame stays under a 2 px threshold frame to frame, but not in the memory
+  // (steady state residual / (1 - memory)), while zero-mean noise grows only by
+  // 1 / sqrt(1 - memory^2).
+  // The memory also adds up what the ego-motion model gets wrong the same way frame after frame
+  // (rolling shutter, colour/depth time offset, parallax under fast motion), which grows with the
+  // camera's own image motion: it is weighted by how still the camera is.
+  const double memory = options_.residual_memory * still_weight;
+  if (memory_.empty() || memory_.size() != residual_vec_.size() || memory <= 0.0) {
+    residual_vec_.copyTo(memory_);
+  } else {
+    cv::remap(memory_, memory_carried_, flow_target_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0, 0));
+    // Only a pixel that moves enough now to be found by the sum keeps its memory: its residual
+    // must reach (1 - memory) * threshold, the level whose steady-state sum reaches the
+    // threshold. Noise below that level is not added up, and the background uncovered behind a
+    // person (its flow points into the person, whose memory it would inherit) starts afresh.
+    cv::compare(residual_, (1.0 - memory) * options_.residual_threshold_px, memory_gate_, cv::CMP_LT);
+    memory_carried_.setTo(cv::Scalar(0, 0), memory_gate_);
+    cv::addWeighted(memory_carried_, memory, residual_vec_, 1.0, 0.0, memory_);
+  }
+  if (options_.aperture_aware && !txx_.empty()) {
+    applyAperture(memory_, residual_);
+  } else {
+    std::vector<cv::Mat> xy;
+    cv::split(memory_, xy);
+    cv::magnitude(xy[0], xy[1], residual_);
+  }
+}
+
+double FlowMotionMasker::medianFlowPx() const {
+  // Median flow length over a sparse grid of the textured pixels [full-res px].
+  const double to_full = 1.0 / options_.flow_scale;
+  std::vector<float> lengths;
+  lengths.reserve(static_cast<size_t>(flow_.total() / 16 + 1));
+  for (int y = 2; y < flow_.rows; y += 4) {
+    const cv::Vec2f* f = flow_.ptr<cv::Vec2f>(y);
+    const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
+    for (int x = 2; x < flow_.cols; x += 4) {
+      if (t == nullptr || t[x] != 0) lengths.push_back(std::hypot(f[x][0], f[x][1]));
+    }
+  }
+  if (lengths.empty()) return 0.0;
+  std::nth_element(lengths.begin(), lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2), lengths.end());
+  return lengths[lengths.size() / 2] * to_full;
 }
 
 bool FlowMotionMasker::followsCarried() const {

@@ -36,6 +36,16 @@ bool paintBoxForeground(const cv::Mat& depth_m, const cv::Rect& box, const BoxDe
 /// Regions with too few valid depths stay whole. `depth_m`: CV_32FC1 of the mask's size.
 void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings& settings, cv::Mat& mask);
 
+/// cutRegionsToDepthForeground for crowds, where one flow region spans several people at
+/// different depths: after the nearest layer, up to `max_layers` - 1 farther layers are kept
+/// too. A farther layer is the nearest depth cluster of what is left of a region, where that
+/// part is wider than `halo_px` (erosion; the halo on the background is a band about as wide as
+/// the flow's margin) and lies more than 0.3 m in front of the original region's far depth (its
+/// 95th percentile: the background behind the people). Pixels without depth stay as in the
+/// nearest-layer cut.
+void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& settings, int halo_px, int max_layers,
+                             cv::Mat& mask);
+
 /// Settings of `growRegionsInDepth`.
 struct DepthGrowSettings {
   /// Extent of an object's depth cluster (see BoxDepthSettings::depth_range_m) [m], > 0.

@@ -128,8 +128,10 @@ class DynamicMasker {
   DepthGrowSettings grow_settings_;
   cv::Mat seg_small_, flow_small_;
   cv::Mat depth_small_, raw_small_, rendered_small_, consistency_small_, combined_;
+  cv::Mat nearest_layer_small_, farther_layers_small_, no_occluder_small_;  ///< depth-layer cut (DynamicMaskOptions::depth_layers)
   cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
   cv::Mat margin_depth_, margin_grown_;
+  int halo_small_px_ = 6;  ///< width of the flow's halo at background resolution [px]
   cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 

@@ -48,6 +48,18 @@ struct FlowMaskOptions {
   /// = |r| on corners). Removes false motion along straight texture such as floor planks.
   /// Default true.
   bool aperture_aware = true;
+  /// Memory of the residual flow, in [0, 1): each pixel's residual vector is added to the
+  /// previous frames' (carried along the flow, multiplied by this) before the threshold. People
+  /// who move slowly (standing up, turning round, stop-and-go: under residual_threshold_px from one
+  /// frame to the next) add up to residual / (1 - memory); zero-mean flow noise only to
+  /// noise / sqrt(1 - memory^2). Only pixels whose residual reaches (1 - memory) *
+  /// residual_threshold_px (the level whose sum can reach the threshold) keep their memory, so
+  /// noise and the background uncovered behind a person start afresh. The memory would also add
+  /// up the ego-motion model's own repeated errors, which grow with the camera's image motion:
+  /// it is used in full while the median flow is below 2 px per frame and fades out up to 6 px
+  /// (full-res). Not used while a segmentation network runs (it finds slow people by itself).
+  /// 0 = frame to frame only. Default 0.7.
+  double residual_memory = 0.7;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;
   /// Variational refinement iterations of DIS on every pyramid level, >= 0; replaces the

@@ -69,6 +69,12 @@ struct FlowMaskResult {
   /// True when the global motion was found only without the previous frame's dynamic pixels
   /// (the plain fit had too few inliers; see compute()).
   bool fit_excluded_previous_mask = false;
+  /// How still the camera is, in [0, 1]: 1 while the median flow of the textured pixels (the
+  /// camera's own image motion while people cover less than half of the view) is below 2 px per
+  /// frame, 0 from 6 px on, linear between (full-res). The ego-motion model's errors grow with
+  /// the camera's motion; evidence that adds up over frames (residual memory) or widens a region
+  /// (depth layers) is used only in proportion. 0 when there was no flow.
+  double still_camera_weight = 0.0;
   double flow_ms = 0.0;   ///< wall time of the optical flow [ms]
   double total_ms = 0.0;  ///< wall time of the whole `compute` call [ms]
 };
@@ -118,6 +124,11 @@ class FlowMotionMasker {
   /// Forgets the previous image; the next frame is treated as a first frame.
   void reset();
 
+  /// Switches the residual memory (FlowMaskOptions::residual_memory) on or off from the next
+  /// compute() on; off forgets it. On by default. The DynamicMasker switches it off while a
+  /// segmentation network is running: the network finds slow people whatever their speed.
+  void setResidualMemoryEnabled(bool enabled);
+
   /// The options in use.
   const FlowMaskOptions& options() const { return options_; }
 
@@ -130,6 +141,13 @@ class FlowMotionMasker {
   /// True when the fit behind residual_ explains the carried (previously dynamic) pixels clearly
   /// better than the others: it follows moving objects, not the camera.
   bool followsCarried() const;
+  /// With residual_memory > 0: adds this frame's residual vectors to the carried, decayed memory
+  /// and replaces residual_ by the memory's (aperture-weighted) length. `still_weight`: see
+  /// FlowMaskResult::still_camera_weight.
+  void accumulateResidual(double still_weight);
+  /// Median length of this frame's flow on textured pixels [full-res px] (the camera's own image
+  /// motion while people cover less than half of the view).
+  double medianFlowPx() const;
   /// Degraded result whose mask is the carried previous mask (all static when there is none).
   void useCarried(const cv::Size& input_size, FlowMaskResult& result);
   void computeTexture(const cv::Mat& grey_small);
@@ -165,6 +183,10 @@ class FlowMotionMasker {
   cv::Mat predicted_px_;   ///< rigid prediction of the previous position, CV_32FC2
   cv::Mat usable_;         ///< textured cells with a rigid prediction
   cv::Mat carried_;        ///< previous final mask carried along the flow (flow resolution)
+  cv::Mat memory_;          ///< residual memory [full-res px], CV_32FC2 (FlowMaskOptions::residual_memory)
+  cv::Mat memory_carried_;  ///< memory_ moved along the flow into the current frame
+  cv::Mat memory_gate_;     ///< pixels that move too little now to keep their memory
+  bool memory_enabled_ = true;  ///< see setResidualMemoryEnabled()
   cv::Mat fit_usable_;     ///< usable cells outside carried_ (the retried fit's samples)
   cv::Mat empty_;
   bool last_flow_valid_ = false;
