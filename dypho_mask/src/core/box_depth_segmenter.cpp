@@ -101,12 +101,15 @@ void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings&
 }
 
 void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, int halo_px, int max_layers,
-                             cv::Mat& mask) {
+                             cv::Mat& mask, cv::Mat* nearest_layer) {
   CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size());
   // The far depth of every original region (95th percentile): the background behind its objects.
   cv::Mat regions;
   const int num_regions = cv::connectedComponents(mask, regions, 8, CV_32S);
-  if (num_regions <= 1) return;
+  if (num_regions <= 1) {
+    if (nearest_layer != nullptr) mask.copyTo(*nearest_layer);
+    return;
+  }
   std::vector<std::vector<float>> region_z(num_regions);
   for (int y = 0; y < mask.rows; ++y) {
     const int* l = regions.ptr<int>(y);
@@ -125,6 +128,7 @@ void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, 
   }
   const cv::Mat work = mask.clone();
   cutRegionsToDepthForeground(depth_m, s, mask);  // layer 1: the nearest object of every region
+  if (nearest_layer != nullptr) mask.copyTo(*nearest_layer);
   const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * halo_px + 1, 2 * halo_px + 1));
   // What is left of a region mixes objects and background; an object may hold a small share.
   BoxDepthSettings layer_settings = s;

@@ -195,13 +195,12 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     // Depth layers behind the nearest one only while the camera is still enough for the flow's
     // regions to be people rather than the ego-motion model's errors at depth edges.
     const bool layers = options_.depth_layers > 1 && flow.still_camera_weight > 0.0 && !network;
-    if (layers) raw_small_.copyTo(nearest_layer_small_);
-    cutRegionsToDepthLayers(depth_small_, box_settings_, halo_small_px_, layers ? options_.depth_layers : 1, raw_small_);
+    cutRegionsToDepthLayers(depth_small_, box_settings_, halo_small_px_, layers ? options_.depth_layers : 1, raw_small_,
+                            layers ? &nearest_layer_small_ : nullptr);
     if (layers && background_updates_ >= options_.background.veto_after_updates) {
       // Layers behind the nearest one that the established background explains (the floor at a
       // person's feet, furniture in the flow's margin) are static: only the nearest layer is kept there.
-      cutRegionsToDepthForeground(depth_small_, box_settings_, nearest_layer_small_);
-      cv::bitwise_and(raw_small_, ~nearest_layer_small_, farther_layers_small_);
+      cv::subtract(raw_small_, nearest_layer_small_, farther_layers_small_);  // 0/255 masks: raw and not nearest
       no_occluder_small_.create(small, CV_8UC1);
       no_occluder_small_.setTo(0);
       vetoRegionsOnBackground(background_.prior(), depth_small_, no_occluder_small_, options_.background.sigma_m, 0.5,

@@ -42,9 +42,9 @@ void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings&
 /// part is wider than `halo_px` (erosion; the halo on the background is a band about as wide as
 /// the flow's margin) and lies more than 0.3 m in front of the original region's far depth (its
 /// 95th percentile: the background behind the people). Pixels without depth stay as in the
-/// nearest-layer cut.
+/// nearest-layer cut. `nearest_layer` (optional): receives the nearest-layer cut alone.
 void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& settings, int halo_px, int max_layers,
-                             cv::Mat& mask);
+                             cv::Mat& mask, cv::Mat* nearest_layer = nullptr);
 
 /// Settings of `growRegionsInDepth`.
 struct DepthGrowSettings {
