@@ -21,6 +21,7 @@
 
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/map_renderer.h"
+#include "dypho/common/camera.h"
 #include "dypho/mapping/rasterizer.h"
 
 using namespace dypho;

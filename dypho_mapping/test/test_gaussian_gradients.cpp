@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "dypho/common/camera.h"
 #include "dypho/mapping/rasterizer.h"
 #include "gaussian_params_storage.h"
 

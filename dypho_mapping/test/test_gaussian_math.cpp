@@ -9,6 +9,7 @@
 
 #include "dypho/mapping/adam.h"
 #include "dypho/mapping/gaussian_map.h"
+#include "dypho/common/camera.h"
 #include "dypho/mapping/rasterizer.h"
 #include "gaussian_params_storage.h"
 

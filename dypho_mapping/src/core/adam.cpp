@@ -1,5 +1,7 @@
 #include "dypho/mapping/adam.h"
 
+#include "dypho/mapping/adam_math.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -24,6 +26,19 @@ void Adam::resetBlock(int param) {
   std::fill(v_[param].begin(), v_[param].end(), 0.f);
 }
 
+AdamStepSizes Adam::nextStep() {
+  ++steps_;
+  const float c1 = 1.f - std::pow(0.9f, static_cast<float>(steps_));
+  const float c2 = 1.f - std::pow(0.999f, static_cast<float>(steps_));
+  const double lr[kNumGaussianParams] = {rates_.position, rates_.log_scale, rates_.rotation, rates_.opacity, rates_.sh_dc};
+  AdamStepSizes s;
+  static_assert(kNumGaussianParams == 5, "AdamStepSizes holds five blocks");
+  for (int p = 0; p < kNumGaussianParams; ++p) s.step[p] = static_cast<float>(lr[p]) / c1;
+  s.step_sh_rest = static_cast<float>(rates_.sh_rest) / c1;
+  s.inv_c2 = 1.f / c2;
+  return s;
+}
+
 void Adam::step(GaussianMap& map, const GaussianGrads<float>& grads) {
   const std::size_t n = map.size();
   const std::vector<float>* g[kNumGaussianParams] = {&grads.position, &grads.log_scale, &grads.rotation,
@@ -36,11 +51,7 @@ void Adam::step(GaussianMap& map, const GaussianGrads<float>& grads) {
     }
   }
   resize(map);
-  ++steps_;
-  const float b1 = 0.9f, b2 = 0.999f, eps = 1e-15f;
-  const float c1 = 1.f - std::pow(b1, static_cast<float>(steps_));
-  const float c2 = 1.f - std::pow(b2, static_cast<float>(steps_));
-  const double lr[kNumGaussianParams] = {rates_.position, rates_.log_scale, rates_.rotation, rates_.opacity, rates_.sh_dc};
+  const AdamStepSizes sizes = nextStep();
   for (int p = 0; p < kNumGaussianParams; ++p) {
     float* x = map.data(p);
     float* m = m_[p].data();
@@ -48,16 +59,13 @@ void Adam::step(GaussianMap& map, const GaussianGrads<float>& grads) {
     const float* gp = g[p]->data();
     const int w = map.width(p);
     const std::size_t total = n * w;
-    const float step_main = static_cast<float>(lr[p]) / c1;
-    const float step_rest = static_cast<float>(rates_.sh_rest) / c1;
-    const float inv_c2 = 1.f / c2;
+    const float step_main = sizes.step[p];
+    const float step_rest = sizes.step_sh_rest;
+    const float inv_c2 = sizes.inv_c2;
     for (std::size_t i = 0; i < total; ++i) {
-      const float gi = gp[i];
-      m[i] = b1 * m[i] + (1.f - b1) * gi;
-      v[i] = b2 * v[i] + (1.f - b2) * gi * gi;
       // SH block: the first 3 values of each row are the DC coefficients.
       const float s = (p == kParamSh && (i % w) >= 3) ? step_rest : step_main;
-      x[i] -= s * m[i] / (std::sqrt(v[i] * inv_c2) + eps);
+      adamUpdate(gp[i], s, inv_c2, x[i], m[i], v[i]);
     }
   }
 }

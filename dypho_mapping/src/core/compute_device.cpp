@@ -1,5 +1,7 @@
 #include "dypho/mapping/compute_device.h"
 
+#include <stdexcept>
+
 namespace dypho {
 namespace mapping {
 
@@ -22,19 +24,24 @@ int cudaDeviceCount(std::string* reason) {
 }
 #endif
 
-ComputeDevice selectComputeDevice(bool use_gpu, std::string* message) {
+ComputeDevice selectComputeDevice(const std::string& requested, std::string* message) {
+  if (requested != "auto" && requested != "cpu" && requested != "cuda") {
+    throw std::invalid_argument("device must be auto, cpu or cuda (got \"" + requested + "\")");
+  }
   std::string text;
   ComputeDevice device = ComputeDevice::kCpu;
-  if (!use_gpu) {
-    text = "using CPU (use_gpu is false)";
+  if (requested == "cpu") {
+    text = "mapping on the CPU (device: cpu)";
   } else {
     std::string reason;
     const int count = cudaDeviceCount(&reason);
     if (count > 0) {
       device = ComputeDevice::kCuda;
-      text = "using CUDA (" + std::to_string(count) + " device(s) found)";
+      text = "mapping on CUDA (device: " + requested + ", " + std::to_string(count) + " device(s) found)";
+    } else if (requested == "cuda") {
+      throw std::runtime_error("device: cuda, but no CUDA device is usable: " + reason);
     } else {
-      text = "use_gpu is true but no CUDA device is usable, falling back to CPU: " + reason;
+      text = "mapping on the CPU (device: auto, no CUDA device usable: " + reason + ")";
     }
   }
   if (message != nullptr) *message = text;

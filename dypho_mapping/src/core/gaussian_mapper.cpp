@@ -10,8 +10,9 @@ namespace dypho::mapping {
 
 GaussianMapper::GaussianMapper(const GaussianMapperOptions& options) : options_(options) {
   options_.validate();
-  trainer_ = std::make_unique<GaussianTrainer>(options_);
-  renderer_ = std::make_unique<MapRenderer>(options_.resolvedNumThreads());
+  device_ = selectComputeDevice(options_.device, &device_message_);
+  trainer_ = std::make_unique<GaussianTrainer>(options_, device_);
+  renderer_ = std::make_unique<MapRenderer>(options_.resolvedNumThreads(), device_);
 }
 
 GaussianMapper::~GaussianMapper() { stop(); }
@@ -107,7 +108,7 @@ void GaussianMapper::publishSnapshot(std::int64_t keyframe_id) {
   MapSnapshot s;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    s.map = std::make_shared<const GaussianMap>(trainer_->map);
+    s.map = std::make_shared<const GaussianMap>(trainer_->hostMap());
     s.iterations = trainer_->iterations;
   }
   s.after_keyframe_id = keyframe_id;
@@ -197,7 +198,7 @@ bool GaussianMapper::updateKeyframePose(std::int64_t id, const Eigen::Isometry3d
 
 RenderedView GaussianMapper::render(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return renderer_->render(trainer_->map, T_world_camera, camera);
+  return renderer_->render(trainer_->hostMap(), T_world_camera, camera);
 }
 
 cv::Mat GaussianMapper::renderDepth(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const {
@@ -211,12 +212,12 @@ KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_
 
 std::vector<GaussianCentre> GaussianMapper::centres() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return gaussianCentres(trainer_->map);
+  return gaussianCentres(trainer_->hostMap());
 }
 
 void GaussianMapper::savePly(const std::string& path) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  saveGaussianPly(path, trainer_->map);
+  saveGaussianPly(path, trainer_->hostMap());
 }
 
 std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) {
@@ -229,6 +230,7 @@ std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) 
   t.adam.resize(t.map);
   t.grad_accum.assign(t.map.size(), 0.f);
   t.grad_count.assign(t.map.size(), 0);
+  t.hostChanged();
   return t.map.size();
 }
 

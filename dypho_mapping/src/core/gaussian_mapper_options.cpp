@@ -16,6 +16,7 @@ void require(bool ok, const char* field, const char* range) {
 }  // namespace
 
 void GaussianMapperOptions::validate() const {
+  require(device == "auto" || device == "cpu" || device == "cuda", "device", "auto, cpu or cuda");
   require(sh_degree >= 0 && sh_degree <= 3, "sh_degree", "in [0, 3]");
   require(max_gaussians >= 1, "max_gaussians", ">= 1");
   require(num_threads >= 0, "num_threads", ">= 0");

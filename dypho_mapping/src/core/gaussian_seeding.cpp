@@ -58,6 +58,7 @@ const Undistorter& GaussianTrainer::undistorter(const CameraIntrinsics& camera) 
 
 AddKeyframeResult GaussianTrainer::integrate(const Keyframe& kf) {
   AddKeyframeResult result;
+  syncToHost();  // seeding renders and extends the current map
   const CameraIntrinsics& cam = kf.frame.camera;
   // 1. Undistort onto the pinhole with the same intrinsics.
   cv::Mat bgr = kf.frame.bgr, depth = kf.frame.depth_m, mask = kf.mask;
@@ -217,6 +218,7 @@ AddKeyframeResult GaussianTrainer::integrate(const Keyframe& kf) {
   for (auto it = keyframes.rbegin(); it != keyframes.rend(); ++it) {
     if (!it->hasImages()) continue;
     if (++with_images > static_cast<std::size_t>(options.max_stored_keyframes)) {
+      if (cuda) cuda->dropTarget(it->id);
       it->bgr.release();
       it->depth_m.release();
       it->static_mask.release();
@@ -225,6 +227,7 @@ AddKeyframeResult GaussianTrainer::integrate(const Keyframe& kf) {
   adam.resize(map);
   grad_accum.resize(map.size(), 0.f);
   grad_count.resize(map.size(), 0);
+  hostChanged();
   result.added = true;
   return result;
 }

@@ -4,6 +4,7 @@
 /// holds its lock around every call.
 
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -11,6 +12,8 @@
 #include <opencv2/core.hpp>
 
 #include "dypho/mapping/adam.h"
+#include "dypho/mapping/compute_device.h"
+#include "dypho/mapping/cuda_trainer.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/gaussian_mapper.h"
 #include "dypho/mapping/keyframe_evaluation.h"
@@ -43,13 +46,25 @@ struct Undistorter {
   cv::Mat map1, map2;
 };
 
+/// With `device` kCuda the optimisation iterations run on the GPU (CudaTrainer) and the training
+/// state (map parameters, Adam moments, densification statistics) lives there between them; the
+/// host copy (`map`, `adam`, `grad_accum`, `grad_count`) is brought up to date by syncToHost()
+/// before any host read or edit, and every host edit ends with hostChanged() so that the next
+/// iteration uploads it. hostMap() does the first for readers outside the trainer.
 struct GaussianTrainer {
-  explicit GaussianTrainer(const GaussianMapperOptions& o);
+  GaussianTrainer(const GaussianMapperOptions& o, ComputeDevice device);
   /// Re-anchors the Gaussians of each listed keyframe to its new pose (unknown ids and non-rigid
   /// poses are ignored); returns how many keyframes moved.
   std::size_t correctKeyframePoses(const KeyframePoseCorrections& corrections);
   /// Removes every Gaussian and keyframe.
   void clear();
+
+  /// The map, up to date (downloads the device state first when it is newer).
+  GaussianMap& hostMap();
+  /// Brings the host training state up to date with the device (no-op on the CPU path).
+  void syncToHost();
+  /// Marks the host training state as edited: the next GPU iteration uploads it.
+  void hostChanged();
 
   GaussianParamsView<float> params() const;
   /// Seeds a validated keyframe (see GaussianMapper::addKeyframe).
@@ -69,7 +84,19 @@ struct GaussianTrainer {
   /// Per-pixel loss and its gradient (writes pix_gc, pix_gd, pix_ga); returns the loss.
   double lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r);
 
+  /// One iteration on the GPU (iterate() with a CUDA device); returns the loss.
+  double iterateCuda(TrainingKeyframe& kf, bool fixed_exposure);
+  /// Host arrays of the training state for CudaTrainer::upload/download (sizes made consistent).
+  TrainingStateView stateView();
+
   GaussianMapperOptions options;
+  ComputeDevice device = ComputeDevice::kCpu;
+  std::unique_ptr<CudaTrainer> cuda;  ///< set when device is kCuda
+  /// Where the training state is current: both, the host only (edited), the device only (trained).
+  enum class Current { kBoth, kHost, kDevice } current = Current::kBoth;
+  std::vector<float> target_rgb;      ///< scratch: a keyframe's planar RGB for CudaTrainer::setTarget
+  std::vector<float> target_depth;    ///< scratch: its depth (continuous rows)
+  std::vector<std::uint8_t> target_mask;  ///< scratch: its static mask
   GaussianMap map;
   ThreadPool pool;
   Rasterizer<float> raster;         ///< training (forward + backward)

@@ -21,8 +21,10 @@ AdamLearningRates ratesFrom(const GaussianMapperOptions& o) {
 
 }  // namespace
 
-GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o)
+GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o, ComputeDevice d)
     : options(o),
+      device(d),
+      cuda(d == ComputeDevice::kCuda ? std::make_unique<CudaTrainer>() : nullptr),
       map(o.sh_degree, o.max_gaussians),
       pool(o.resolvedNumThreads(), o.training_nice),
       raster(&pool),
@@ -32,6 +34,85 @@ GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o)
       ssim(&pool) {}
 
 GaussianParamsView<float> GaussianTrainer::params() const { return paramsView(map); }
+
+static_assert(kTrainingBlocks == kNumGaussianParams && kParamSh == 4, "CudaTrainer's block layout is GaussianMap's");
+
+TrainingStateView GaussianTrainer::stateView() {
+  adam.resize(map);
+  grad_accum.resize(map.size(), 0.f);
+  grad_count.resize(map.size(), 0);
+  TrainingStateView v;
+  v.count = map.size();
+  v.sh_degree = map.shDegree();
+  for (int p = 0; p < kNumGaussianParams; ++p) {
+    v.widths[p] = map.width(p);
+    v.params[p] = map.data(p);
+    v.first_moment[p] = adam.firstMoment(p).data();
+    v.second_moment[p] = adam.secondMoment(p).data();
+  }
+  v.grad_accum = grad_accum.data();
+  v.grad_count = grad_count.data();
+  return v;
+}
+
+void GaussianTrainer::syncToHost() {
+  if (!cuda || current != Current::kDevice) return;
+  cuda->download(stateView());
+  current = Current::kBoth;
+}
+
+void GaussianTrainer::hostChanged() {
+  if (cuda) current = Current::kHost;
+}
+
+GaussianMap& GaussianTrainer::hostMap() {
+  syncToHost();
+  return map;
+}
+
+double GaussianTrainer::iterateCuda(TrainingKeyframe& kf, bool fixed_exposure) {
+  if (current == Current::kHost) {
+    cuda->upload(stateView());
+    current = Current::kBoth;
+  }
+  if (!cuda->hasTarget(kf.id)) {
+    // The keyframe's images in the loss's layout: planar RGB in [0, 1], depth, static mask.
+    const int W = kf.bgr.cols, H = kf.bgr.rows;
+    const std::size_t npix = static_cast<std::size_t>(W) * H;
+    target_rgb.resize(3 * npix);
+    target_depth.resize(npix);
+    target_mask.resize(npix);
+    for (int v = 0; v < H; ++v) {
+      const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
+      const float* d = kf.depth_m.ptr<float>(v);
+      const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
+      for (int u = 0; u < W; ++u) {
+        const std::size_t i = static_cast<std::size_t>(v) * W + u;
+        for (int ch = 0; ch < 3; ++ch) target_rgb[ch * npix + i] = c[u][2 - ch] * (1.f / 255.f);
+        target_depth[i] = d[u];
+        target_mask[i] = m[u];
+      }
+    }
+    cuda->setTarget(kf.id, W, H, target_rgb.data(), target_depth.data(), target_mask.data());
+  }
+  cuda->render(makePinholeView<float>(kf.T_world_camera, kf.camera));
+  double loss = 0.0;
+  if (options.ssim_weight > 0.0) {
+    // The SSIM term runs on the host (SsimLoss): the loss and its pixel gradients go up.
+    cuda->downloadRender(train_out);
+    loss = lossAndGradient(kf, train_out);
+    cuda->setPixelGrads(pix_gc.data(), pix_gd.data(), pix_ga.data());
+  } else {
+    const CudaLossResult r = cuda->l1Loss(kf.id, options.lambda_depth, options.alpha_weight,
+                                          options.exposure_compensation ? kf.exposure : nullptr);
+    loss = r.loss;
+    std::copy(r.exposure_grad, r.exposure_grad + 6, exposure_grad);
+  }
+  if (options.exposure_compensation && !fixed_exposure) stepExposure(kf);
+  cuda->backwardAndStep(adam.nextStep());
+  current = Current::kDevice;
+  return loss;
+}
 
 void GaussianTrainer::renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
                                          Rasterizer<float>& r, RenderResult<float>& out) {
@@ -128,6 +209,7 @@ double GaussianTrainer::lossAndGradient(const TrainingKeyframe& kf, const Render
 }
 
 std::size_t GaussianTrainer::correctKeyframePoses(const KeyframePoseCorrections& corrections) {
+  syncToHost();
   std::size_t corrected = 0;
   for (const auto& [id, T_world_camera] : corrections) {
     if (!isRigidPose(T_world_camera)) continue;
@@ -139,6 +221,7 @@ std::size_t GaussianTrainer::correctKeyframePoses(const KeyframePoseCorrections&
       break;
     }
   }
+  if (corrected > 0) hostChanged();
   return corrected;
 }
 
@@ -150,6 +233,8 @@ void GaussianTrainer::clear() {
   grad_accum.clear();
   grad_count.clear();
   refine_order.clear();
+  if (cuda) cuda->clearTargets();
+  hostChanged();
 }
 
 double GaussianTrainer::iterate(bool all_keyframes) {
@@ -176,24 +261,36 @@ double GaussianTrainer::iterate(bool all_keyframes) {
     chosen = all[std::uniform_int_distribution<std::size_t>(first, all.size() - 1)(rng)];
   }
   TrainingKeyframe& kf = keyframes[chosen];
+  const bool fixed_exposure = chosen == 0;  // keyframe 0 fixes the gauge
 
-  renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
-  const double loss = lossAndGradient(kf, train_out);
-  raster.backward(PixelGrads<float>{pix_gc.data(), pix_gd.data(), pix_ga.data()}, grads);
-  if (options.exposure_compensation && chosen != 0) stepExposure(kf);  // keyframe 0 fixes the gauge
-  adam.step(map, grads);
-  grad_accum.resize(map.size(), 0.f);
-  grad_count.resize(map.size(), 0);
-  for (std::size_t i = 0; i < map.size(); ++i) {
-    if (grads.mean2d_norm[i] > 0.f) {
-      grad_accum[i] += grads.mean2d_norm[i];
-      ++grad_count[i];
+  double loss = 0.0;
+  if (cuda) {
+    loss = iterateCuda(kf, fixed_exposure);
+  } else {
+    renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
+    loss = lossAndGradient(kf, train_out);
+    raster.backward(PixelGrads<float>{pix_gc.data(), pix_gd.data(), pix_ga.data()}, grads);
+    if (options.exposure_compensation && !fixed_exposure) stepExposure(kf);
+    adam.step(map, grads);
+    grad_accum.resize(map.size(), 0.f);
+    grad_count.resize(map.size(), 0);
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      if (grads.mean2d_norm[i] > 0.f) {
+        grad_accum[i] += grads.mean2d_norm[i];
+        ++grad_count[i];
+      }
     }
   }
   ++iterations;
   last_loss = loss;
-  if (options.densify_interval > 0 && iterations % options.densify_interval == 0) densifyAndPrune();
-  if (options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0) resetOpacity();
+  const bool densify = options.densify_interval > 0 && iterations % options.densify_interval == 0;
+  const bool reset = options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0;
+  if (densify || reset) {
+    syncToHost();  // structural edits run on the host copy
+    if (densify) densifyAndPrune();
+    if (reset) resetOpacity();
+    hostChanged();
+  }
   return loss;
 }
 

@@ -13,6 +13,7 @@ namespace dypho::mapping {
 
 KeyframeEvaluation evaluateKeyframes(GaussianTrainer& trainer, const std::string& side_by_side_dir) {
   const GaussianMapperOptions& options = trainer.options;
+  trainer.syncToHost();  // renders the current map on the host
   KeyframeEvaluation ev;
   double depth_sum = 0.0;
   std::size_t depth_n = 0;

@@ -19,7 +19,10 @@ GaussianParamsView<float> paramsView(const GaussianMap& map) {
   return p;
 }
 
-MapRenderer::MapRenderer(int num_threads) : pool_(num_threads), raster_(&pool_) {}
+MapRenderer::MapRenderer(int num_threads, ComputeDevice device)
+    : pool_(device == ComputeDevice::kCuda ? 1 : num_threads),
+      raster_(&pool_),
+      cuda_(device == ComputeDevice::kCuda ? std::make_unique<CudaRasterizer>() : nullptr) {}
 
 RenderedView MapRenderer::render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
                                  const CameraIntrinsics& camera) {
@@ -27,7 +30,11 @@ RenderedView MapRenderer::render(const GaussianMap& map, const Eigen::Isometry3d
   if (!T_world_camera.matrix().allFinite()) throw std::invalid_argument("MapRenderer::render: pose is not finite");
   CameraIntrinsics pinhole = camera;
   pinhole.distortion = {0, 0, 0, 0, 0};
-  raster_.forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
+  if (cuda_) {
+    cuda_->forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
+  } else {
+    raster_.forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
+  }
   const RenderResult<float>& r = out_;
   const std::size_t npix = static_cast<std::size_t>(r.width) * r.height;
   RenderedView view;

@@ -11,7 +11,7 @@ MappingStage::MappingStage(const MappingOptions& options, MappingMode mode, cons
       gaussians_(options.gaussian),
       cloud_(options.cloud),
       motion_(stage.motion_max_gap_s),
-      renderer_(1) {
+      renderer_(1, gaussians_.computeDevice()) {
   options.validate();
   if (stage.keyframe_queue_size < 1) throw std::invalid_argument("keyframe_queue_size must be >= 1");
   gaussians_.start(static_cast<std::size_t>(stage.keyframe_queue_size), mode == MappingMode::kLive);

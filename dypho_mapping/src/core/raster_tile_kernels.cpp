@@ -10,32 +10,14 @@
 
 #include "raster_tile_kernels.h"
 
+#include "dypho/mapping/blend_steps.h"
+
 #ifndef DYPHO_RASTER_ISA
 #error "DYPHO_RASTER_ISA (generic or avx2) must be defined when compiling raster_tile_kernels.cpp"
 #endif
 
 namespace dypho::mapping::raster::DYPHO_RASTER_ISA {
 namespace {
-
-/// Part of a tile a Gaussian's footprint box touches: pixel rows [y0, y1) and columns in blocks
-/// of 8 (one AVX2 vector) [xb0, xb1), relative to the tile's left edge; empty when y0 >= y1 or
-/// xb0 >= xb1. The tile starts at pixel (tx0, ty0), is `tile_size` wide and ends before row ty1.
-struct TileWindow {
-  int y0, y1, xb0, xb1;
-};
-
-template <typename T>
-TileWindow windowInTile(const PackedGaussian<T>& p, int tx0, int ty0, int ty1, int tile_size) {
-  TileWindow w;
-  w.y0 = std::max(ty0, static_cast<int>(std::ceil(p.mean_v - p.half_v)));
-  w.y1 = std::min(ty1, static_cast<int>(std::floor(p.mean_v + p.half_v)) + 1);
-  const T mu0 = p.mean_u - T(tx0);
-  const int cx0 = std::max(0, static_cast<int>(std::ceil(mu0 - p.half_u)));
-  const int cx1 = std::min(tile_size, static_cast<int>(std::floor(mu0 + p.half_u)) + 1);
-  w.xb0 = (cx0 / 8) * 8;
-  w.xb1 = cx1 <= cx0 ? w.xb0 : ((cx1 + 7) / 8) * 8;
-  return w;
-}
 
 /// Calls copy_row(row offset in the tile, pixel offset in the image, width) for each image row of
 /// the tile [tx0, tx1) x [ty0, ty1); a full-width row gets the width as a compile-time constant
@@ -76,14 +58,14 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
     const int px = tx0 + i % S, py = ty0 + i / S;
     live[i] = (px >= tx1 || py >= ty1) ? T(0) : T(1);
   }
-  const T min_alpha = lists.min_alpha, min_T = lists.min_transmittance, max_alpha = T(gs::kMaxAlpha);
+  const T min_alpha = lists.min_alpha, min_T = lists.min_transmittance;
   for (std::uint32_t k = begin; k < end; ++k) {
     // The tile's Gaussians are scattered over `sorted` (global depth order): fetch ahead.
     if (k + kPrefetchAhead < end) __builtin_prefetch(&sorted[entries[k + kPrefetchAhead]]);
     const PackedGaussian<T>& p = sorted[entries[k]];
     // Rows of the footprint box inside the tile; every row is processed over the full tile width
     // (fixed trip count, vectorised); pixels outside the box fall below min_alpha by construction.
-    const auto [py0, py1, xb0, xb1] = windowInTile(p, tx0, ty0, ty1, S);
+    const auto [py0, py1, xb0, xb1] = gs::windowInTile(p, tx0, ty0, ty1, S);
     const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
     const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
     const T mu0 = p.mean_u - T(tx0);
@@ -98,21 +80,13 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
         const int i = row + x;
         const T dx = mu0 - T(x);
         const T power = gs::conicPower(a, bdy, row_term, dx);
-        T alpha = o * gs::blendExp(power);
-        alpha = alpha < max_alpha ? alpha : max_alpha;
-        // 0/1 masks in float arithmetic (keeps the loop branch-free and vectorised).
-        const T ok = (power <= T(0) ? T(1) : T(0)) * (alpha >= min_alpha ? T(1) : T(0)) * live[i];
-        const T test_T = Tr[i] * (T(1) - alpha);
-        const T stop = ok * (test_T < min_T ? T(1) : T(0));
-        const T use = ok - stop;
-        const T w = use * alpha * Tr[i];
-        Cr[i] += w * c0;
-        Cg[i] += w * c1;
-        Cb[i] += w * c2;
-        D[i] += w * dep;
-        Tr[i] += use * (test_T - Tr[i]);
-        last[i] = use > T(0) ? k + 1 : last[i];
-        live[i] -= stop;
+        const gs::ForwardStep<T> step = gs::blendForwardStep(power, o, live[i], min_alpha, min_T, Tr[i]);
+        Cr[i] += step.weight * c0;
+        Cg[i] += step.weight * c1;
+        Cb[i] += step.weight * c2;
+        D[i] += step.weight * dep;
+        last[i] = step.use > T(0) ? k + 1 : last[i];
+        live[i] -= step.stop;
       }
     }
     if (((k - begin) & 31) == 31) {
@@ -172,7 +146,7 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
   };
   forEachTileRow(tx0, ty0, tx1, ty1, lists.width, copyRow);
   for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, last[i]);
-  const T min_alpha = lists.min_alpha, max_alpha = T(gs::kMaxAlpha);
+  const T min_alpha = lists.min_alpha;
   // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
   // pair, not once per 8-pixel block.
   constexpr int kNumSums = 10;
@@ -187,9 +161,8 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
     }
     const std::uint32_t g = entries[k];
     const PackedGaussian<T>& p = sorted[g];
-    const auto [py0, py1, xb0, xb1] = windowInTile(p, tx0, ty0, ty1, S);
-    const T a = p.conic_a, b = p.conic_b, c = p.conic_c, o = p.opacity;
-    const T c0 = p.color[0], c1 = p.color[1], c2 = p.color[2], dep = p.depth;
+    const auto [py0, py1, xb0, xb1] = gs::windowInTile(p, tx0, ty0, ty1, S);
+    const T a = p.conic_a, b = p.conic_b, c = p.conic_c;
     const T mu0 = p.mean_u - T(tx0);
     if (py0 >= py1 || xb0 >= xb1) continue;
     T* const l_mu = lanes[0];
@@ -218,33 +191,25 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
         const int i = row + x;
         const T dx = mu0 - T(x);
         const T power = gs::conicPower(a, bdy, row_term, dx);
-        const T G = gs::blendExp(power);
-        const T raw = o * G;
-        const T clamped = raw < max_alpha ? raw : max_alpha;
-        const T use = (k < last[i] ? T(1) : T(0)) * (power <= T(0) ? T(1) : T(0)) * (clamped >= min_alpha ? T(1) : T(0));
-        const T alpha = use * clamped;
-        const T Ti = Tc[i] / (T(1) - alpha);
-        Tc[i] = Ti;
-        const T w = alpha * Ti;
-        l_c0[j] += w * gR[i];
-        l_c1[j] += w * gG[i];
-        l_c2[j] += w * gB[i];
-        l_d[j] += w * gD[i];
-        const T dL_dalpha = use * Ti * ((c0 - Br[i]) * gR[i] + (c1 - Bg[i]) * gG[i] + (c2 - Bb[i]) * gB[i] +
-                                         (dep - BD[i]) * gD[i] + (T(1) - BA[i]) * gA[i]);
-        Br[i] = alpha * c0 + (T(1) - alpha) * Br[i];
-        Bg[i] = alpha * c1 + (T(1) - alpha) * Bg[i];
-        Bb[i] = alpha * c2 + (T(1) - alpha) * Bb[i];
-        BD[i] = alpha * dep + (T(1) - alpha) * BD[i];
-        BA[i] = alpha + (T(1) - alpha) * BA[i];
-        const T dG = (raw < max_alpha ? T(1) : T(0)) * dL_dalpha;  // clamped alpha: no gradient through G, o
-        l_o[j] += G * dG;
-        const T dpow = o * G * dG;
-        l_mu[j] += dpow * (-a * dx - b * dy);
-        l_mv[j] += dpow * (-b * dx - c * dy);
-        l_a[j] += T(-0.5) * dx * dx * dpow;
-        l_b[j] += -dx * dy * dpow;
-        l_c[j] += T(-0.5) * dy * dy * dpow;
+        const gs::PixelLossGrad<T> lg{gR[i], gG[i], gB[i], gD[i], gA[i]};
+        gs::BackwardPixel<T> px{Tc[i], Br[i], Bg[i], Bb[i], BD[i], BA[i]};
+        const gs::ScreenGrad<T> s = gs::blendBackwardStep(p, dx, dy, power, k < last[i] ? T(1) : T(0), min_alpha, lg, px);
+        Tc[i] = px.transmittance;
+        Br[i] = px.behind_r;
+        Bg[i] = px.behind_g;
+        Bb[i] = px.behind_b;
+        BD[i] = px.behind_depth;
+        BA[i] = px.behind_alpha;
+        l_mu[j] += s.mean_u;
+        l_mv[j] += s.mean_v;
+        l_a[j] += s.conic_a;
+        l_b[j] += s.conic_b;
+        l_c[j] += s.conic_c;
+        l_o[j] += s.opacity;
+        l_c0[j] += s.color[0];
+        l_c1[j] += s.color[1];
+        l_c2[j] += s.color[2];
+        l_d[j] += s.depth;
       }
     }
     T sums[kNumSums];

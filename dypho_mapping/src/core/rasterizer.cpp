@@ -3,6 +3,8 @@
 
 #include "raster_tile_kernels.h"
 
+#include "dypho/mapping/blend_steps.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -33,26 +35,6 @@ bool rasterAvx2Available() {
   return false;
 #endif
 }
-
-template <typename T>
-gs::PinholeView<T> makePinholeView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
-  gs::PinholeView<T> v{};
-  v.fx = T(camera.fx);
-  v.fy = T(camera.fy);
-  v.cx = T(camera.cx);
-  v.cy = T(camera.cy);
-  v.width = camera.width;
-  v.height = camera.height;
-  const Eigen::Isometry3d T_cw = T_world_camera.inverse();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) v.R_cw[i][j] = T(T_cw.linear()(i, j));
-    v.t_cw[i] = T(T_cw.translation()(i));
-    v.center_w[i] = T(T_world_camera.translation()(i));
-  }
-  return v;
-}
-template gs::PinholeView<float> makePinholeView<float>(const Eigen::Isometry3d&, const CameraIntrinsics&);
-template gs::PinholeView<double> makePinholeView<double>(const Eigen::Isometry3d&, const CameraIntrinsics&);
 
 template <typename T>
 Rasterizer<T>::Rasterizer(ThreadPool* pool, const RasterSettings& settings) : pool_(pool), settings_(settings) {
@@ -119,29 +101,7 @@ void Rasterizer<T>::preprocess() {
                                params_.sh_degree, radius_sigma, min_alpha, pr)) {
         continue;
       }
-      const T ru = pr.half_u, rv = pr.half_v;
-      if (!(pr.mean_u + ru >= T(-0.5)) || !(pr.mean_u - ru <= T(width) - T(0.5)) || !(pr.mean_v + rv >= T(-0.5)) ||
-          !(pr.mean_v - rv <= T(height) - T(0.5))) {
-        continue;  // off screen (also rejects NaN)
-      }
-      Packed& p = packed_[i];
-      p.mean_u = pr.mean_u;
-      p.mean_v = pr.mean_v;
-      p.conic_a = pr.conic_a;
-      p.conic_b = pr.conic_b;
-      p.conic_c = pr.conic_c;
-      p.opacity = pr.opacity;
-      p.color[0] = pr.color[0];
-      p.color[1] = pr.color[1];
-      p.color[2] = pr.color[2];
-      p.depth = pr.depth_m;
-      p.half_u = ru;
-      p.half_v = rv;
-      p.tile_x0 = std::max(0, static_cast<int>(std::floor((pr.mean_u - ru + T(0.5)) / gs::kTileSize)));
-      p.tile_x1 = std::min(tiles_x_, static_cast<int>(std::floor((pr.mean_u + ru + T(0.5)) / gs::kTileSize)) + 1);
-      p.tile_y0 = std::max(0, static_cast<int>(std::floor((pr.mean_v - rv + T(0.5)) / gs::kTileSize)));
-      p.tile_y1 = std::min(tiles_y_, static_cast<int>(std::floor((pr.mean_v + rv + T(0.5)) / gs::kTileSize)) + 1);
-      visible_[i] = p.tile_x1 > p.tile_x0 && p.tile_y1 > p.tile_y0;
+      visible_[i] = gs::packProjected(pr, width, height, tiles_x_, tiles_y_, packed_[i]) ? 1 : 0;
     }
   });
 }

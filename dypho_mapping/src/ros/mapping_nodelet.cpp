@@ -61,7 +61,6 @@ struct MappingRosParams {
   /// (empty: not on shutdown; save_map then writes inside $ROS_HOME/dypho, default ~/.ros/dypho)
   std::string output_dir;
   std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
-  bool use_gpu = true;               ///< use CUDA when built with it and a device exists
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
   /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
   bool refine_before_save = true;
@@ -134,7 +133,6 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("predicted_depth_scale", params_.predicted_depth_scale, "");
     reader("output_dir", params_.output_dir, "");
     reader("map_load_path", params_.map_load_path, "");
-    reader("use_gpu", params_.use_gpu, "");
     reader("refine_before_save", params_.refine_before_save, "");
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
     reader("cores", params_.cores, "");
@@ -148,18 +146,16 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\nthread budget: " << options.gaussian.num_threads
                                               << " training threads at nice +" << options.gaussian.training_nice
                                               << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
-    std::string device_message;
-    const mapping::ComputeDevice device = mapping::selectComputeDevice(params_.use_gpu, &device_message);
-    // There are no CUDA kernels yet: whatever the device query says, training runs on the CPU.
-    NODELET_INFO_STREAM(device_message << "; the Gaussian rasterizer and training run on the CPU (tile kernels: "
-                                       << (mapping::rasterAvx2Available() ? "avx2" : "generic") << ")");
-    (void)device;
 
     // 2. Cores and threads.
     mapping::MappingStageOptions stage_options;
     stage_options.keyframe_queue_size = params_.keyframe_queue_size;
     stage_ = std::make_unique<mapping::MappingStage>(options, mapping::MappingMode::kLive, stage_options);
     stage_->gaussians().setMessageSink([this](const std::string& m) { NODELET_WARN_STREAM_THROTTLE(5.0, m); });
+    NODELET_INFO_STREAM(stage_->gaussians().deviceMessage()
+                        << (stage_->gaussians().computeDevice() == mapping::ComputeDevice::kCpu
+                                ? std::string("; CPU tile kernels: ") + (mapping::rasterAvx2Available() ? "avx2" : "generic")
+                                : std::string()));
     if (!params_.map_load_path.empty()) {
       // A bad file is reported and mapping starts empty (the nodelet manager keeps running).
       const LoadOutcome r = loadMap(params_.map_load_path);

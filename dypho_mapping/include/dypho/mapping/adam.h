@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "dypho/mapping/adam_math.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/rasterizer.h"
 
@@ -31,6 +32,10 @@ class Adam {
   /// step count. `grads` must match the map's size (throws std::invalid_argument otherwise).
   void step(GaussianMap& map, const GaussianGrads<float>& grads);
 
+  /// Advances the step count and returns this step's sizes (what step() applies; the CUDA
+  /// trainer applies them on the device).
+  AdamStepSizes nextStep();
+
   /// Grows (zero moments for new Gaussians) or shrinks the moments to `map.size()`.
   void resize(const GaussianMap& map);
   /// Removes the rows with remove[i] != 0 (same mask as GaussianMap::removeIf).
@@ -41,6 +46,8 @@ class Adam {
   std::int64_t steps() const { return steps_; }  ///< steps taken
   const std::vector<float>& firstMoment(int p) const { return m_[p]; }   ///< for tests
   const std::vector<float>& secondMoment(int p) const { return v_[p]; }  ///< for tests
+  std::vector<float>& firstMoment(int p) { return m_[p]; }    ///< the CUDA trainer's mirror
+  std::vector<float>& secondMoment(int p) { return v_[p]; }   ///< the CUDA trainer's mirror
 
  private:
   AdamLearningRates rates_;

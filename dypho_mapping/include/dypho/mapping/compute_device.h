@@ -24,10 +24,12 @@ bool builtWithCuda();
 /// explanation (or "not built with CUDA").
 int cudaDeviceCount(std::string* reason = nullptr);
 
-/// Picks the device for a run: kCuda only when `use_gpu` is true, the build has CUDA and a device
-/// is present; otherwise kCpu. `message` (optional) receives one line saying what was chosen and,
-/// for a fallback, why (to be logged once as a warning by the caller).
-ComputeDevice selectComputeDevice(bool use_gpu, std::string* message = nullptr);
+/// Picks the device for a run from GaussianMapperOptions::device: "cpu" -> kCpu; "cuda" -> kCuda
+/// when the build has CUDA and a device is present, else throws std::runtime_error saying why;
+/// "auto" -> kCuda when possible, else kCpu. Other values throw std::invalid_argument.
+/// `message` (optional) receives one line saying what was chosen and, for a fallback, why (to be
+/// logged once by the caller).
+ComputeDevice selectComputeDevice(const std::string& requested, std::string* message = nullptr);
 
 }  // namespace mapping
 }  // namespace dypho

@@ -36,6 +36,7 @@
 #include <opencv2/core.hpp>
 
 #include "dypho/common/types.h"
+#include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/gaussian_map_io.h"
 #include "dypho/mapping/gaussian_mapper_options.h"
@@ -159,6 +160,10 @@ class GaussianMapper {
   /// Removes every Gaussian and keyframe (the worker keeps running; waiting jobs are discarded).
   void reset();
   const GaussianMapperOptions& options() const { return options_; }
+  /// Where training and the renders run (options().device resolved at construction).
+  ComputeDevice computeDevice() const { return device_; }
+  /// One line saying which device was chosen and, for a fallback, why (to be logged once).
+  const std::string& deviceMessage() const { return device_message_; }
 
  private:
   /// Runs one job on the worker thread.
@@ -173,6 +178,8 @@ class GaussianMapper {
 
   GaussianMapperOptions options_;
   std::unique_ptr<GaussianTrainer> trainer_;  ///< guarded by mutex_
+  ComputeDevice device_ = ComputeDevice::kCpu;
+  std::string device_message_;
   mutable std::unique_ptr<MapRenderer> renderer_;  ///< renders of the live map, guarded by mutex_
   mutable std::mutex mutex_;
   std::size_t corrected_ = 0;  ///< guarded by mutex_

@@ -11,6 +11,8 @@ namespace dypho::mapping {
 
 /// Settings of `GaussianMapper`. Learning rates are Adam step sizes per parameter block.
 struct GaussianMapperOptions {
+  /// Where training and rendering run: "auto" (CUDA when this build has it and a device is present, else the CPU, said once), "cpu", or "cuda" (an error when no device is usable). Default "auto".
+  std::string device = "auto";
   /// Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.
   int sh_degree = 0;
   /// Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.

@@ -15,6 +15,8 @@
 #include <opencv2/core.hpp>
 
 #include "dypho/common/camera.h"
+#include "dypho/mapping/compute_device.h"
+#include "dypho/mapping/cuda_rasterizer.h"
 #include "dypho/mapping/gaussian_map.h"
 #include "dypho/mapping/rasterizer.h"
 #include "dypho/mapping/ray_cache.h"
@@ -34,7 +36,9 @@ struct RenderedView {
 class MapRenderer {
  public:
   /// `num_threads` >= 1 (the caller included).
-  explicit MapRenderer(int num_threads = 1);
+  /// With `device` kCuda the renders run on the GPU (CudaRasterizer; the map is uploaded per
+  /// render), else on the CPU with `num_threads` threads.
+  explicit MapRenderer(int num_threads = 1, ComputeDevice device = ComputeDevice::kCpu);
 
   /// Colour, depth and alpha of `map` seen from `T_world_camera` through `camera` (its size and
   /// distortion). Throws std::invalid_argument for invalid intrinsics or a non-finite pose.
@@ -47,6 +51,7 @@ class MapRenderer {
  private:
   ThreadPool pool_;
   Rasterizer<float> raster_;
+  std::unique_ptr<CudaRasterizer> cuda_;  ///< set for ComputeDevice::kCuda
   RenderResult<float> out_;
   UndistortedRayCache rays_;
 };

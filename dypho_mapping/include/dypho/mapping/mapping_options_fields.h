@@ -21,6 +21,7 @@ void visitOptions(CloudMapOptions& options, Visitor&& visitor) {
 /// Calls `visitor(key, field, doc)` for every field of `options`.
 template <typename Visitor>
 void visitOptions(GaussianMapperOptions& options, Visitor&& visitor) {
+  visitor("device", options.device, "Where training and rendering run: \"auto\" (CUDA when this build has it and a device is present, else the CPU, said once), \"cpu\", or \"cuda\" (an error when no device is usable). Default \"auto\".");
   visitor("sh_degree", options.sh_degree, "Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.");
   visitor("max_gaussians", options.max_gaussians, "Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.");
   visitor("num_threads", options.num_threads, "Threads of the rasterizer and optimiser (including the mapping worker), >= 0; 0 = every core of the machine (the ROS graph: its `cores` thread budget). Default 0.");

@@ -1,0 +1,534 @@
+/// CudaRasterizer: the GPU forward and backward pass (see cuda_rasterizer.h for the stages). The
+/// math is the CPU path's: gaussian_math.h (per Gaussian) and blend_steps.h (per pixel).
+#include "dypho/mapping/cuda_rasterizer.h"
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_scan.cuh>
+
+#include <stdexcept>
+#include <string>
+
+#include "cuda_check.h"
+#include "dypho/mapping/blend_steps.h"
+#include "dypho/mapping/compute_device.h"
+
+namespace dypho::mapping {
+namespace {
+
+using Packed = raster::PackedGaussian<float>;
+constexpr int S = gs::kTileSize;
+constexpr int kThreads = 256;  ///< threads per block of the per-Gaussian kernels
+constexpr unsigned kFullWarp = 0xffffffffu;
+
+int blocksFor(std::size_t n) { return static_cast<int>((n + kThreads - 1) / kThreads); }
+
+/// Cull, project and pack one Gaussian; tiles_touched[i] = its tile count (0 = not visible).
+__global__ void preprocessKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam, float radius_sigma,
+                                 float min_alpha, int tiles_x, int tiles_y, Packed* packed,
+                                 std::uint32_t* tiles_touched, unsigned int* num_visible) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= P.count) return;
+  std::uint32_t n = 0;
+  const float* pos = P.position + 3 * i;
+  const float* ls = P.log_scale + 3 * i;
+  if (gs::mayReachImage(cam, pos[0], pos[1], pos[2], ls[0], ls[1], ls[2], radius_sigma)) {
+    const int K3 = 3 * gs::shCoeffCount(P.sh_degree);
+    gs::Projected<float> pr;
+    if (gs::projectGaussian(cam, pos, ls, P.rotation + 4 * i, P.opacity_logit[i],
+                            P.sh + static_cast<std::size_t>(K3) * i, P.sh_degree, radius_sigma, min_alpha, pr)) {
+      Packed p;
+      if (gs::packProjected(pr, cam.width, cam.height, tiles_x, tiles_y, p)) {
+        n = static_cast<std::uint32_t>((p.tile_x1 - p.tile_x0) * (p.tile_y1 - p.tile_y0));
+        packed[i] = p;
+        atomicAdd(num_visible, 1u);
+      }
+    }
+  }
+  tiles_touched[i] = n;
+}
+
+/// One (tile << 32 | depth bits, Gaussian index) pair per tile a visible Gaussian touches; the
+/// pairs of Gaussian i start at its exclusive offset (inclusive scan minus its own count).
+__global__ void emitKeysKernel(int n, const Packed* packed, const std::uint32_t* tiles_touched,
+                               const std::uint32_t* offsets_inclusive, int tiles_x, unsigned long long* keys,
+                               std::uint32_t* values) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const std::uint32_t count = tiles_touched[i];
+  if (count == 0) return;
+  std::uint32_t o = offsets_inclusive[i] - count;
+  const Packed& p = packed[i];
+  // depth > kNearPlaneM > 0: the IEEE bits order like the values (the CPU path's sort key).
+  const unsigned long long depth_bits = __float_as_uint(static_cast<float>(p.depth));
+  for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
+    for (int tx = p.tile_x0; tx < p.tile_x1; ++tx) {
+      keys[o] = (static_cast<unsigned long long>(ty * tiles_x + tx) << 32) | depth_bits;
+      values[o] = static_cast<std::uint32_t>(i);
+      ++o;
+    }
+  }
+}
+
+/// [begin, end) of each tile's entries in the sorted pairs (tiles without entries stay 0, 0).
+__global__ void tileRangesKernel(std::uint32_t total, const unsigned long long* keys, uint2* ranges) {
+  const std::uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= total) return;
+  const std::uint32_t tile = static_cast<std::uint32_t>(keys[k] >> 32);
+  if (k == 0 || static_cast<std::uint32_t>(keys[k - 1] >> 32) != tile) ranges[tile].x = k;
+  if (k + 1 == total || static_cast<std::uint32_t>(keys[k + 1] >> 32) != tile) ranges[tile].y = k + 1;
+}
+
+/// Power of Gaussian p at tile-local pixel (lx, py), computed as the CPU tile kernels do; false
+/// when the pixel lies outside the Gaussian's window in the tile (the CPU path skips it too).
+__device__ inline bool pixelPower(const Packed& p, int tx0, int ty0, int ty1, int lx, int py, float& dx, float& dy,
+                                  float& power) {
+  const gs::TileWindow w = gs::windowInTile(p, tx0, ty0, ty1, S);
+  if (py < w.y0 || py >= w.y1 || lx < w.xb0 || lx >= w.xb1) return false;
+  dy = p.mean_v - static_cast<float>(py);
+  const float row_term = gs::conicRowTerm(p.conic_c, dy);
+  const float bdy = p.conic_b * dy;
+  dx = (p.mean_u - static_cast<float>(tx0)) - static_cast<float>(lx);
+  power = gs::conicPower(p.conic_a, bdy, row_term, dx);
+  return true;
+}
+
+/// Front-to-back compositing, one thread per pixel, one 16x16 block per tile.
+__global__ void __launch_bounds__(S * S) forwardKernel(int width, int height, int tiles_x, const uint2* ranges,
+                                                       const std::uint32_t* values, const Packed* packed,
+                                                       float min_alpha, float min_transmittance, float* color,
+                                                       float* depth, float* alpha, float* final_T,
+                                                       std::uint32_t* last_entry) {
+  const int tile = blockIdx.y * tiles_x + blockIdx.x;
+  const int tx0 = blockIdx.x * S, ty0 = blockIdx.y * S;
+  const int ty1 = ty0 + S < height ? ty0 + S : height;
+  const int lx = threadIdx.x, px = tx0 + lx, py = ty0 + threadIdx.y;
+  const bool inside = px < width && py < height;
+  const uint2 range = ranges[tile];
+  float Tr = 1.f, c0 = 0.f, c1 = 0.f, c2 = 0.f, d = 0.f;
+  float live = inside ? 1.f : 0.f;
+  std::uint32_t last = range.x;
+  for (std::uint32_t k = range.x; k < range.y && live > 0.f; ++k) {
+    const Packed& p = packed[values[k]];
+    float dx, dy, power;
+    if (!pixelPower(p, tx0, ty0, ty1, lx, py, dx, dy, power)) continue;
+    const gs::ForwardStep<float> step = gs::blendForwardStep(power, p.opacity, live, min_alpha, min_transmittance, Tr);
+    c0 += step.weight * p.color[0];
+    c1 += step.weight * p.color[1];
+    c2 += step.weight * p.color[2];
+    d += step.weight * p.depth;
+    last = step.use > 0.f ? k + 1 : last;
+    live -= step.stop;
+  }
+  if (!inside) return;
+  const std::size_t npix = static_cast<std::size_t>(width) * height;
+  const std::size_t i = static_cast<std::size_t>(py) * width + px;
+  color[i] = c0;
+  color[npix + i] = c1;
+  color[2 * npix + i] = c2;
+  depth[i] = d;
+  alpha[i] = 1.f - Tr;
+  final_T[i] = Tr;
+  last_entry[i] = last;
+}
+
+__device__ inline float warpSum(float v) {
+  for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_down_sync(kFullWarp, v, offset);
+  return v;
+}
+__device__ inline double warpSum(double v) {
+  for (int offset = 16; offset > 0; offset >>= 1) v += __shfl_down_sync(kFullWarp, v, offset);
+  return v;
+}
+
+/// Back-to-front pass, one 16x16 block per tile: the block walks the tile's list in lockstep from
+/// the largest last entry of its pixels (as the CPU tile kernel does), each warp sums its pixels'
+/// contributions and adds them to the Gaussian's screen gradient.
+__global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, int tiles_x, const uint2* ranges,
+                                                        const std::uint32_t* values, const Packed* packed,
+                                                        float min_alpha, const float* final_T,
+                                                        const std::uint32_t* last_entry, const float* grad_color,
+                                                        const float* grad_depth, const float* grad_alpha,
+                                                        gs::ScreenGrad<float>* screen) {
+  __shared__ std::uint32_t block_last;
+  const int tile = blockIdx.y * tiles_x + blockIdx.x;
+  const int tx0 = blockIdx.x * S, ty0 = blockIdx.y * S;
+  const int ty1 = ty0 + S < height ? ty0 + S : height;
+  const int lx = threadIdx.x, px = tx0 + lx, py = ty0 + threadIdx.y;
+  const bool inside = px < width && py < height;
+  const int lane = (threadIdx.y * S + threadIdx.x) & 31;
+  const uint2 range = ranges[tile];
+  const std::size_t npix = static_cast<std::size_t>(width) * height;
+  const std::size_t i = inside ? static_cast<std::size_t>(py) * width + px : 0;
+  gs::BackwardPixel<float> state{1.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  gs::PixelLossGrad<float> g{0.f, 0.f, 0.f, 0.f, 0.f};
+  std::uint32_t last = range.x;
+  if (inside) {
+    state.transmittance = final_T[i];
+    last = last_entry[i];
+    if (grad_color != nullptr) {
+      g.r = grad_color[i];
+      g.g = grad_color[npix + i];
+      g.b = grad_color[2 * npix + i];
+    }
+    if (grad_depth != nullptr) g.depth = grad_depth[i];
+    if (grad_alpha != nullptr) g.alpha = grad_alpha[i];
+  }
+  if (threadIdx.x == 0 && threadIdx.y == 0) block_last = range.x;
+  __syncthreads();
+  atomicMax(&block_last, last);
+  __syncthreads();
+  for (std::uint32_t k = block_last; k-- > range.x;) {
+    const std::uint32_t gi = values[k];
+    const Packed& p = packed[gi];
+    gs::ScreenGrad<float> s{};
+    bool touched = false;
+    float dx, dy, power;
+    if (inside && pixelPower(p, tx0, ty0, ty1, lx, py, dx, dy, power)) {
+      s = gs::blendBackwardStep(p, dx, dy, power, k < last ? 1.f : 0.f, min_alpha, g, state);
+      touched = true;
+    }
+    if (!__any_sync(kFullWarp, touched)) continue;
+    const float sums[10] = {warpSum(s.mean_u),   warpSum(s.mean_v),   warpSum(s.conic_a), warpSum(s.conic_b),
+                            warpSum(s.conic_c),  warpSum(s.opacity),  warpSum(s.color[0]), warpSum(s.color[1]),
+                            warpSum(s.color[2]), warpSum(s.depth)};
+    if (lane == 0) {
+      gs::ScreenGrad<float>& out = screen[gi];
+      float* const fields[10] = {&out.mean_u,  &out.mean_v,  &out.conic_a,  &out.conic_b,  &out.conic_c,
+                                 &out.opacity, &out.color[0], &out.color[1], &out.color[2], &out.depth};
+      for (int f = 0; f < 10; ++f)
+        if (sums[f] != 0.f) atomicAdd(fields[f], sums[f]);
+    }
+  }
+}
+
+/// Chain rule per Gaussian (gs::projectGaussianBackward), rows of zeros for Gaussians without a
+/// screen gradient; the pose gradient is summed per warp, then in double across warps.
+__global__ void chainKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam,
+                            const std::uint32_t* tiles_touched, const gs::ScreenGrad<float>* screen, float* g_pos,
+                            float* g_log_scale, float* g_rot, float* g_opacity, float* g_sh, float* g_norm,
+                            double* pose) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  const int K3 = 3 * gs::shCoeffCount(P.sh_degree);
+  double pose_part[6] = {0, 0, 0, 0, 0, 0};
+  if (i < P.count) {
+    gs::ScreenGrad<float> sg{};
+    bool has = tiles_touched[i] > 0;
+    if (has) {
+      sg = screen[i];
+      has = !gs::isZero(sg);
+    }
+    if (!has) {
+      for (int k = 0; k < 3; ++k) g_pos[3 * i + k] = g_log_scale[3 * i + k] = 0.f;
+      for (int k = 0; k < 4; ++k) g_rot[4 * i + k] = 0.f;
+      g_opacity[i] = 0.f;
+      for (int k = 0; k < K3; ++k) g_sh[static_cast<std::size_t>(K3) * i + k] = 0.f;
+      g_norm[i] = 0.f;
+    } else {
+      gs::ParamGrad<float> pg;
+      gs::projectGaussianBackward(cam, P.position + 3 * i, P.log_scale + 3 * i, P.rotation + 4 * i,
+                                  P.opacity_logit[i], P.sh + static_cast<std::size_t>(K3) * i, P.sh_degree, sg, pg);
+      for (int k = 0; k < 3; ++k) {
+        g_pos[3 * i + k] = pg.pos[k];
+        g_log_scale[3 * i + k] = pg.log_scale[k];
+      }
+      for (int k = 0; k < 4; ++k) g_rot[4 * i + k] = pg.quat[k];
+      g_opacity[i] = pg.opacity_logit;
+      for (int k = 0; k < K3; ++k) g_sh[static_cast<std::size_t>(K3) * i + k] = pg.sh[k];
+      g_norm[i] = sqrtf(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
+      for (int k = 0; k < 6; ++k) pose_part[k] = pg.pose[k];
+    }
+  }
+  const int lane = threadIdx.x & 31;
+  for (int k = 0; k < 6; ++k) {
+    const double v = warpSum(pose_part[k]);
+    if (lane == 0 && v != 0.0) atomicAdd(&pose[k], v);
+  }
+}
+
+}  // namespace
+
+struct CudaRasterizer::Impl {
+  RasterSettings settings;
+  cudaStream_t stream = nullptr;
+  cudaEvent_t events[6] = {};
+  bool forward_timed = false, backward_timed = false;
+  RasterStageTimes times;
+  GaussianParamsView<float> params{};  ///< device pointers of the last forward
+  gs::PinholeView<float> view{};
+  int tiles_x = 0, tiles_y = 0;
+  std::size_t num_entries = 0, num_visible = 0;
+  bool have_forward = false;
+  // Host-API copies of the parameters and pixel gradients.
+  cuda::DeviceBuffer<float> up_pos, up_log_scale, up_rot, up_opacity, up_sh, up_gc, up_gd, up_ga;
+  // Forward.
+  cuda::DeviceBuffer<Packed> packed;
+  cuda::DeviceBuffer<std::uint32_t> tiles_touched, offsets, values, values_sorted, last_entry;
+  cuda::DeviceBuffer<unsigned long long> keys, keys_sorted;
+  cuda::DeviceBuffer<unsigned char> scan_temp, sort_temp;
+  cuda::DeviceBuffer<uint2> ranges;
+  cuda::DeviceBuffer<unsigned int> counter;
+  cuda::DeviceBuffer<float> color, depth, alpha, final_T;
+  // Backward.
+  cuda::DeviceBuffer<gs::ScreenGrad<float>> screen;
+  cuda::DeviceBuffer<float> g_pos, g_log_scale, g_rot, g_opacity, g_sh, g_norm;
+  cuda::DeviceBuffer<double> pose;
+
+  ~Impl() {
+    for (cudaEvent_t& e : events)
+      if (e != nullptr) cudaEventDestroy(e);
+    if (stream != nullptr) cudaStreamDestroy(stream);
+  }
+
+  float elapsed(int a, int b) const {
+    float ms = 0.f;
+    DYPHO_CUDA_CHECK(cudaEventElapsedTime(&ms, events[a], events[b]));
+    return ms;
+  }
+};
+
+CudaRasterizer::CudaRasterizer(const RasterSettings& settings) : impl_(std::make_unique<Impl>()) {
+  if (!(settings.radius_sigma > 0) || !(settings.min_alpha >= 0) || !(settings.min_transmittance >= 0)) {
+    throw std::invalid_argument("CudaRasterizer: radius_sigma must be > 0, min_alpha and min_transmittance >= 0");
+  }
+  std::string reason;
+  if (cudaDeviceCount(&reason) <= 0) throw std::runtime_error("CudaRasterizer: no usable CUDA device: " + reason);
+  impl_->settings = settings;
+  DYPHO_CUDA_CHECK(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
+  for (cudaEvent_t& e : impl_->events) DYPHO_CUDA_CHECK(cudaEventCreate(&e));
+}
+
+CudaRasterizer::~CudaRasterizer() = default;
+
+void* CudaRasterizer::stream() const { return impl_->stream; }
+std::size_t CudaRasterizer::numTileEntries() const { return impl_->num_entries; }
+std::size_t CudaRasterizer::numVisible() const { return impl_->num_visible; }
+const RasterSettings& CudaRasterizer::settings() const { return impl_->settings; }
+
+const RasterStageTimes& CudaRasterizer::stageTimes() const {
+  Impl& m = *impl_;
+  if (m.forward_timed) {
+    DYPHO_CUDA_CHECK(cudaEventSynchronize(m.events[3]));
+    m.times.project_ms = m.elapsed(0, 1);
+    m.times.bin_ms = m.elapsed(1, 2);
+    m.times.composite_ms = m.elapsed(2, 3);
+    m.forward_timed = false;
+  }
+  if (m.backward_timed) {
+    DYPHO_CUDA_CHECK(cudaEventSynchronize(m.events[5]));
+    m.times.tiles_back_ms = m.elapsed(3, 4);
+    m.times.chain_ms = m.elapsed(4, 5);
+    m.backward_timed = false;
+  }
+  return m.times;
+}
+
+DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view) {
+  if (view.width <= 0 || view.height <= 0 || !(view.fx > 0) || !(view.fy > 0)) {
+    throw std::invalid_argument("CudaRasterizer::forward: invalid camera (size and focal lengths must be > 0)");
+  }
+  if (params.count < 0 || params.sh_degree < 0 || params.sh_degree > gs::kMaxShDegree) {
+    throw std::invalid_argument("CudaRasterizer::forward: bad Gaussian count or SH degree");
+  }
+  Impl& m = *impl_;
+  cudaStream_t st = m.stream;
+  m.params = params;
+  m.view = view;
+  m.tiles_x = (view.width + S - 1) / S;
+  m.tiles_y = (view.height + S - 1) / S;
+  const int num_tiles = m.tiles_x * m.tiles_y;
+  const std::size_t n = static_cast<std::size_t>(params.count);
+  const std::size_t npix = static_cast<std::size_t>(view.width) * view.height;
+  m.packed.reserve(n);
+  m.tiles_touched.reserve(n);
+  m.offsets.reserve(n);
+  m.counter.reserve(1);
+  m.ranges.reserve(num_tiles);
+  m.color.reserve(3 * npix);
+  m.depth.reserve(npix);
+  m.alpha.reserve(npix);
+  m.final_T.reserve(npix);
+  m.last_entry.reserve(npix);
+
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[0], st));
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.counter.get(), 0, sizeof(unsigned int), st));
+  std::uint32_t total = 0;
+  unsigned int visible = 0;
+  if (n > 0) {
+    preprocessKernel<<<blocksFor(n), kThreads, 0, st>>>(params, view, static_cast<float>(m.settings.radius_sigma),
+                                                        static_cast<float>(m.settings.min_alpha), m.tiles_x, m.tiles_y,
+                                                        m.packed.get(), m.tiles_touched.get(), m.counter.get());
+    DYPHO_CUDA_CHECK_LAUNCH("preprocessKernel");
+    std::size_t temp_bytes = 0;
+    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(nullptr, temp_bytes, m.tiles_touched.get(), m.offsets.get(),
+                                                   static_cast<int>(n), st));
+    m.scan_temp.reserve(temp_bytes);
+    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(m.scan_temp.get(), temp_bytes, m.tiles_touched.get(),
+                                                   m.offsets.get(), static_cast<int>(n), st));
+    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&total, m.offsets.get() + n - 1, sizeof(total), cudaMemcpyDeviceToHost, st));
+    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&visible, m.counter.get(), sizeof(visible), cudaMemcpyDeviceToHost, st));
+    DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+  }
+  m.num_entries = total;
+  m.num_visible = visible;
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[1], st));
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.ranges.get(), 0, num_tiles * sizeof(uint2), st));
+  if (total > 0) {
+    m.keys.reserve(total);
+    m.keys_sorted.reserve(total);
+    m.values.reserve(total);
+    m.values_sorted.reserve(total);
+    emitKeysKernel<<<blocksFor(n), kThreads, 0, st>>>(static_cast<int>(n), m.packed.get(), m.tiles_touched.get(),
+                                                      m.offsets.get(), m.tiles_x, m.keys.get(), m.values.get());
+    DYPHO_CUDA_CHECK_LAUNCH("emitKeysKernel");
+    int tile_bits = 0;
+    while ((1 << tile_bits) < num_tiles) ++tile_bits;
+    std::size_t temp_bytes = 0;
+    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, m.keys.get(), m.keys_sorted.get(),
+                                                     m.values.get(), m.values_sorted.get(), static_cast<int>(total), 0,
+                                                     32 + tile_bits, st));
+    m.sort_temp.reserve(temp_bytes);
+    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(m.sort_temp.get(), temp_bytes, m.keys.get(), m.keys_sorted.get(),
+                                                     m.values.get(), m.values_sorted.get(), static_cast<int>(total), 0,
+                                                     32 + tile_bits, st));
+    tileRangesKernel<<<blocksFor(total), kThreads, 0, st>>>(total, m.keys_sorted.get(), m.ranges.get());
+    DYPHO_CUDA_CHECK_LAUNCH("tileRangesKernel");
+  }
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[2], st));
+  const dim3 grid(m.tiles_x, m.tiles_y), block(S, S);
+  forwardKernel<<<grid, block, 0, st>>>(view.width, view.height, m.tiles_x, m.ranges.get(), m.values_sorted.reserve(1),
+                                        m.packed.get(), static_cast<float>(m.settings.min_alpha),
+                                        static_cast<float>(m.settings.min_transmittance), m.color.get(), m.depth.get(),
+                                        m.alpha.get(), m.final_T.get(), m.last_entry.get());
+  DYPHO_CUDA_CHECK_LAUNCH("forwardKernel");
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[3], st));
+  m.forward_timed = true;
+  m.have_forward = true;
+  DeviceImages images;
+  images.width = view.width;
+  images.height = view.height;
+  images.color = m.color.get();
+  images.depth = m.depth.get();
+  images.alpha = m.alpha.get();
+  return images;
+}
+
+DeviceGrads CudaRasterizer::backwardOnDevice(const PixelGrads<float>& grads, float* pose_out) {
+  Impl& m = *impl_;
+  if (!m.have_forward) throw std::logic_error("CudaRasterizer::backward called before forward");
+  cudaStream_t st = m.stream;
+  const std::size_t n = static_cast<std::size_t>(m.params.count);
+  const int K3 = 3 * gs::shCoeffCount(m.params.sh_degree);
+  m.screen.reserve(n);
+  m.g_pos.reserve(3 * n);
+  m.g_log_scale.reserve(3 * n);
+  m.g_rot.reserve(4 * n);
+  m.g_opacity.reserve(n);
+  m.g_sh.reserve(static_cast<std::size_t>(K3) * n);
+  m.g_norm.reserve(n);
+  m.pose.reserve(6);
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.screen.get(), 0, n * sizeof(gs::ScreenGrad<float>), st));
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.pose.get(), 0, 6 * sizeof(double), st));
+  const dim3 grid(m.tiles_x, m.tiles_y), block(S, S);
+  backwardKernel<<<grid, block, 0, st>>>(m.view.width, m.view.height, m.tiles_x, m.ranges.get(), m.values_sorted.reserve(1),
+                                         m.packed.get(), static_cast<float>(m.settings.min_alpha), m.final_T.get(),
+                                         m.last_entry.get(), grads.color, grads.depth, grads.alpha, m.screen.get());
+  DYPHO_CUDA_CHECK_LAUNCH("backwardKernel");
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[4], st));
+  if (n > 0) {
+    chainKernel<<<blocksFor(n), kThreads, 0, st>>>(m.params, m.view, m.tiles_touched.get(), m.screen.get(),
+                                                   m.g_pos.get(), m.g_log_scale.get(), m.g_rot.get(), m.g_opacity.get(),
+                                                   m.g_sh.get(), m.g_norm.get(), m.pose.get());
+    DYPHO_CUDA_CHECK_LAUNCH("chainKernel");
+  }
+  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[5], st));
+  m.backward_timed = true;
+  if (pose_out != nullptr) {
+    double pose[6];
+    DYPHO_CUDA_CHECK(cudaMemcpyAsync(pose, m.pose.get(), sizeof(pose), cudaMemcpyDeviceToHost, st));
+    DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+    for (int k = 0; k < 6; ++k) pose_out[k] = static_cast<float>(pose[k]);
+  }
+  DeviceGrads g;
+  g.position = m.g_pos.get();
+  g.log_scale = m.g_log_scale.get();
+  g.rotation = m.g_rot.get();
+  g.opacity_logit = m.g_opacity.get();
+  g.sh = m.g_sh.get();
+  g.mean2d_norm = m.g_norm.get();
+  return g;
+}
+
+namespace {
+
+void upload(cuda::DeviceBuffer<float>& dst, const float* src, std::size_t count, cudaStream_t st) {
+  float* d = dst.reserve(count);
+  if (count > 0) DYPHO_CUDA_CHECK(cudaMemcpyAsync(d, src, count * sizeof(float), cudaMemcpyHostToDevice, st));
+}
+
+void download(std::vector<float>& dst, const float* src, std::size_t count, cudaStream_t st) {
+  dst.resize(count);
+  if (count > 0) DYPHO_CUDA_CHECK(cudaMemcpyAsync(dst.data(), src, count * sizeof(float), cudaMemcpyDeviceToHost, st));
+}
+
+}  // namespace
+
+void CudaRasterizer::forward(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view,
+                             RenderResult<float>& out) {
+  Impl& m = *impl_;
+  cudaStream_t st = m.stream;
+  if (params.count < 0 || params.sh_degree < 0 || params.sh_degree > gs::kMaxShDegree) {
+    throw std::invalid_argument("CudaRasterizer::forward: bad Gaussian count or SH degree");
+  }
+  const std::size_t n = static_cast<std::size_t>(params.count);
+  const std::size_t K3 = 3 * static_cast<std::size_t>(gs::shCoeffCount(params.sh_degree));
+  upload(m.up_pos, params.position, 3 * n, st);
+  upload(m.up_log_scale, params.log_scale, 3 * n, st);
+  upload(m.up_rot, params.rotation, 4 * n, st);
+  upload(m.up_opacity, params.opacity_logit, n, st);
+  upload(m.up_sh, params.sh, K3 * n, st);
+  GaussianParamsView<float> device = params;
+  device.position = m.up_pos.get();
+  device.log_scale = m.up_log_scale.get();
+  device.rotation = m.up_rot.get();
+  device.opacity_logit = m.up_opacity.get();
+  device.sh = m.up_sh.get();
+  const DeviceImages images = forwardOnDevice(device, view);
+  const std::size_t npix = static_cast<std::size_t>(images.width) * images.height;
+  out.width = images.width;
+  out.height = images.height;
+  download(out.color, images.color, 3 * npix, st);
+  download(out.depth, images.depth, npix, st);
+  download(out.alpha, images.alpha, npix, st);
+  DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+}
+
+void CudaRasterizer::backward(const PixelGrads<float>& grads, GaussianGrads<float>& out) {
+  Impl& m = *impl_;
+  cudaStream_t st = m.stream;
+  const std::size_t npix = static_cast<std::size_t>(m.view.width) * m.view.height;
+  PixelGrads<float> device;
+  if (grads.color != nullptr) {
+    upload(m.up_gc, grads.color, 3 * npix, st);
+    device.color = m.up_gc.get();
+  }
+  if (grads.depth != nullptr) {
+    upload(m.up_gd, grads.depth, npix, st);
+    device.depth = m.up_gd.get();
+  }
+  if (grads.alpha != nullptr) {
+    upload(m.up_ga, grads.alpha, npix, st);
+    device.alpha = m.up_ga.get();
+  }
+  const DeviceGrads g = backwardOnDevice(device, out.pose);
+  const std::size_t n = static_cast<std::size_t>(m.params.count);
+  const std::size_t K3 = 3 * static_cast<std::size_t>(gs::shCoeffCount(m.params.sh_degree));
+  download(out.position, g.position, 3 * n, st);
+  download(out.log_scale, g.log_scale, 3 * n, st);
+  download(out.rotation, g.rotation, 4 * n, st);
+  download(out.opacity_logit, g.opacity_logit, n, st);
+  download(out.sh, g.sh, K3 * n, st);
+  download(out.mean2d_norm, g.mean2d_norm, n, st);
+  DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+}
+
+}  // namespace dypho::mapping
