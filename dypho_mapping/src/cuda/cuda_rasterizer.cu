@@ -10,125 +10,51 @@
 
 #include "cuda_check.h"
 #include "dypho/mapping/blend_steps.h"
+#include "kernel_bodies.h"
 #include "dypho/mapping/compute_device.h"
 
 namespace dypho::mapping {
 namespace {
 
 using Packed = raster::PackedGaussian<float>;
+using cuda_body::TilePixel;
+using cuda_body::TileRange;
 constexpr int S = gs::kTileSize;
 constexpr int kThreads = 256;  ///< threads per block of the per-Gaussian kernels
 constexpr unsigned kFullWarp = 0xffffffffu;
 
 int blocksFor(std::size_t n) { return static_cast<int>((n + kThreads - 1) / kThreads); }
 
-/// Cull, project and pack one Gaussian; tiles_touched[i] = its tile count (0 = not visible).
 __global__ void preprocessKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam, float radius_sigma,
                                  float min_alpha, int tiles_x, int tiles_y, Packed* packed,
                                  std::uint32_t* tiles_touched, unsigned int* num_visible) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= P.count) return;
-  std::uint32_t n = 0;
-  const float* pos = P.position + 3 * i;
-  const float* ls = P.log_scale + 3 * i;
-  if (gs::mayReachImage(cam, pos[0], pos[1], pos[2], ls[0], ls[1], ls[2], radius_sigma)) {
-    const int K3 = 3 * gs::shCoeffCount(P.sh_degree);
-    gs::Projected<float> pr;
-    if (gs::projectGaussian(cam, pos, ls, P.rotation + 4 * i, P.opacity_logit[i],
-                            P.sh + static_cast<std::size_t>(K3) * i, P.sh_degree, radius_sigma, min_alpha, pr)) {
-      Packed p;
-      if (gs::packProjected(pr, cam.width, cam.height, tiles_x, tiles_y, p)) {
-        n = static_cast<std::uint32_t>((p.tile_x1 - p.tile_x0) * (p.tile_y1 - p.tile_y0));
-        packed[i] = p;
-        atomicAdd(num_visible, 1u);
-      }
-    }
-  }
+  const std::uint32_t n = cuda_body::preprocess(i, P, cam, radius_sigma, min_alpha, tiles_x, tiles_y, packed);
   tiles_touched[i] = n;
+  if (n > 0) atomicAdd(num_visible, 1u);
 }
 
-/// One (tile << 32 | depth bits, Gaussian index) pair per tile a visible Gaussian touches; the
-/// pairs of Gaussian i start at its exclusive offset (inclusive scan minus its own count).
 __global__ void emitKeysKernel(int n, const Packed* packed, const std::uint32_t* tiles_touched,
                                const std::uint32_t* offsets_inclusive, int tiles_x, unsigned long long* keys,
                                std::uint32_t* values) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const std::uint32_t count = tiles_touched[i];
-  if (count == 0) return;
-  std::uint32_t o = offsets_inclusive[i] - count;
-  const Packed& p = packed[i];
-  // depth > kNearPlaneM > 0: the IEEE bits order like the values (the CPU path's sort key).
-  const unsigned long long depth_bits = __float_as_uint(static_cast<float>(p.depth));
-  for (int ty = p.tile_y0; ty < p.tile_y1; ++ty) {
-    for (int tx = p.tile_x0; tx < p.tile_x1; ++tx) {
-      keys[o] = (static_cast<unsigned long long>(ty * tiles_x + tx) << 32) | depth_bits;
-      values[o] = static_cast<std::uint32_t>(i);
-      ++o;
-    }
-  }
+  if (i < n) cuda_body::emitKeys(i, packed, tiles_touched, offsets_inclusive, tiles_x, keys, values);
 }
 
-/// [begin, end) of each tile's entries in the sorted pairs (tiles without entries stay 0, 0).
-__global__ void tileRangesKernel(std::uint32_t total, const unsigned long long* keys, uint2* ranges) {
+__global__ void tileRangesKernel(std::uint32_t total, const unsigned long long* keys, TileRange* ranges) {
   const std::uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= total) return;
-  const std::uint32_t tile = static_cast<std::uint32_t>(keys[k] >> 32);
-  if (k == 0 || static_cast<std::uint32_t>(keys[k - 1] >> 32) != tile) ranges[tile].x = k;
-  if (k + 1 == total || static_cast<std::uint32_t>(keys[k + 1] >> 32) != tile) ranges[tile].y = k + 1;
-}
-
-/// Power of Gaussian p at tile-local pixel (lx, py), computed as the CPU tile kernels do; false
-/// when the pixel lies outside the Gaussian's window in the tile (the CPU path skips it too).
-__device__ inline bool pixelPower(const Packed& p, int tx0, int ty0, int ty1, int lx, int py, float& dx, float& dy,
-                                  float& power) {
-  const gs::TileWindow w = gs::windowInTile(p, tx0, ty0, ty1, S);
-  if (py < w.y0 || py >= w.y1 || lx < w.xb0 || lx >= w.xb1) return false;
-  dy = p.mean_v - static_cast<float>(py);
-  const float row_term = gs::conicRowTerm(p.conic_c, dy);
-  const float bdy = p.conic_b * dy;
-  dx = (p.mean_u - static_cast<float>(tx0)) - static_cast<float>(lx);
-  power = gs::conicPower(p.conic_a, bdy, row_term, dx);
-  return true;
+  if (k < total) cuda_body::tileRange(k, total, keys, ranges);
 }
 
 /// Front-to-back compositing, one thread per pixel, one 16x16 block per tile.
-__global__ void __launch_bounds__(S * S) forwardKernel(int width, int height, int tiles_x, const uint2* ranges,
+__global__ void __launch_bounds__(S * S) forwardKernel(int width, int height, int tiles_x, const TileRange* ranges,
                                                        const std::uint32_t* values, const Packed* packed,
-                                                       float min_alpha, float min_transmittance, float* color,
-                                                       float* depth, float* alpha, float* final_T,
-                                                       std::uint32_t* last_entry) {
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tx0 = blockIdx.x * S, ty0 = blockIdx.y * S;
-  const int ty1 = ty0 + S < height ? ty0 + S : height;
-  const int lx = threadIdx.x, px = tx0 + lx, py = ty0 + threadIdx.y;
-  const bool inside = px < width && py < height;
-  const uint2 range = ranges[tile];
-  float Tr = 1.f, c0 = 0.f, c1 = 0.f, c2 = 0.f, d = 0.f;
-  float live = inside ? 1.f : 0.f;
-  std::uint32_t last = range.x;
-  for (std::uint32_t k = range.x; k < range.y && live > 0.f; ++k) {
-    const Packed& p = packed[values[k]];
-    float dx, dy, power;
-    if (!pixelPower(p, tx0, ty0, ty1, lx, py, dx, dy, power)) continue;
-    const gs::ForwardStep<float> step = gs::blendForwardStep(power, p.opacity, live, min_alpha, min_transmittance, Tr);
-    c0 += step.weight * p.color[0];
-    c1 += step.weight * p.color[1];
-    c2 += step.weight * p.color[2];
-    d += step.weight * p.depth;
-    last = step.use > 0.f ? k + 1 : last;
-    live -= step.stop;
-  }
-  if (!inside) return;
-  const std::size_t npix = static_cast<std::size_t>(width) * height;
-  const std::size_t i = static_cast<std::size_t>(py) * width + px;
-  color[i] = c0;
-  color[npix + i] = c1;
-  color[2 * npix + i] = c2;
-  depth[i] = d;
-  alpha[i] = 1.f - Tr;
-  final_T[i] = Tr;
-  last_entry[i] = last;
+                                                       float min_alpha, float min_transmittance,
+                                                       cuda_body::ForwardOut out) {
+  const TilePixel t = cuda_body::tilePixel(blockIdx.x, blockIdx.y, threadIdx.x, threadIdx.y, width, height);
+  cuda_body::forwardPixel(t, width, height, ranges[blockIdx.y * tiles_x + blockIdx.x], values, packed, min_alpha,
+                          min_transmittance, out);
 }
 
 __device__ inline float warpSum(float v) {
@@ -143,50 +69,26 @@ __device__ inline double warpSum(double v) {
 /// Back-to-front pass, one 16x16 block per tile: the block walks the tile's list in lockstep from
 /// the largest last entry of its pixels (as the CPU tile kernel does), each warp sums its pixels'
 /// contributions and adds them to the Gaussian's screen gradient.
-__global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, int tiles_x, const uint2* ranges,
+__global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, int tiles_x, const TileRange* ranges,
                                                         const std::uint32_t* values, const Packed* packed,
                                                         float min_alpha, const float* final_T,
                                                         const std::uint32_t* last_entry, const float* grad_color,
                                                         const float* grad_depth, const float* grad_alpha,
                                                         gs::ScreenGrad<float>* screen) {
   __shared__ std::uint32_t block_last;
-  const int tile = blockIdx.y * tiles_x + blockIdx.x;
-  const int tx0 = blockIdx.x * S, ty0 = blockIdx.y * S;
-  const int ty1 = ty0 + S < height ? ty0 + S : height;
-  const int lx = threadIdx.x, px = tx0 + lx, py = ty0 + threadIdx.y;
-  const bool inside = px < width && py < height;
+  const TilePixel t = cuda_body::tilePixel(blockIdx.x, blockIdx.y, threadIdx.x, threadIdx.y, width, height);
+  const TileRange range = ranges[blockIdx.y * tiles_x + blockIdx.x];
+  cuda_body::BackwardStart b =
+      cuda_body::backwardStart(t, width, height, range, final_T, last_entry, grad_color, grad_depth, grad_alpha);
   const int lane = (threadIdx.y * S + threadIdx.x) & 31;
-  const uint2 range = ranges[tile];
-  const std::size_t npix = static_cast<std::size_t>(width) * height;
-  const std::size_t i = inside ? static_cast<std::size_t>(py) * width + px : 0;
-  gs::BackwardPixel<float> state{1.f, 0.f, 0.f, 0.f, 0.f, 0.f};
-  gs::PixelLossGrad<float> g{0.f, 0.f, 0.f, 0.f, 0.f};
-  std::uint32_t last = range.x;
-  if (inside) {
-    state.transmittance = final_T[i];
-    last = last_entry[i];
-    if (grad_color != nullptr) {
-      g.r = grad_color[i];
-      g.g = grad_color[npix + i];
-      g.b = grad_color[2 * npix + i];
-    }
-    if (grad_depth != nullptr) g.depth = grad_depth[i];
-    if (grad_alpha != nullptr) g.alpha = grad_alpha[i];
-  }
-  if (threadIdx.x == 0 && threadIdx.y == 0) block_last = range.x;
+  if (threadIdx.x == 0 && threadIdx.y == 0) block_last = range.begin;
   __syncthreads();
-  atomicMax(&block_last, last);
+  atomicMax(&block_last, b.last);
   __syncthreads();
-  for (std::uint32_t k = block_last; k-- > range.x;) {
+  for (std::uint32_t k = block_last; k-- > range.begin;) {
     const std::uint32_t gi = values[k];
-    const Packed& p = packed[gi];
     gs::ScreenGrad<float> s{};
-    bool touched = false;
-    float dx, dy, power;
-    if (inside && pixelPower(p, tx0, ty0, ty1, lx, py, dx, dy, power)) {
-      s = gs::blendBackwardStep(p, dx, dy, power, k < last ? 1.f : 0.f, min_alpha, g, state);
-      touched = true;
-    }
+    const bool touched = cuda_body::backwardPixelStep(t, k, packed[gi], min_alpha, b, s);
     if (!__any_sync(kFullWarp, touched)) continue;
     const float sums[10] = {warpSum(s.mean_u),   warpSum(s.mean_v),   warpSum(s.conic_a), warpSum(s.conic_b),
                             warpSum(s.conic_c),  warpSum(s.opacity),  warpSum(s.color[0]), warpSum(s.color[1]),
@@ -201,46 +103,20 @@ __global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, i
   }
 }
 
-/// Chain rule per Gaussian (gs::projectGaussianBackward), rows of zeros for Gaussians without a
-/// screen gradient; the pose gradient is summed per warp, then in double across warps.
+/// Chain rule per Gaussian; the pose gradient is summed per warp, then in double across warps.
 __global__ void chainKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam,
-                            const std::uint32_t* tiles_touched, const gs::ScreenGrad<float>* screen, float* g_pos,
-                            float* g_log_scale, float* g_rot, float* g_opacity, float* g_sh, float* g_norm,
-                            double* pose) {
+                            const std::uint32_t* tiles_touched, const gs::ScreenGrad<float>* screen,
+                            cuda_body::ParamGradsOut out, double* pose) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  const int K3 = 3 * gs::shCoeffCount(P.sh_degree);
-  double pose_part[6] = {0, 0, 0, 0, 0, 0};
+  float pose_part[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   if (i < P.count) {
-    gs::ScreenGrad<float> sg{};
-    bool has = tiles_touched[i] > 0;
-    if (has) {
-      sg = screen[i];
-      has = !gs::isZero(sg);
-    }
-    if (!has) {
-      for (int k = 0; k < 3; ++k) g_pos[3 * i + k] = g_log_scale[3 * i + k] = 0.f;
-      for (int k = 0; k < 4; ++k) g_rot[4 * i + k] = 0.f;
-      g_opacity[i] = 0.f;
-      for (int k = 0; k < K3; ++k) g_sh[static_cast<std::size_t>(K3) * i + k] = 0.f;
-      g_norm[i] = 0.f;
-    } else {
-      gs::ParamGrad<float> pg;
-      gs::projectGaussianBackward(cam, P.position + 3 * i, P.log_scale + 3 * i, P.rotation + 4 * i,
-                                  P.opacity_logit[i], P.sh + static_cast<std::size_t>(K3) * i, P.sh_degree, sg, pg);
-      for (int k = 0; k < 3; ++k) {
-        g_pos[3 * i + k] = pg.pos[k];
-        g_log_scale[3 * i + k] = pg.log_scale[k];
-      }
-      for (int k = 0; k < 4; ++k) g_rot[4 * i + k] = pg.quat[k];
-      g_opacity[i] = pg.opacity_logit;
-      for (int k = 0; k < K3; ++k) g_sh[static_cast<std::size_t>(K3) * i + k] = pg.sh[k];
-      g_norm[i] = sqrtf(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
-      for (int k = 0; k < 6; ++k) pose_part[k] = pg.pose[k];
-    }
+    const bool visible = tiles_touched[i] > 0;
+    const gs::ScreenGrad<float> sg = visible ? screen[i] : gs::ScreenGrad<float>{};
+    cuda_body::chain(i, P, cam, visible, sg, out, pose_part);
   }
   const int lane = threadIdx.x & 31;
   for (int k = 0; k < 6; ++k) {
-    const double v = warpSum(pose_part[k]);
+    const double v = warpSum(static_cast<double>(pose_part[k]));
     if (lane == 0 && v != 0.0) atomicAdd(&pose[k], v);
   }
 }
@@ -265,7 +141,7 @@ struct CudaRasterizer::Impl {
   cuda::DeviceBuffer<std::uint32_t> tiles_touched, offsets, values, values_sorted, last_entry;
   cuda::DeviceBuffer<unsigned long long> keys, keys_sorted;
   cuda::DeviceBuffer<unsigned char> scan_temp, sort_temp;
-  cuda::DeviceBuffer<uint2> ranges;
+  cuda::DeviceBuffer<TileRange> ranges;
   cuda::DeviceBuffer<unsigned int> counter;
   cuda::DeviceBuffer<float> color, depth, alpha, final_T;
   // Backward.
@@ -371,7 +247,7 @@ DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& pa
   m.num_entries = total;
   m.num_visible = visible;
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[1], st));
-  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.ranges.get(), 0, num_tiles * sizeof(uint2), st));
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.ranges.get(), 0, num_tiles * sizeof(TileRange), st));
   if (total > 0) {
     m.keys.reserve(total);
     m.keys_sorted.reserve(total);
@@ -395,10 +271,10 @@ DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& pa
   }
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[2], st));
   const dim3 grid(m.tiles_x, m.tiles_y), block(S, S);
+  const cuda_body::ForwardOut out{m.color.get(), m.depth.get(), m.alpha.get(), m.final_T.get(), m.last_entry.get()};
   forwardKernel<<<grid, block, 0, st>>>(view.width, view.height, m.tiles_x, m.ranges.get(), m.values_sorted.reserve(1),
                                         m.packed.get(), static_cast<float>(m.settings.min_alpha),
-                                        static_cast<float>(m.settings.min_transmittance), m.color.get(), m.depth.get(),
-                                        m.alpha.get(), m.final_T.get(), m.last_entry.get());
+                                        static_cast<float>(m.settings.min_transmittance), out);
   DYPHO_CUDA_CHECK_LAUNCH("forwardKernel");
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[3], st));
   m.forward_timed = true;
@@ -435,9 +311,10 @@ DeviceGrads CudaRasterizer::backwardOnDevice(const PixelGrads<float>& grads, flo
   DYPHO_CUDA_CHECK_LAUNCH("backwardKernel");
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[4], st));
   if (n > 0) {
-    chainKernel<<<blocksFor(n), kThreads, 0, st>>>(m.params, m.view, m.tiles_touched.get(), m.screen.get(),
-                                                   m.g_pos.get(), m.g_log_scale.get(), m.g_rot.get(), m.g_opacity.get(),
-                                                   m.g_sh.get(), m.g_norm.get(), m.pose.get());
+    const cuda_body::ParamGradsOut out{m.g_pos.get(), m.g_log_scale.get(), m.g_rot.get(),
+                                       m.g_opacity.get(), m.g_sh.get(),       m.g_norm.get()};
+    chainKernel<<<blocksFor(n), kThreads, 0, st>>>(m.params, m.view, m.tiles_touched.get(), m.screen.get(), out,
+                                                   m.pose.get());
     DYPHO_CUDA_CHECK_LAUNCH("chainKernel");
   }
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[5], st));

@@ -7,13 +7,15 @@
 
 #include "cuda_check.h"
 #include "dypho/mapping/adam_math.h"
+#include "kernel_bodies.h"
 
 namespace dypho::mapping {
 namespace {
 
 constexpr int kThreads = 256;
 constexpr int kWarps = kThreads / 32;
-constexpr int kLossSums = 9;  ///< l1 colour, l1 depth, 1 - alpha, d gain[3], d offset[3]
+using cuda_body::kLossSums;
+using cuda_body::LossParams;
 
 int blocksFor(std::size_t n) { return static_cast<int>((n + kThreads - 1) / kThreads); }
 
@@ -22,15 +24,7 @@ __device__ inline float warpSum(float v) {
   return v;
 }
 
-struct LossParams {
-  int npix;
-  float wc, wd, wa;              ///< per-value gradient magnitudes (GaussianTrainer::lossAndGradient)
-  float gain[3], offset[3];      ///< exposure: exp(k_c), b_c
-  int exposure;                  ///< 1 when the exposure is applied
-};
-
-/// Masked L1 colour + depth + opacity terms per pixel: writes the pixel gradients and adds the
-/// block's sums (in double) to `sums`.
+/// The loss per pixel (cuda_body::l1LossPixel); the block's sums go to `sums` in double.
 __global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const float* color, const float* depth,
                                                          const float* alpha, const float* t_rgb, const float* t_depth,
                                                          const std::uint8_t* mask, float* g_color, float* g_depth,
@@ -38,37 +32,7 @@ __global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const flo
   __shared__ float partial[kWarps][kLossSums];
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float s[kLossSums] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
-  if (i < L.npix) {
-    const std::size_t n = static_cast<std::size_t>(L.npix);
-    float gd = 0.f, ga = 0.f;
-    float gc[3] = {0.f, 0.f, 0.f};
-    if (mask[i] != 0) {
-      for (int ch = 0; ch < 3; ++ch) {
-        const float rendered = color[ch * n + i];
-        const float shown = L.exposure ? L.gain[ch] * rendered + L.offset[ch] : rendered;
-        const float diff = shown - t_rgb[ch * n + i];
-        s[0] += fabsf(diff);
-        float g = diff > 0.f ? L.wc : (diff < 0.f ? -L.wc : 0.f);
-        if (L.exposure) {
-          s[3 + ch] += g * (shown - L.offset[ch]);  // d(exp(k) x + b)/dk = exp(k) x
-          s[6 + ch] += g;
-          g *= L.gain[ch];
-        }
-        gc[ch] = g;
-      }
-      const float td = t_depth[i];
-      if (td > 0.f) {
-        const float diff = depth[i] - td;
-        s[1] += fabsf(diff);
-        gd = diff > 0.f ? L.wd : (diff < 0.f ? -L.wd : 0.f);
-        s[2] += 1.f - alpha[i];
-        ga = -L.wa;
-      }
-    }
-    for (int ch = 0; ch < 3; ++ch) g_color[ch * n + i] = gc[ch];
-    g_depth[i] = gd;
-    g_alpha[i] = ga;
-  }
+  if (i < L.npix) cuda_body::l1LossPixel(i, L, color, depth, alpha, t_rgb, t_depth, mask, g_color, g_depth, g_alpha, s);
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   for (int k = 0; k < kLossSums; ++k) {
     const float v = warpSum(s[k]);
@@ -82,20 +46,15 @@ __global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const flo
   }
 }
 
-/// One Adam step over a parameter block of `n` rows of `width` values (adamUpdate, the CPU's).
-__global__ void adamKernel(std::size_t total, int width, int is_sh, float step, float step_sh_rest, float inv_c2,
-                           const float* grad, float* x, float* m, float* v) {
+__global__ void adamKernel(std::size_t total, int width, int block, AdamStepSizes step, const float* grad, float* x,
+                           float* m, float* v) {
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (i >= total) return;
-  const float s = (is_sh && static_cast<int>(i % width) >= 3) ? step_sh_rest : step;
-  adamUpdate(grad[i], s, inv_c2, x[i], m[i], v[i]);
+  if (i < total) cuda_body::adam(i, width, block == 4, step, block, grad, x, m, v);
 }
 
 __global__ void statisticsKernel(std::size_t n, const float* norm, float* accum, int* count) {
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (i >= n || !(norm[i] > 0.f)) return;
-  accum[i] += norm[i];
-  count[i] += 1;
+  if (i < n) cuda_body::statistics(i, norm, accum, count);
 }
 
 struct Target {
@@ -301,8 +260,7 @@ void CudaTrainer::backwardAndStep(const AdamStepSizes& step) {
   for (int p = 0; p < kTrainingBlocks; ++p) {
     const std::size_t total = d.count * static_cast<std::size_t>(d.widths[p]);
     if (total == 0) continue;
-    adamKernel<<<blocksFor(total), kThreads, 0, st>>>(total, d.widths[p], p == 4 ? 1 : 0, step.step[p],
-                                                      step.step_sh_rest, step.inv_c2, grads[p], d.params[p].get(),
+    adamKernel<<<blocksFor(total), kThreads, 0, st>>>(total, d.widths[p], p, step, grads[p], d.params[p].get(),
                                                       d.m[p].get(), d.v[p].get());
     DYPHO_CUDA_CHECK_LAUNCH("adamKernel");
   }

@@ -1,0 +1,361 @@
+/// The CUDA path's kernel bodies (src/cuda/kernel_bodies.h) run on the CPU, in the kernels' grid
+/// order, with std::stable_sort in place of the CUB radix sort (both stable, same keys): the whole
+/// GPU pipeline except the hardware parts (atomics, warp sums, lockstep) against the CPU
+/// rasterizer. Runs on every machine, GPU or not. No OpenCV (also in the standalone build).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "dypho/mapping/rasterizer.h"
+#include "gaussian_params_storage.h"
+#include "kernel_bodies.h"
+
+namespace dypho::mapping {
+namespace {
+
+using Scene = GaussianParamsStorage<float>;
+namespace body = cuda_body;
+
+/// The GPU pipeline with loops for the grid.
+class EmulatedGpuRasterizer {
+ public:
+  explicit EmulatedGpuRasterizer(const RasterSettings& s) : settings_(s) {}
+
+  void forward(const GaussianParamsView<float>& P, const gs::PinholeView<float>& cam, RenderResult<float>& out) {
+    P_ = P;
+    cam_ = cam;
+    tiles_x_ = (cam.width + body::S - 1) / body::S;
+    tiles_y_ = (cam.height + body::S - 1) / body::S;
+    const int n = P.count;
+    packed_.assign(n, body::Packed{});
+    touched_.assign(n, 0);
+    visible_ = 0;
+    for (int i = 0; i < n; ++i) {  // preprocessKernel
+      touched_[i] = body::preprocess(i, P, cam, static_cast<float>(settings_.radius_sigma),
+                                     static_cast<float>(settings_.min_alpha), tiles_x_, tiles_y_, packed_.data());
+      visible_ += touched_[i] > 0;
+    }
+    std::vector<std::uint32_t> offsets(n);
+    std::inclusive_scan(touched_.begin(), touched_.end(), offsets.begin());  // cub::DeviceScan::InclusiveSum
+    const std::uint32_t total = n > 0 ? offsets.back() : 0;
+    std::vector<unsigned long long> keys(total);
+    std::vector<std::uint32_t> values(total);
+    for (int i = 0; i < n; ++i) body::emitKeys(i, packed_.data(), touched_.data(), offsets.data(), tiles_x_, keys.data(), values.data());
+    // cub::DeviceRadixSort::SortPairs: stable, ascending keys.
+    std::vector<std::uint32_t> order(total);
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+    std::vector<unsigned long long> keys_sorted(total);
+    values_.resize(total);
+    for (std::uint32_t k = 0; k < total; ++k) {
+      keys_sorted[k] = keys[order[k]];
+      values_[k] = values[order[k]];
+    }
+    ranges_.assign(static_cast<std::size_t>(tiles_x_) * tiles_y_, body::TileRange{0, 0});
+    for (std::uint32_t k = 0; k < total; ++k) body::tileRange(k, total, keys_sorted.data(), ranges_.data());
+    entries_ = total;
+    const std::size_t npix = static_cast<std::size_t>(cam.width) * cam.height;
+    out.width = cam.width;
+    out.height = cam.height;
+    out.color.assign(3 * npix, -1.f);  // every pixel must be written
+    out.depth.assign(npix, -1.f);
+    out.alpha.assign(npix, -1.f);
+    final_T_.assign(npix, -1.f);
+    last_.assign(npix, 0);
+    const body::ForwardOut fo{out.color.data(), out.depth.data(), out.alpha.data(), final_T_.data(), last_.data()};
+    for (int by = 0; by < tiles_y_; ++by)  // forwardKernel
+      for (int bx = 0; bx < tiles_x_; ++bx)
+        for (int ly = 0; ly < body::S; ++ly)
+          for (int lx = 0; lx < body::S; ++lx) {
+            const body::TilePixel t = body::tilePixel(bx, by, lx, ly, cam.width, cam.height);
+            body::forwardPixel(t, cam.width, cam.height, ranges_[by * tiles_x_ + bx], values_.data(), packed_.data(),
+                               static_cast<float>(settings_.min_alpha),
+                               static_cast<float>(settings_.min_transmittance), fo);
+          }
+  }
+
+  void backward(const PixelGrads<float>& g, GaussianGrads<float>& out) {
+    const int n = P_.count;
+    std::vector<gs::ScreenGrad<float>> screen(n, gs::ScreenGrad<float>{});
+    for (int by = 0; by < tiles_y_; ++by)  // backwardKernel: the block's lockstep walk
+      for (int bx = 0; bx < tiles_x_; ++bx) {
+        const body::TileRange range = ranges_[by * tiles_x_ + bx];
+        std::vector<body::TilePixel> px;
+        std::vector<body::BackwardStart> start;
+        std::uint32_t block_last = range.begin;
+        for (int ly = 0; ly < body::S; ++ly)
+          for (int lx = 0; lx < body::S; ++lx) {
+            px.push_back(body::tilePixel(bx, by, lx, ly, cam_.width, cam_.height));
+            start.push_back(body::backwardStart(px.back(), cam_.width, cam_.height, range, final_T_.data(), last_.data(),
+                                                g.color, g.depth, g.alpha));
+            block_last = std::max(block_last, start.back().last);
+          }
+        for (std::uint32_t k = block_last; k-- > range.begin;) {
+          const std::uint32_t gi = values_[k];
+          for (std::size_t j = 0; j < px.size(); ++j) {
+            gs::ScreenGrad<float> s{};
+            if (!body::backwardPixelStep(px[j], k, packed_[gi], static_cast<float>(settings_.min_alpha), start[j], s)) continue;
+            gs::ScreenGrad<float>& a = screen[gi];
+            a.mean_u += s.mean_u;
+            a.mean_v += s.mean_v;
+            a.conic_a += s.conic_a;
+            a.conic_b += s.conic_b;
+            a.conic_c += s.conic_c;
+            a.opacity += s.opacity;
+            a.depth += s.depth;
+            for (int c = 0; c < 3; ++c) a.color[c] += s.color[c];
+          }
+        }
+      }
+    const int K3 = 3 * gs::shCoeffCount(P_.sh_degree);
+    out.position.assign(3 * n, 7.f);  // every row must be written
+    out.log_scale.assign(3 * n, 7.f);
+    out.rotation.assign(4 * n, 7.f);
+    out.opacity_logit.assign(n, 7.f);
+    out.sh.assign(static_cast<std::size_t>(K3) * n, 7.f);
+    out.mean2d_norm.assign(n, 7.f);
+    const body::ParamGradsOut po{out.position.data(), out.log_scale.data(), out.rotation.data(),
+                                 out.opacity_logit.data(), out.sh.data(), out.mean2d_norm.data()};
+    double pose[6] = {0, 0, 0, 0, 0, 0};
+    for (int i = 0; i < n; ++i) {  // chainKernel
+      float part[6];
+      body::chain(i, P_, cam_, touched_[i] > 0, screen[i], po, part);
+      for (int k = 0; k < 6; ++k) pose[k] += part[k];
+    }
+    for (int k = 0; k < 6; ++k) out.pose[k] = static_cast<float>(pose[k]);
+  }
+
+  std::size_t numVisible() const { return visible_; }
+  std::size_t numTileEntries() const { return entries_; }
+
+ private:
+  RasterSettings settings_;
+  GaussianParamsView<float> P_{};
+  gs::PinholeView<float> cam_{};
+  int tiles_x_ = 0, tiles_y_ = 0;
+  std::size_t visible_ = 0, entries_ = 0;
+  std::vector<body::Packed> packed_;
+  std::vector<std::uint32_t> touched_, values_, last_;
+  std::vector<body::TileRange> ranges_;
+  std::vector<float> final_T_;
+};
+
+gs::PinholeView<float> view() {
+  gs::PinholeView<float> v{};
+  v.width = 150;  // partial tiles on both edges
+  v.height = 110;
+  v.fx = v.fy = 120.f;
+  v.cx = 74.5f;
+  v.cy = 54.5f;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) v.R_cw[i][j] = i == j ? 1.f : 0.f;
+  v.center_w[0] = 0.05f;
+  v.center_w[1] = -0.03f;
+  v.center_w[2] = 0.1f;
+  for (int i = 0; i < 3; ++i) v.t_cw[i] = -v.center_w[i];
+  return v;
+}
+
+/// Random Gaussians 2-4 m ahead, plus a few behind the camera, degenerate and crowded in one tile.
+Scene scene(int n, std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  Scene s;
+  const int K3 = 3 * (s.sh_degree + 1) * (s.sh_degree + 1);
+  auto add = [&](float x, float y, float z, float l0, float l1, float l2, float qw, float qx, float o) {
+    s.pos.insert(s.pos.end(), {x, y, z});
+    s.scale.insert(s.scale.end(), {l0, l1, l2});
+    s.rot.insert(s.rot.end(), {qw, qx, 0.3f * u(rng), 0.3f * u(rng)});
+    s.opa.push_back(o);
+    for (int k = 0; k < K3; ++k) s.sh.push_back(k < 3 ? 0.8f * u(rng) : 0.1f * u(rng));
+    ++s.n;
+  };
+  for (int i = 0; i < n; ++i) {
+    const float base = std::log(0.01f + 0.2f * (0.5f + 0.5f * u(rng)));
+    add(1.6f * u(rng), 1.2f * u(rng), 3.f + u(rng), base, base + 0.5f * u(rng), base - 1.f, 1.f, 0.6f * u(rng), 3.f * u(rng));
+  }
+  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), -1.f + u(rng), -3.f, -3.f, -3.f, 1.f, 0.f, 2.f);     // behind
+  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), 2.f, -30.f, -2.f, -30.f, 0.f, 0.f, 2.f);            // degenerate
+  for (int i = 0; i < 400; ++i) {                                                                        // one tile
+    const float z = 2.5f + u(rng);
+    add((40.f + 6.f * u(rng) - 74.5f) * z / 120.f + 0.05f, (40.f + 6.f * u(rng) - 54.5f) * z / 120.f - 0.03f, z + 0.1f,
+        -5.5f, -5.7f, -6.f, 1.f, 0.f, u(rng));
+  }
+  return s;
+}
+
+float maxAbsDiff(const std::vector<float>& a, const std::vector<float>& b) {
+  float m = a.size() == b.size() ? 0.f : 1e30f;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+/// Worst |a - b| / max(|a|, 1e-2 * largest |a| of the block) (as in the GPU parity test).
+float relativeError(const std::vector<float>& cpu, const std::vector<float>& other) {
+  if (cpu.size() != other.size()) return 1e30f;
+  float scale = 0.f;
+  for (float v : cpu) scale = std::max(scale, std::abs(v));
+  if (scale == 0.f) return cpu == other ? 0.f : 1e30f;
+  float worst = 0.f;
+  for (std::size_t i = 0; i < cpu.size(); ++i) worst = std::max(worst, std::abs(cpu[i] - other[i]) / std::max(std::abs(cpu[i]), 1e-2f * scale));
+  return worst;
+}
+
+// The same per-pixel operations in the same order as the CPU's generic tile kernels (both compiled
+// here without FMA), so images agree to 1e-6 and every threshold decision is the same (same
+// visible count and tile entries). Gradients: only the order of the additions differs (per pixel
+// here, per SIMD lane and thread there): 1e-4 relative.
+void compareWithCpu(bool thresholds) {
+  RasterSettings s;
+  s.isa = RasterIsa::kGeneric;
+  if (!thresholds) {
+    s.radius_sigma = 1e3;
+    s.min_alpha = 0.0;
+    s.min_transmittance = 0.0;
+  }
+  std::mt19937 rng(9);
+  const Scene sc = scene(800, rng);
+  const gs::PinholeView<float> v = view();
+  ThreadPool pool(2);
+  Rasterizer<float> cpu(&pool, s);
+  EmulatedGpuRasterizer gpu(s);
+  RenderResult<float> a, b;
+  cpu.forward(sc.view(), v, a);
+  gpu.forward(sc.view(), v, b);
+  EXPECT_EQ(cpu.numVisible(), gpu.numVisible());
+  EXPECT_EQ(cpu.numTileEntries(), gpu.numTileEntries());
+  std::size_t covered = 0;
+  for (float x : a.alpha) covered += x > 0.5f;
+  ASSERT_GT(covered, a.alpha.size() / 2);  // the scene covers the image, or the test says nothing
+  EXPECT_LE(maxAbsDiff(a.color, b.color), 1e-6f);
+  EXPECT_LE(maxAbsDiff(a.alpha, b.alpha), 1e-6f);
+  EXPECT_LE(maxAbsDiff(a.depth, b.depth), 4e-6f);
+  const std::size_t npix = a.alpha.size();
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<float> gc(3 * npix), gd(npix), ga(npix);
+  for (float& x : gc) x = u(rng);
+  for (float& x : gd) x = u(rng);
+  for (float& x : ga) x = u(rng);
+  const PixelGrads<float> pg{gc.data(), gd.data(), ga.data()};
+  GaussianGrads<float> ca, gb;
+  cpu.backward(pg, ca);
+  gpu.backward(pg, gb);
+  EXPECT_LE(relativeError(ca.position, gb.position), 1e-4f);
+  EXPECT_LE(relativeError(ca.log_scale, gb.log_scale), 1e-4f);
+  EXPECT_LE(relativeError(ca.rotation, gb.rotation), 1e-4f);
+  EXPECT_LE(relativeError(ca.opacity_logit, gb.opacity_logit), 1e-4f);
+  EXPECT_LE(relativeError(ca.sh, gb.sh), 1e-4f);
+  EXPECT_LE(relativeError(ca.mean2d_norm, gb.mean2d_norm), 1e-4f);
+  for (int k = 0; k < 6; ++k) EXPECT_NEAR(ca.pose[k], gb.pose[k], 1e-4f * std::max(1.f, std::abs(ca.pose[k])));
+  std::printf("[ report ] %s: %zu visible, %zu tile entries, image diff %.1e, position gradient rel. error %.1e\n",
+              thresholds ? "thresholds" : "smooth", cpu.numVisible(), cpu.numTileEntries(), maxAbsDiff(a.color, b.color),
+              relativeError(ca.position, gb.position));
+}
+
+TEST(CudaKernelBodies, GpuPipelineOnTheCpuMatchesTheRasterizerSmooth) { compareWithCpu(false); }
+TEST(CudaKernelBodies, GpuPipelineOnTheCpuMatchesTheRasterizerWithThresholds) { compareWithCpu(true); }
+
+TEST(CudaKernelBodies, EmptySceneWritesTheBackground) {
+  EmulatedGpuRasterizer gpu{RasterSettings()};
+  RenderResult<float> out;
+  gpu.forward(Scene().view(), view(), out);
+  for (float x : out.alpha) ASSERT_EQ(x, 0.f);
+  for (float x : out.color) ASSERT_EQ(x, 0.f);
+  GaussianGrads<float> g;
+  gpu.backward(PixelGrads<float>{}, g);
+  EXPECT_TRUE(g.position.empty());
+}
+
+// Tile keys order by tile first, then by depth (the IEEE bits of positive floats).
+TEST(CudaKernelBodies, TileKeysOrderByTileThenDepth) {
+  EXPECT_LT(body::tileKey(3, 5.f), body::tileKey(4, 0.1f));
+  EXPECT_LT(body::tileKey(3, 0.5f), body::tileKey(3, 0.50001f));
+  EXPECT_LT(body::tileKey(0, 0.06f), body::tileKey(0, 100.f));
+}
+
+// The loss body's pixel gradients are the derivative of its sums (away from the kinks of |x|),
+// with and without the exposure; masked pixels and pixels without depth get none.
+TEST(CudaKernelBodies, LossGradientsAreTheDerivativeOfTheLoss) {
+  const int W = 4, H = 3, npix = W * H;
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<float> u(0.1f, 0.9f);
+  std::vector<float> color(3 * npix), depth(npix), alpha(npix), t_rgb(3 * npix), t_depth(npix);
+  std::vector<std::uint8_t> mask(npix, 1);
+  for (auto* v : {&color, &t_rgb}) for (float& x : *v) x = u(rng);
+  for (float& x : depth) x = 1.f + u(rng);
+  for (float& x : t_depth) x = 1.f + u(rng);
+  for (float& x : alpha) x = u(rng);
+  mask[5] = 0;
+  t_depth[7] = 0.f;
+  for (int exposure = 0; exposure < 2; ++exposure) {
+    body::LossParams L{};
+    L.npix = npix;
+    L.wc = 0.1f;
+    L.wd = 0.2f;
+    L.wa = 0.05f;
+    L.exposure = exposure;
+    for (int c = 0; c < 3; ++c) {
+      L.gain[c] = exposure ? 1.2f : 1.f;
+      L.offset[c] = exposure ? 0.05f : 0.f;
+    }
+    auto loss = [&](const std::vector<float>& c, const std::vector<float>& d, const std::vector<float>& a,
+                    std::vector<float>* gc, std::vector<float>* gd, std::vector<float>* ga) {
+      std::vector<float> g1(3 * npix), g2(npix), g3(npix);
+      float sums[body::kLossSums] = {};
+      for (int i = 0; i < npix; ++i)
+        body::l1LossPixel(i, L, c.data(), d.data(), a.data(), t_rgb.data(), t_depth.data(), mask.data(), g1.data(),
+                          g2.data(), g3.data(), sums);
+      if (gc) *gc = g1;
+      if (gd) *gd = g2;
+      if (ga) *ga = g3;
+      // The weights are per-value gradient magnitudes: loss = wc sum|c| + wd sum|d| + wa sum(1 - a).
+      return L.wc * sums[0] + L.wd * sums[1] + L.wa * sums[2];
+    };
+    std::vector<float> gc, gd, ga;
+    loss(color, depth, alpha, &gc, &gd, &ga);
+    const float h = 1e-3f;
+    for (int i = 0; i < npix; ++i) {
+      std::vector<float> c2 = color;
+      c2[i] += h;
+      const float num = (loss(c2, depth, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      EXPECT_NEAR(gc[i], num, 2e-3f) << "colour pixel " << i << " exposure " << exposure;
+      std::vector<float> d2 = depth;
+      d2[i] += h;
+      const float numd = (loss(color, d2, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      EXPECT_NEAR(gd[i], numd, 2e-3f) << "depth pixel " << i;
+      std::vector<float> a2 = alpha;
+      a2[i] += h;
+      const float numa = (loss(color, depth, a2, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      EXPECT_NEAR(ga[i], numa, 2e-3f) << "alpha pixel " << i;
+    }
+    EXPECT_EQ(gc[5], 0.f);  // masked
+    EXPECT_EQ(gd[5], 0.f);
+    EXPECT_EQ(gd[7], 0.f);  // no depth
+    EXPECT_EQ(ga[7], 0.f);
+  }
+}
+
+// Adam body: the SH block's first three values of a row (DC) take the main step, the rest the
+// SH-rest step.
+TEST(CudaKernelBodies, AdamUsesTheShRestStepAfterTheDcCoefficients) {
+  AdamStepSizes s;
+  s.step[4] = 1.f;
+  s.step_sh_rest = 0.f;
+  s.inv_c2 = 1.f;
+  std::vector<float> g(24, 1.f), x(24, 0.f), m(24, 0.f), v(24, 0.f);
+  for (std::size_t i = 0; i < 24; ++i) body::adam(i, 12, true, s, 4, g.data(), x.data(), m.data(), v.data());
+  for (std::size_t i = 0; i < 24; ++i) {
+    if (i % 12 < 3) {
+      EXPECT_LT(x[i], 0.f) << i;
+    } else {
+      EXPECT_EQ(x[i], 0.f) << i;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace dypho::mapping
