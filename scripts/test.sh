@@ -31,6 +31,12 @@ if grep -q ": Skipped$" Testing/Temporary/LastTest.log 2>/dev/null; then
   echo "test.sh: tests that skipped themselves, and why:"
   grep -h -A1 ": Skipped$" Testing/Temporary/LastTest.log | grep -v -- "^--$" | sed 's/^/  /'
 fi
+# The standalone mapping build (rasterizers and CUDA parity tests without ROS/OpenCV, what a GPU
+# machine builds: scripts/gpu_check.sh): it must keep compiling, CUDA included where nvcc exists.
+STANDALONE="$BUILD-standalone"
+{ cmake -S "$ROOT/dypho_mapping/standalone" -B "$STANDALONE" > "$BUILD/standalone-configure.log" 2>&1 &&
+  cmake --build "$STANDALONE" -j "${DYPHO_JOBS:-$(nproc)}" > "$BUILD/standalone-build.log" 2>&1 &&
+  (cd "$STANDALONE" && ctest --output-on-failure); } || { echo "test.sh: standalone mapping build or tests failed (logs in $BUILD)"; status=1; }
 # The ROS-free cores and unit tests again, built with plain CMake under ASan + UBSan (leaks too),
 # then a short run of each libFuzzer target on its seed corpus (longer runs: scripts/fuzz.sh).
 bash "$ROOT/scripts/test_sanitized.sh" "$BUILD-sanitized" || status=1
