@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "dypho/mapping/rasterizer.h"
+#include "dypho/mapping/ssim_loss.h"
 #include "gaussian_params_storage.h"
 #include "kernel_bodies.h"
 
@@ -355,6 +356,259 @@ TEST(CudaKernelBodies, AdamUsesTheShRestStepAfterTheDcCoefficients) {
       EXPECT_EQ(x[i], 0.f) << i;
     }
   }
+}
+
+/// Training state on the host in the device layout (blocks of rows; widths 3, 3, 4, 1, 3).
+struct HostState {
+  std::vector<float> params[5], m[5], v[5];
+  std::vector<float> accum;
+  std::vector<int> count;
+  std::size_t n = 0;
+  static constexpr int kWidths[5] = {3, 3, 4, 1, 3};
+  body::StateBlocks blocks() {
+    body::StateBlocks b{};
+    for (int p = 0; p < 5; ++p) {
+      b.params[p] = params[p].data();
+      b.m[p] = m[p].data();
+      b.v[p] = v[p].data();
+      b.widths[p] = kWidths[p];
+    }
+    return b;
+  }
+  void add(float x, float log_scale, float opacity_logit, float grad_sum, int grad_count) {
+    const float row[5][4] = {{x, 0.f, 2.f}, {log_scale, log_scale - 1.f, log_scale - 2.f}, {0.9f, 0.1f, 0.2f, 0.3f},
+                             {opacity_logit}, {0.1f, 0.2f, 0.3f}};
+    for (int p = 0; p < 5; ++p) {
+      params[p].insert(params[p].end(), row[p], row[p] + kWidths[p]);
+      m[p].insert(m[p].end(), kWidths[p], 0.5f);  // non-zero moments: kept rows must keep them
+      v[p].insert(v[p].end(), kWidths[p], 0.25f);
+    }
+    accum.push_back(grad_sum);
+    count.push_back(grad_count);
+    ++n;
+  }
+};
+
+/// CudaTrainer::densifyAndPrune's kernels in order, on the CPU.
+DensifyOutcome emulateDensify(HostState& st, const DensifySettings& s, std::size_t capacity) {
+  DensifyOutcome out;
+  const std::size_t n0 = st.n;
+  std::vector<std::uint32_t> children(n0), offsets(n0);
+  for (std::size_t i = 0; i < n0; ++i) children[i] = body::densifyChildren(i, st.accum.data(), st.count.data(), st.params[1].data(), s);
+  std::exclusive_scan(children.begin(), children.end(), offsets.begin(), 0u);
+  const std::size_t wanted = offsets.back() + children.back(), room = capacity > n0 ? capacity - n0 : 0;
+  const std::size_t added = std::min(wanted, room);
+  out.capacity_hit = wanted > room;
+  const std::size_t n1 = n0 + added;
+  for (int p = 0; p < 5; ++p) {
+    st.params[p].resize(n1 * HostState::kWidths[p], -99.f);
+    st.m[p].resize(n1 * HostState::kWidths[p], -99.f);
+    st.v[p].resize(n1 * HostState::kWidths[p], -99.f);
+  }
+  out.parents.assign(added, 0xffffffffu);
+  std::vector<std::uint8_t> split_done(n0);
+  const body::StateBlocks b = st.blocks();
+  for (std::size_t i = 0; i < n0; ++i) {  // spawnKernel
+    for (std::uint32_t k = 0; k < children[i] && offsets[i] + k < added; ++k) {
+      body::spawnChild(i, k, children[i] == 2, n0 + offsets[i] + k, b, s.seed);
+      out.parents[offsets[i] + k] = static_cast<std::uint32_t>(i);
+    }
+    split_done[i] = children[i] == 2 && offsets[i] + 1 < added;
+  }
+  out.remove.resize(n1);
+  std::vector<std::uint32_t> keep(n1), keep_offsets(n1);
+  for (std::size_t r = 0; r < n1; ++r) {  // pruneKernel
+    out.remove[r] = body::pruned(r, r < n0 && split_done[r], b, s) ? 1 : 0;
+    keep[r] = out.remove[r] ? 0 : 1;
+  }
+  std::exclusive_scan(keep.begin(), keep.end(), keep_offsets.begin(), 0u);
+  const std::size_t kept = keep_offsets.back() + keep.back();
+  HostState dst;
+  for (int p = 0; p < 5; ++p) {
+    dst.params[p].resize(kept * HostState::kWidths[p]);
+    dst.m[p].resize(kept * HostState::kWidths[p]);
+    dst.v[p].resize(kept * HostState::kWidths[p]);
+  }
+  const body::StateBlocks d = dst.blocks();
+  for (std::size_t r = 0; r < n1; ++r)  // compactKernel
+    if (!out.remove[r]) body::moveRow(r, keep_offsets[r], b, d);
+  dst.n = kept;
+  dst.accum.assign(kept, 0.f);
+  dst.count.assign(kept, 0);
+  st = dst;
+  return out;
+}
+
+// GaussianTrainer::densifyAndPrune's rules: small and above the gradient threshold -> one exact
+// copy; large -> two displaced halves 1.6x smaller and the parent removed when both fit; below the
+// threshold or never visible -> nothing; transparent -> removed. Children are appended in parent
+// order, and the capacity cuts them where the host loop stops (a split that does not fit keeps
+// its parent). New rows start with zero Adam moments, kept rows keep theirs.
+TEST(CudaKernelBodies, DensifyAndPruneFollowTheHostRules) {
+  HostState st;
+  const float small = std::log(0.01f), large = std::log(0.1f);
+  st.add(0.f, small, 2.f, 1.f, 10);   // 0: clone
+  st.add(1.f, large, 2.f, 1.f, 10);   // 1: split
+  st.add(2.f, small, 2.f, 1e-5f, 10); // 2: below the threshold
+  st.add(3.f, small, 2.f, 1.f, 0);    // 3: never visible
+  st.add(4.f, small, -10.f, 0.f, 0);  // 4: transparent: pruned
+  st.add(5.f, large, 2.f, 1.f, 10);   // 5: split, but no room left
+  DensifySettings s;
+  s.grad_threshold = 2e-4f;
+  s.log_split_scale = std::log(0.02f);
+  s.min_opacity_logit = std::log(0.005f / 0.995f);
+  s.max_log_scale = std::log(0.3f);
+  s.seed = 12345u;
+  const HostState before = st;
+  const DensifyOutcome o = emulateDensify(st, s, 9);  // room for 3 of the 5 children
+  EXPECT_TRUE(o.capacity_hit);
+  ASSERT_EQ(o.parents, (std::vector<std::uint32_t>{0, 1, 1}));
+  ASSERT_EQ(o.remove, (std::vector<std::uint8_t>{0, 1, 0, 0, 1, 0, 0, 0, 0}));
+  ASSERT_EQ(st.n, 7u);  // rows 0, 2, 3, 5, clone of 0, two halves of 1
+  const int kept_old[4] = {0, 2, 3, 5};
+  for (int r = 0; r < 4; ++r)
+    for (int p = 0; p < 5; ++p)
+      for (int c = 0; c < HostState::kWidths[p]; ++c) {
+        const int w = HostState::kWidths[p];
+        EXPECT_EQ(st.params[p][r * w + c], before.params[p][kept_old[r] * w + c]);
+        EXPECT_EQ(st.m[p][r * w + c], 0.5f);
+        EXPECT_EQ(st.v[p][r * w + c], 0.25f);
+      }
+  for (int p = 0; p < 5; ++p)  // the clone: an exact copy of Gaussian 0 with zero moments
+    for (int c = 0; c < HostState::kWidths[p]; ++c) {
+      const int w = HostState::kWidths[p];
+      EXPECT_EQ(st.params[p][4 * w + c], before.params[p][c]);
+      EXPECT_EQ(st.m[p][4 * w + c], 0.f);
+      EXPECT_EQ(st.v[p][4 * w + c], 0.f);
+    }
+  for (int half = 5; half <= 6; ++half) {  // the halves of Gaussian 1
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(st.params[1][half * 3 + c], before.params[1][3 + c] - std::log(1.6f), 1e-6f);
+    float moved = 0.f;
+    for (int c = 0; c < 3; ++c) moved += std::abs(st.params[0][half * 3 + c] - before.params[0][3 + c]);
+    EXPECT_GT(moved, 0.f);
+    EXPECT_LT(moved, 3.f * 5.f * 0.1f);  // within 5 standard deviations (0.1 m) per axis
+    EXPECT_EQ(st.params[3][half], before.params[3][1]);
+  }
+  EXPECT_NE(st.params[0][5 * 3], st.params[0][6 * 3]);  // two different samples
+}
+
+// The split offsets' samples are standard normal (mean 0, variance 1) and differ per axis.
+TEST(CudaKernelBodies, SplitSamplesAreStandardNormal) {
+  double sum = 0.0, sum2 = 0.0, cross = 0.0;
+  const int n = 20000;
+  for (int i = 0; i < n; ++i) {
+    const double a = body::normalSample(7u, static_cast<std::uint32_t>(i), 0, 0);
+    const double b = body::normalSample(7u, static_cast<std::uint32_t>(i), 0, 1);
+    sum += a;
+    sum2 += a * a;
+    cross += a * b;
+  }
+  EXPECT_NEAR(sum / n, 0.0, 0.03);    // 4 standard errors (1/sqrt(n) = 0.007)
+  EXPECT_NEAR(sum2 / n, 1.0, 0.05);   // standard error of the variance sqrt(2/n) = 0.01
+  EXPECT_NEAR(cross / n, 0.0, 0.03);  // independent axes
+}
+
+// The device SSIM passes (horizontal, vertical with the per-pixel SSIM, adjoint horizontal,
+// adjoint vertical with the gradient), run in kernel order, give SsimLoss's value and gradient.
+TEST(CudaKernelBodies, SsimPassesMatchSsimLoss) {
+  const int W = 37, H = 23;  // odd sizes: windows cut by every border
+  const std::size_t npix = static_cast<std::size_t>(W) * H;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u01(0.f, 1.f);
+  std::vector<float> shown(3 * npix), target(3 * npix);
+  for (float& x : shown) x = u01(rng);
+  for (std::size_t i = 0; i < 3 * npix; ++i) target[i] = 0.7f * shown[i] + 0.3f * u01(rng);
+  std::vector<std::uint8_t> mask(npix, 1);
+  for (int v = 5; v < 12; ++v)
+    for (int u = 10; u < 20; ++u) mask[v * W + u] = 0;  // a person
+  std::size_t n_static = 0;
+  for (std::uint8_t m : mask) n_static += m;
+  const float weight = 0.7f;
+  SsimLoss<float> reference(nullptr);
+  std::vector<float> grad_ref(3 * npix, 0.f);
+  const double mean_ref = reference.compute(shown.data(), target.data(), mask.data(), W, W, H, weight, grad_ref.data());
+
+  const body::SsimImages im{shown.data(), target.data(), mask.data(), W, H};
+  const ssim::Taps<float> taps = ssim::windowTaps<float>();
+  std::vector<float> h[5], terms[3];
+  for (auto& x : h) x.resize(3 * npix);
+  for (auto& x : terms) x.resize(3 * npix);
+  auto forEach = [&](auto&& fn) {
+    for (int c = 0; c < 3; ++c)
+      for (int v = 0; v < H; ++v)
+        for (int u = 0; u < W; ++u) fn(c, v, u, c * npix + static_cast<std::size_t>(v) * W + u);
+  };
+  forEach([&](int c, int v, int u, std::size_t i) {  // ssimHorizontalKernel
+    float out[5];
+    body::ssimHorizontal(im, taps, c, v, u, out);
+    for (int j = 0; j < 5; ++j) h[j][i] = out[j];
+  });
+  double sum = 0.0;
+  forEach([&](int c, int v, int u, std::size_t i) {  // ssimVerticalKernel
+    float acc[5];
+    for (int j = 0; j < 5; ++j) acc[j] = body::verticalAt(h[j].data(), taps, c, v, u, W, H);
+    const float m = mask[v * W + u] ? 1.f : 0.f;
+    const ssim::PixelSsim<float> px = ssim::pixelSsim(acc[0], acc[1], acc[2], acc[3], acc[4], m);
+    terms[0][i] = px.p0;
+    terms[1][i] = px.p1;
+    terms[2][i] = px.p2;
+    sum += m * px.S;
+  });
+  forEach([&](int c, int v, int u, std::size_t i) {  // ssimAdjointHorizontalKernel
+    for (int j = 0; j < 3; ++j) h[j][i] = body::horizontalAt(terms[j].data(), taps, c, v, u, W, H);
+  });
+  std::vector<float> grad(3 * npix, 0.f);
+  const float scale = -weight / static_cast<float>(3 * n_static);
+  forEach([&](int c, int v, int u, std::size_t i) {  // ssimGradientKernel
+    if (!mask[v * W + u]) return;
+    float G[3];
+    for (int j = 0; j < 3; ++j) G[j] = body::verticalAt(h[j].data(), taps, c, v, u, W, H);
+    float x, y;
+    body::ssimXY(im, c, v, u, x, y);
+    grad[i] += ssim::ssimGradient(scale, G[0], G[1], G[2], x, y);
+  });
+  const double mean = sum / (3.0 * n_static);
+  EXPECT_NEAR(mean, mean_ref, 1e-6);
+  EXPECT_GT(mean_ref, 0.3);  // a real comparison: neither identical images nor noise
+  EXPECT_LT(mean_ref, 0.99);
+  EXPECT_LE(relativeError(grad_ref, grad), 1e-4f);
+}
+
+// With an SSIM term the exposure's chain rule runs after it: the deferred path (L1 without the
+// chain, then exposureChain) gives exactly the fused path's gradients and exposure sums.
+TEST(CudaKernelBodies, DeferredExposureChainEqualsTheFusedOne) {
+  const int npix = 50;
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(0.1f, 0.9f);
+  std::vector<float> color(3 * npix), depth(npix), alpha(npix), t_rgb(3 * npix), t_depth(npix);
+  std::vector<std::uint8_t> mask(npix, 1);
+  for (auto* v : {&color, &t_rgb, &alpha}) for (float& x : *v) x = u(rng);
+  for (float& x : depth) x = 1.f + u(rng);
+  for (float& x : t_depth) x = 1.f + u(rng);
+  mask[3] = 0;
+  body::LossParams L{};
+  L.npix = npix;
+  L.wc = 0.1f;
+  L.wd = 0.2f;
+  L.wa = 0.05f;
+  L.exposure = 1;
+  for (int c = 0; c < 3; ++c) {
+    L.gain[c] = 1.1f + 0.1f * c;
+    L.offset[c] = 0.02f * c;
+  }
+  std::vector<float> gc1(3 * npix), gc2(3 * npix), gd(npix), ga(npix), shown(3 * npix);
+  float fused[body::kLossSums] = {}, deferred[body::kLossSums] = {};
+  for (int i = 0; i < npix; ++i)
+    body::l1LossPixel(i, L, color.data(), depth.data(), alpha.data(), t_rgb.data(), t_depth.data(), mask.data(),
+                      gc1.data(), gd.data(), ga.data(), fused);
+  L.defer_exposure = 1;
+  for (int i = 0; i < npix; ++i)
+    body::l1LossPixel(i, L, color.data(), depth.data(), alpha.data(), t_rgb.data(), t_depth.data(), mask.data(),
+                      gc2.data(), gd.data(), ga.data(), deferred, shown.data());
+  for (int i = 0; i < npix; ++i) body::exposureChain(i, L, shown.data(), gc2.data(), deferred);
+  for (int k = 0; k < body::kLossSums; ++k) EXPECT_NEAR(deferred[k], fused[k], 1e-5f * (1.f + std::abs(fused[k]))) << k;
+  for (int i = 0; i < 3 * npix; ++i) EXPECT_FLOAT_EQ(gc2[i], gc1[i]) << i;
+  for (int i = 0; i < 3 * npix; ++i) EXPECT_FLOAT_EQ(shown[i], L.gain[i / npix] * color[i] + L.offset[i / npix]);
 }
 
 }  // namespace

@@ -7,9 +7,11 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <memory>
 
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/gaussian_mapper.h"
+#include "dypho/mapping/map_renderer.h"
 #include "plane_keyframe.h"
 
 namespace dypho::mapping {
@@ -73,6 +75,42 @@ void compareDevices(double ssim_weight) {
 TEST(CudaTraining, HundredIterationsEndWithinHalfADecibelOfTheCpu) { compareDevices(0.0); }
 
 TEST(CudaTraining, SsimTermThroughTheHostLossAlsoMatches) { compareDevices(0.5); }
+
+/// `n` small Gaussians on a plane 2 m ahead, one colour.
+std::shared_ptr<const GaussianMap> planeMap(float red, int n) {
+  auto map = std::make_shared<GaussianMap>(0, n);
+  for (int i = 0; i < n; ++i) {
+    GaussianInit g;
+    g.position_w = Eigen::Vector3f(-1.f + 2.f * (i % 20) / 19.f, -0.8f + 1.6f * (i / 20) / 19.f, 2.f);
+    g.log_scale = Eigen::Vector3f::Constant(std::log(0.05f));
+    g.opacity_logit = 2.f;
+    g.sh = {rgbToShDc(red), rgbToShDc(0.5f), rgbToShDc(0.2f)};
+    map->add(g);
+  }
+  return map;
+}
+
+// Renders of map snapshots on the GPU keep the latest snapshot on the device: switching between
+// two snapshots and back renders each as the CPU does (no stale parameters).
+TEST(CudaTraining, SnapshotRendersOnTheGpuMatchTheCpu) {
+  std::string reason;
+  if (cudaDeviceCount(&reason) <= 0) GTEST_SKIP() << "no CUDA device: " << reason;
+  const std::shared_ptr<const GaussianMap> a = planeMap(0.9f, 400), b = planeMap(0.1f, 400);
+  const CameraIntrinsics cam = test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10).frame.camera;
+  MapRenderer cpu(1, ComputeDevice::kCpu), gpu(1, ComputeDevice::kCuda);
+  for (const auto& map : {a, b, a, b}) {
+    const RenderedView c = cpu.render(map, Eigen::Isometry3d::Identity(), cam);
+    const RenderedView g = gpu.render(map, Eigen::Isometry3d::Identity(), cam);
+    cv::Mat diff;
+    cv::absdiff(c.bgr, g.bgr, diff);
+    double worst = 0.0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+    EXPECT_LE(worst, 1.0);  // 8-bit colour: rounding of values within 1e-4
+    cv::absdiff(c.depth_m, g.depth_m, diff);
+    cv::minMaxLoc(diff, nullptr, &worst);
+    EXPECT_LE(worst, 1e-3);  // depth D / alpha [m], alpha >= 0.5
+  }
+}
 
 }  // namespace
 }  // namespace dypho::mapping

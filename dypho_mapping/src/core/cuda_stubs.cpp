@@ -14,6 +14,8 @@ CudaRasterizer::CudaRasterizer(const RasterSettings&) {
 }
 CudaRasterizer::~CudaRasterizer() = default;
 void CudaRasterizer::forward(const GaussianParamsView<float>&, const gs::PinholeView<float>&, RenderResult<float>&) {}
+void CudaRasterizer::setParams(const GaussianParamsView<float>&) {}
+void CudaRasterizer::forwardUploaded(const gs::PinholeView<float>&, RenderResult<float>&) {}
 void CudaRasterizer::backward(const PixelGrads<float>&, GaussianGrads<float>&) {}
 DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>&, const gs::PinholeView<float>&) { return {}; }
 DeviceGrads CudaRasterizer::backwardOnDevice(const PixelGrads<float>&, float*) { return {}; }
@@ -45,9 +47,10 @@ void CudaTrainer::dropTarget(std::int64_t) {}
 void CudaTrainer::clearTargets() {}
 DeviceImages CudaTrainer::render(const gs::PinholeView<float>&) { return {}; }
 void CudaTrainer::downloadRender(RenderResult<float>&) {}
-CudaLossResult CudaTrainer::l1Loss(std::int64_t, double, double, const float*) { return {}; }
+CudaLossResult CudaTrainer::loss(std::int64_t, double, double, double, const float*) { return {}; }
 void CudaTrainer::setPixelGrads(const float*, const float*, const float*) {}
 void CudaTrainer::backwardAndStep(const AdamStepSizes&) {}
+DensifyOutcome CudaTrainer::densifyAndPrune(const DensifySettings&, std::size_t) { return {}; }
 CudaRasterizer& CudaTrainer::rasterizer() { throw std::logic_error("CudaTrainer: built without CUDA"); }
 
 }  // namespace dypho::mapping

@@ -76,6 +76,8 @@ struct GaussianTrainer {
   /// One Adam step on `kf`'s exposure from exposure_grad.
   void stepExposure(TrainingKeyframe& kf);
   void densifyAndPrune();
+  /// densifyAndPrune() on the device (CudaTrainer), the host copy following in structure.
+  void densifyAndPruneOnDevice();
   void resetOpacity();
   const Undistorter& undistorter(const CameraIntrinsics& camera);
   /// Renders the map into `out` with `raster` (pinhole camera, distortion ignored).

@@ -96,18 +96,10 @@ double GaussianTrainer::iterateCuda(TrainingKeyframe& kf, bool fixed_exposure) {
     cuda->setTarget(kf.id, W, H, target_rgb.data(), target_depth.data(), target_mask.data());
   }
   cuda->render(makePinholeView<float>(kf.T_world_camera, kf.camera));
-  double loss = 0.0;
-  if (options.ssim_weight > 0.0) {
-    // The SSIM term runs on the host (SsimLoss): the loss and its pixel gradients go up.
-    cuda->downloadRender(train_out);
-    loss = lossAndGradient(kf, train_out);
-    cuda->setPixelGrads(pix_gc.data(), pix_gd.data(), pix_ga.data());
-  } else {
-    const CudaLossResult r = cuda->l1Loss(kf.id, options.lambda_depth, options.alpha_weight,
-                                          options.exposure_compensation ? kf.exposure : nullptr);
-    loss = r.loss;
-    std::copy(r.exposure_grad, r.exposure_grad + 6, exposure_grad);
-  }
+  const CudaLossResult r = cuda->loss(kf.id, options.lambda_depth, options.alpha_weight, options.ssim_weight,
+                                      options.exposure_compensation ? kf.exposure : nullptr);
+  const double loss = r.loss;
+  std::copy(r.exposure_grad, r.exposure_grad + 6, exposure_grad);
   if (options.exposure_compensation && !fixed_exposure) stepExposure(kf);
   cuda->backwardAndStep(adam.nextStep());
   current = Current::kDevice;
@@ -285,9 +277,10 @@ double GaussianTrainer::iterate(bool all_keyframes) {
   last_loss = loss;
   const bool densify = options.densify_interval > 0 && iterations % options.densify_interval == 0;
   const bool reset = options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0;
-  if (densify || reset) {
-    syncToHost();  // structural edits run on the host copy
-    if (densify) densifyAndPrune();
+  if (densify && cuda) densifyAndPruneOnDevice();
+  if ((densify && !cuda) || reset) {
+    syncToHost();  // edits of the host copy
+    if (densify && !cuda) densifyAndPrune();
     if (reset) resetOpacity();
     hostChanged();
   }
@@ -358,6 +351,30 @@ void GaussianTrainer::densifyAndPrune() {
   map.removeIf(remove);
   grad_accum.assign(map.size(), 0.f);
   grad_count.assign(map.size(), 0);
+}
+
+void GaussianTrainer::densifyAndPruneOnDevice() {
+  if (current == Current::kHost) {
+    cuda->upload(stateView());
+    current = Current::kBoth;
+  }
+  DensifySettings s;
+  s.grad_threshold = static_cast<float>(options.densify_grad_threshold);
+  s.log_split_scale = std::log(static_cast<float>(options.densify_scale_threshold_m));
+  s.min_opacity_logit = std::log(static_cast<float>(options.prune_min_opacity) / (1.f - static_cast<float>(options.prune_min_opacity)));
+  s.max_log_scale = std::log(static_cast<float>(options.prune_max_scale_m));
+  s.seed = static_cast<std::uint32_t>(rng());
+  const DensifyOutcome o = cuda->densifyAndPrune(s, options.max_gaussians);
+  if (o.capacity_hit) ++capacity_hits;
+  // The host copy follows in structure only (ids, anchors, sizes): its values are stale until
+  // the next syncToHost(), which the device state (now the newer one) overwrites them with.
+  for (const std::uint32_t parent : o.parents) map.duplicate(parent);
+  adam.resize(map);
+  adam.compact(map, o.remove);
+  map.removeIf(o.remove);
+  grad_accum.assign(map.size(), 0.f);
+  grad_count.assign(map.size(), 0);
+  current = Current::kDevice;
 }
 
 void GaussianTrainer::resetOpacity() {

@@ -26,12 +26,32 @@ MapRenderer::MapRenderer(int num_threads, ComputeDevice device)
 
 RenderedView MapRenderer::render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
                                  const CameraIntrinsics& camera) {
+  return renderImpl(map, nullptr, T_world_camera, camera);
+}
+
+RenderedView MapRenderer::render(const std::shared_ptr<const GaussianMap>& snapshot,
+                                 const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
+  if (!snapshot) throw std::invalid_argument("MapRenderer::render: null map snapshot");
+  return renderImpl(*snapshot, &snapshot, T_world_camera, camera);
+}
+
+cv::Mat MapRenderer::renderDepth(const std::shared_ptr<const GaussianMap>& snapshot,
+                                 const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
+  return render(snapshot, T_world_camera, camera).depth_m;
+}
+
+RenderedView MapRenderer::renderImpl(const GaussianMap& map, const std::shared_ptr<const GaussianMap>* snapshot,
+                                     const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
   if (!camera.valid()) throw std::invalid_argument("MapRenderer::render: invalid camera intrinsics");
   if (!T_world_camera.matrix().allFinite()) throw std::invalid_argument("MapRenderer::render: pose is not finite");
   CameraIntrinsics pinhole = camera;
   pinhole.distortion = {0, 0, 0, 0, 0};
   if (cuda_) {
-    cuda_->forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
+    if (snapshot == nullptr || *snapshot != on_device_) {
+      cuda_->setParams(paramsView(map));
+      on_device_ = snapshot != nullptr ? *snapshot : nullptr;
+    }
+    cuda_->forwardUploaded(makePinholeView<float>(T_world_camera, pinhole), out_);
   } else {
     raster_.forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
   }

@@ -77,7 +77,7 @@ cv::Mat MappingStage::predictedDepth(Timestamp stamp_ns, const CameraIntrinsics&
   cv::Mat depth;
   {
     std::lock_guard<std::mutex> lock(render_mutex_);
-    depth = renderer_.renderDepth(*snapshot.map, *T_world_predicted, camera);
+    depth = renderer_.renderDepth(snapshot.map, *T_world_predicted, camera);
   }
   std::lock_guard<std::mutex> lock(mutex_);
   ++counters_.predicted_depth_rendered;
@@ -95,7 +95,7 @@ RenderedView MappingStage::renderView(const Eigen::Isometry3d& T_world_camera, c
   const MapSnapshot snapshot = gaussians_.latestSnapshot();
   if (!snapshot.map || snapshot.map->size() == 0 || !camera.valid()) return RenderedView();
   std::lock_guard<std::mutex> lock(render_mutex_);
-  return renderer_.render(*snapshot.map, T_world_camera, camera);
+  return renderer_.render(snapshot.map, T_world_camera, camera);
 }
 
 double MappingStage::finish(std::optional<double> budget_s) {

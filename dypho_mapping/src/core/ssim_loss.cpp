@@ -1,6 +1,8 @@
 /// Masked SSIM and its gradient (see ssim_loss.h for the definition).
 #include "dypho/mapping/ssim_loss.h"
 
+#include "dypho/mapping/ssim_math.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -41,13 +43,9 @@ void convolveColumn(const T* plane, int W, int H, int v, const T* taps, T* out) 
 
 template <typename T>
 SsimLoss<T>::SsimLoss(ThreadPool* pool) : pool_(pool) {
-  double w[kWindow], sum = 0.0;
-  for (int k = 0; k < kWindow; ++k) {
-    const double d = k - kRadius;
-    w[k] = std::exp(-d * d / (2.0 * kSigmaPx * kSigmaPx));
-    sum += w[k];
-  }
-  for (int k = 0; k < kWindow; ++k) taps_[k] = static_cast<T>(w[k] / sum);
+  static_assert(kWindow == ssim::kWindow, "one window");
+  const ssim::Taps<T> taps = ssim::windowTaps<T>();
+  for (int k = 0; k < kWindow; ++k) taps_[k] = taps.t[k];
 }
 
 template <typename T>
@@ -95,7 +93,6 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
       for (int r = 0; r < 3 * H; ++r) fn(r, 0);
     }
   };
-  const T c1 = static_cast<T>(kC1), c2 = static_cast<T>(kC2);
   const std::size_t pad_len = static_cast<std::size_t>(W + 2 * kRadius);
 
   // 1. Composite x' = M x + (1 - M) y; horizontal pass of x', y, x'^2, y^2, x'y.
@@ -132,21 +129,14 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
     const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
     double sum = 0.0;
     for (int u = 0; u < W; ++u) {
-      const T mx = acc[u], my = acc[W + u];
-      const T sxx = acc[2 * W + u] - mx * mx, syy = acc[3 * W + u] - my * my, sxy = acc[4 * W + u] - mx * my;
-      const T a = 2 * mx * my + c1, b = 2 * sxy + c2, cc = mx * mx + my * my + c1, d = sxx + syy + c2;
-      const T inv_cd = T(1) / (cc * d);
-      const T S = a * b * inv_cd;
-      if (ssim_map) ssim_map[row + u] = S;
-      if (s[u]) sum += static_cast<double>(S);
+      const ssim::PixelSsim<T> px =
+          ssim::pixelSsim(acc[u], acc[W + u], acc[2 * W + u], acc[3 * W + u], acc[4 * W + u], s[u] ? T(1) : T(0));
+      if (ssim_map) ssim_map[row + u] = px.S;
+      if (s[u]) sum += static_cast<double>(px.S);
       if (want_grad) {
-        const T m = s[u] ? T(1) : T(0);
-        const T dmx = 2 * my * b * inv_cd - S * 2 * mx / cc;
-        const T dsxx = -S / d;
-        const T dsxy = 2 * a * inv_cd;
-        p_[0][row + u] = m * (dmx - 2 * mx * dsxx - my * dsxy);
-        p_[1][row + u] = m * dsxx;
-        p_[2][row + u] = m * dsxy;
+        p_[0][row + u] = px.p0;
+        p_[1][row + u] = px.p1;
+        p_[2][row + u] = px.p2;
       }
     }
     row_sum_[r] = sum;
@@ -177,7 +167,7 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
     const T* y = y_.data() + row;
     for (int u = 0; u < W; ++u) {
       if (!s[u]) continue;
-      grad[row + u] += scale * (acc[u] + 2 * x[u] * acc[W + u] + y[u] * acc[2 * W + u]);
+      grad[row + u] += ssim::ssimGradient(scale, acc[u], acc[W + u], acc[2 * W + u], x[u], y[u]);
     }
   });
   return mean;

@@ -36,6 +36,14 @@ class DeviceBuffer {
   /// Room for `n` elements, keeping the first `keep` (<= current capacity) elements.
   T* reserveKeep(std::size_t n, std::size_t keep, cudaStream_t stream);
   T* get() const { return ptr_; }
+  void swap(DeviceBuffer& other) {
+    T* p = ptr_;
+    ptr_ = other.ptr_;
+    other.ptr_ = p;
+    const std::size_t c = capacity_;
+    capacity_ = other.capacity_;
+    other.capacity_ = c;
+  }
   std::size_t capacity() const { return capacity_; }
 
  private:

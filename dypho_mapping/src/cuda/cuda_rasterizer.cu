@@ -134,6 +134,8 @@ struct CudaRasterizer::Impl {
   int tiles_x = 0, tiles_y = 0;
   std::size_t num_entries = 0, num_visible = 0;
   bool have_forward = false;
+  GaussianParamsView<float> uploaded{};  ///< device copies of the last setParams()
+  bool have_uploaded = false;
   // Host-API copies of the parameters and pixel gradients.
   cuda::DeviceBuffer<float> up_pos, up_log_scale, up_rot, up_opacity, up_sh, up_gc, up_gd, up_ga;
   // Forward.
@@ -349,12 +351,11 @@ void download(std::vector<float>& dst, const float* src, std::size_t count, cuda
 
 }  // namespace
 
-void CudaRasterizer::forward(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view,
-                             RenderResult<float>& out) {
+void CudaRasterizer::setParams(const GaussianParamsView<float>& params) {
   Impl& m = *impl_;
   cudaStream_t st = m.stream;
   if (params.count < 0 || params.sh_degree < 0 || params.sh_degree > gs::kMaxShDegree) {
-    throw std::invalid_argument("CudaRasterizer::forward: bad Gaussian count or SH degree");
+    throw std::invalid_argument("CudaRasterizer::setParams: bad Gaussian count or SH degree");
   }
   const std::size_t n = static_cast<std::size_t>(params.count);
   const std::size_t K3 = 3 * static_cast<std::size_t>(gs::shCoeffCount(params.sh_degree));
@@ -363,13 +364,21 @@ void CudaRasterizer::forward(const GaussianParamsView<float>& params, const gs::
   upload(m.up_rot, params.rotation, 4 * n, st);
   upload(m.up_opacity, params.opacity_logit, n, st);
   upload(m.up_sh, params.sh, K3 * n, st);
-  GaussianParamsView<float> device = params;
-  device.position = m.up_pos.get();
-  device.log_scale = m.up_log_scale.get();
-  device.rotation = m.up_rot.get();
-  device.opacity_logit = m.up_opacity.get();
-  device.sh = m.up_sh.get();
-  const DeviceImages images = forwardOnDevice(device, view);
+  DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));  // the host arrays may change after the call
+  m.uploaded = params;
+  m.uploaded.position = m.up_pos.get();
+  m.uploaded.log_scale = m.up_log_scale.get();
+  m.uploaded.rotation = m.up_rot.get();
+  m.uploaded.opacity_logit = m.up_opacity.get();
+  m.uploaded.sh = m.up_sh.get();
+  m.have_uploaded = true;
+}
+
+void CudaRasterizer::forwardUploaded(const gs::PinholeView<float>& view, RenderResult<float>& out) {
+  Impl& m = *impl_;
+  if (!m.have_uploaded) throw std::logic_error("CudaRasterizer::forwardUploaded called before setParams");
+  cudaStream_t st = m.stream;
+  const DeviceImages images = forwardOnDevice(m.uploaded, view);
   const std::size_t npix = static_cast<std::size_t>(images.width) * images.height;
   out.width = images.width;
   out.height = images.height;
@@ -377,6 +386,12 @@ void CudaRasterizer::forward(const GaussianParamsView<float>& params, const gs::
   download(out.depth, images.depth, npix, st);
   download(out.alpha, images.alpha, npix, st);
   DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+}
+
+void CudaRasterizer::forward(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view,
+                             RenderResult<float>& out) {
+  setParams(params);
+  forwardUploaded(view, out);
 }
 
 void CudaRasterizer::backward(const PixelGrads<float>& grads, GaussianGrads<float>& out) {

@@ -13,7 +13,9 @@
 
 #include "dypho/mapping/adam_math.h"
 #include "dypho/mapping/blend_steps.h"
+#include "dypho/mapping/cuda_trainer.h"
 #include "dypho/mapping/raster_types.h"
+#include "dypho/mapping/ssim_math.h"
 
 namespace dypho::mapping::cuda_body {
 
@@ -235,19 +237,30 @@ struct LossParams {
   float wc, wd, wa;          ///< per-value gradient magnitudes: (1-lambda)/(3 nc), lambda/nd, alpha_weight/nd
   float gain[3], offset[3];  ///< exposure exp(k_c), b_c
   int exposure;              ///< 1 when the exposure is applied
+  /// 1 when an SSIM term follows: the colour gradients stay w.r.t. the shown (exposed) colour and
+  /// the exposure's chain rule runs after it (exposureChain), as the host loss does.
+  int defer_exposure;
 };
 
 /// Number of sums of the loss: |colour|, |depth|, 1 - alpha, d gain[3], d offset[3].
 constexpr int kLossSums = 9;
 
 /// Loss terms and pixel gradients of pixel i; adds its sums to `sums`.
+/// With `shown` not null, the colour the loss compares (exp(k) C_r + b, or C_r) is written there
+/// ([3, H, W], every pixel) for the SSIM term.
 DYPHO_HOST_DEVICE inline void l1LossPixel(int i, const LossParams& L, const float* color, const float* depth,
                                           const float* alpha, const float* t_rgb, const float* t_depth,
                                           const std::uint8_t* mask, float* g_color, float* g_depth, float* g_alpha,
-                                          float sums[kLossSums]) {
+                                          float sums[kLossSums], float* shown_out = nullptr) {
   const std::size_t n = static_cast<std::size_t>(L.npix);
   float gd = 0.f, ga = 0.f;
   float gc[3] = {0.f, 0.f, 0.f};
+  if (shown_out != nullptr) {
+    for (int ch = 0; ch < 3; ++ch) {
+      const float rendered = color[ch * n + i];
+      shown_out[ch * n + i] = L.exposure ? L.gain[ch] * rendered + L.offset[ch] : rendered;
+    }
+  }
   if (mask[i] != 0) {
     for (int ch = 0; ch < 3; ++ch) {
       const float rendered = color[ch * n + i];
@@ -255,7 +268,7 @@ DYPHO_HOST_DEVICE inline void l1LossPixel(int i, const LossParams& L, const floa
       const float diff = shown - t_rgb[ch * n + i];
       sums[0] += diff < 0.f ? -diff : diff;
       float g = diff > 0.f ? L.wc : (diff < 0.f ? -L.wc : 0.f);
-      if (L.exposure) {
+      if (L.exposure && !L.defer_exposure) {
         sums[3 + ch] += g * (shown - L.offset[ch]);  // d(exp(k) x + b)/dk = exp(k) x
         sums[6 + ch] += g;
         g *= L.gain[ch];
@@ -276,6 +289,79 @@ DYPHO_HOST_DEVICE inline void l1LossPixel(int i, const LossParams& L, const floa
   g_alpha[i] = ga;
 }
 
+/// The exposure's chain rule at pixel i after every colour term (deferred): dL/dk_c, dL/db_c
+/// summed into sums[3..8], and the colour gradient taken back through the gain.
+DYPHO_HOST_DEVICE inline void exposureChain(int i, const LossParams& L, const float* shown, float* g_color,
+                                            float sums[kLossSums]) {
+  const std::size_t n = static_cast<std::size_t>(L.npix);
+  for (int ch = 0; ch < 3; ++ch) {
+    const float g = g_color[ch * n + i];
+    sums[3 + ch] += g * (shown[ch * n + i] - L.offset[ch]);
+    sums[6 + ch] += g;
+    g_color[ch * n + i] = g * L.gain[ch];
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The SSIM term on the device (SsimLoss's passes, ssim_math.h's per-pixel math), over the planes
+// [3, H, W]: (c, v, u) is channel, row, column.
+
+/// The images the SSIM term compares: x' = static ? shown : target, y = target.
+struct SsimImages {
+  const float* shown;         ///< [3, H, W] the colour the loss compares
+  const float* target;        ///< [3, H, W]
+  const std::uint8_t* mask;   ///< [H, W] non-zero = static
+  int width, height;
+};
+
+DYPHO_HOST_DEVICE inline void ssimXY(const SsimImages& im, int c, int v, int u, float& x, float& y) {
+  const std::size_t npix = static_cast<std::size_t>(im.width) * im.height;
+  const std::size_t i = c * npix + static_cast<std::size_t>(v) * im.width + u;
+  y = im.target[i];
+  x = im.mask[static_cast<std::size_t>(v) * im.width + u] != 0 ? im.shown[i] : y;
+}
+
+/// Horizontal window pass at (c, v, u) of x', y, x'^2, y^2, x'y (zero outside the image).
+DYPHO_HOST_DEVICE inline void ssimHorizontal(const SsimImages& im, const ssim::Taps<float>& taps, int c, int v, int u,
+                                             float out[5]) {
+  for (int j = 0; j < 5; ++j) out[j] = 0.f;
+  for (int k = 0; k < ssim::kWindow; ++k) {
+    const int uu = u + k - ssim::kRadius;
+    if (uu < 0 || uu >= im.width) continue;
+    float x, y;
+    ssimXY(im, c, v, uu, x, y);
+    const float t = taps.t[k];
+    out[0] += t * x;
+    out[1] += t * y;
+    out[2] += t * (x * x);
+    out[3] += t * (y * y);
+    out[4] += t * (x * y);
+  }
+}
+
+/// Horizontal window pass of one plane set at (c, v, u) (zero outside the image).
+DYPHO_HOST_DEVICE inline float horizontalAt(const float* planes, const ssim::Taps<float>& taps, int c, int v, int u,
+                                            int width, int height) {
+  const std::size_t row = c * static_cast<std::size_t>(width) * height + static_cast<std::size_t>(v) * width;
+  float acc = 0.f;
+  for (int k = 0; k < ssim::kWindow; ++k) {
+    const int uu = u + k - ssim::kRadius;
+    if (uu >= 0 && uu < width) acc += taps.t[k] * planes[row + uu];
+  }
+  return acc;
+}
+
+/// Vertical window pass of one plane set at (c, v, u) (rows outside the image left out).
+DYPHO_HOST_DEVICE inline float verticalAt(const float* planes, const ssim::Taps<float>& taps, int c, int v, int u,
+                                          int width, int height) {
+  const std::size_t plane = c * static_cast<std::size_t>(width) * height;
+  const int k0 = ssim::kRadius - v > 0 ? ssim::kRadius - v : 0;
+  const int k1 = height - v + ssim::kRadius < ssim::kWindow ? height - v + ssim::kRadius : ssim::kWindow;
+  float acc = 0.f;
+  for (int k = k0; k < k1; ++k) acc += taps.t[k] * planes[plane + static_cast<std::size_t>(v + k - ssim::kRadius) * width + u];
+  return acc;
+}
+
 /// Adam on value i of a parameter block of rows of `width` (SH block: DC first, then the rest).
 DYPHO_HOST_DEVICE inline void adam(std::size_t i, int width, bool is_sh, const AdamStepSizes& s, int block,
                                    const float* grad, float* x, float* m, float* v) {
@@ -288,6 +374,95 @@ DYPHO_HOST_DEVICE inline void statistics(std::size_t i, const float* norm, float
   if (!(norm[i] > 0.f)) return;
   accum[i] += norm[i];
   count[i] += 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Densify and prune on the device (GaussianTrainer::densifyAndPrune's rules): Gaussians whose mean
+// screen-space gradient reaches the threshold are cloned (small) or split in two (large); then
+// transparent, too large or non-finite ones are removed, and the split parents. New rows are
+// appended in parent order, so a capacity limit cuts them exactly where the host loop stops.
+
+/// The training state's blocks on one side (parameters and Adam moments; widths per block).
+struct StateBlocks {
+  float* params[5];
+  float* m[5];
+  float* v[5];
+  int widths[5];
+};
+
+using mapping::DensifySettings;
+
+/// Children of Gaussian i: 0 none, 1 a clone, 2 the halves of a split.
+DYPHO_HOST_DEVICE inline std::uint32_t densifyChildren(std::size_t i, const float* accum, const int* count,
+                                                       const float* log_scale, const DensifySettings& s) {
+  if (count[i] == 0 || accum[i] / static_cast<float>(count[i]) < s.grad_threshold) return 0;
+  const float* ls = log_scale + 3 * i;
+  float m = ls[0] > ls[1] ? ls[0] : ls[1];
+  m = m > ls[2] ? m : ls[2];
+  return m <= s.log_split_scale ? 1u : 2u;
+}
+
+/// A standard normal sample, a function of (seed, i, k, axis) only (hash, then Box-Muller).
+DYPHO_HOST_DEVICE inline float normalSample(std::uint32_t seed, std::uint32_t i, std::uint32_t k, std::uint32_t axis) {
+  auto hash = [](std::uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+  };
+  const std::uint32_t h1 = hash(seed ^ hash(i * 8u + k * 4u + axis + 0x9e3779b9U));
+  const std::uint32_t h2 = hash(h1 ^ 0x85ebca6bU);
+  const float u1 = (static_cast<float>(h1 >> 8) + 1.f) * (1.f / 16777217.f);  // (0, 1]
+  const float u2 = static_cast<float>(h2 >> 8) * (1.f / 16777216.f);         // [0, 1)
+  return std::sqrt(-2.f * std::log(u1)) * std::cos(6.2831853071795865f * u2);
+}
+
+/// Writes child k of Gaussian i into row `row`: a copy with zero moments; a split child is
+/// displaced by R (s . n) (n standard normal) and shrunk by 1.6.
+DYPHO_HOST_DEVICE inline void spawnChild(std::size_t i, std::uint32_t k, bool split, std::size_t row,
+                                         const StateBlocks& b, std::uint32_t seed) {
+  for (int p = 0; p < 5; ++p) {
+    const int w = b.widths[p];
+    for (int c = 0; c < w; ++c) {
+      b.params[p][row * w + c] = b.params[p][i * w + c];
+      b.m[p][row * w + c] = 0.f;
+      b.v[p][row * w + c] = 0.f;
+    }
+  }
+  if (!split) return;
+  const float* ls = b.params[1] + 3 * i;
+  const gs::Mat3<float> R = gs::quatToRotation(b.params[2] + 4 * i);
+  float local[3];
+  for (int a = 0; a < 3; ++a) local[a] = std::exp(ls[a]) * normalSample(seed, static_cast<std::uint32_t>(i), k, a);
+  for (int a = 0; a < 3; ++a) {
+    b.params[0][row * 3 + a] += R.m[a][0] * local[0] + R.m[a][1] * local[1] + R.m[a][2] * local[2];
+    b.params[1][row * 3 + a] -= std::log(1.6f);
+  }
+}
+
+/// True when row r is to be removed: a split parent whose both halves fit (`split_done`), or
+/// transparent, too large or with a non-finite position.
+DYPHO_HOST_DEVICE inline bool pruned(std::size_t r, bool split_done, const StateBlocks& b, const DensifySettings& s) {
+  if (split_done) return true;
+  const float* ls = b.params[1] + 3 * r;
+  float m = ls[0] > ls[1] ? ls[0] : ls[1];
+  m = m > ls[2] ? m : ls[2];
+  const float x = b.params[0][3 * r];
+  return b.params[3][r] < s.min_opacity_logit || m > s.max_log_scale || !(x == x) || !(x - x == 0.f);
+}
+
+/// Copies kept row r to its place `dst_row` in the compacted blocks.
+DYPHO_HOST_DEVICE inline void moveRow(std::size_t r, std::size_t dst_row, const StateBlocks& src, const StateBlocks& dst) {
+  for (int p = 0; p < 5; ++p) {
+    const int w = src.widths[p];
+    for (int c = 0; c < w; ++c) {
+      dst.params[p][dst_row * w + c] = src.params[p][r * w + c];
+      dst.m[p][dst_row * w + c] = src.m[p][r * w + c];
+      dst.v[p][dst_row * w + c] = src.v[p][r * w + c];
+    }
+  }
 }
 
 }  // namespace dypho::mapping::cuda_body

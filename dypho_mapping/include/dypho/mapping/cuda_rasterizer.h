@@ -56,6 +56,11 @@ class CudaRasterizer {
   /// Remembers the view for the next backward(); the parameters are copied, so the host arrays
   /// may change after the call.
   void forward(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view, RenderResult<float>& out);
+  /// Uploads host parameters for forwardUploaded() (they stay on the device until the next
+  /// setParams or forward): renders of one map from many poses upload it once.
+  void setParams(const GaussianParamsView<float>& params);
+  /// forward() of the parameters of the last setParams() (or forward()).
+  void forwardUploaded(const gs::PinholeView<float>& view, RenderResult<float>& out);
   /// Host pixel gradients in (null = zero), host parameter gradients out.
   void backward(const PixelGrads<float>& grads, GaussianGrads<float>& out);
 

@@ -2,19 +2,19 @@
 /// \file cuda_trainer.h
 /// The device side of GaussianTrainer's iteration: the map's parameters, their Adam moments and
 /// the densification statistics live on the GPU; one iteration is render -> masked L1 colour +
-/// depth (+ opacity) loss -> backward -> Adam -> statistics, all on the device, with only the
-/// loss and the six exposure gradients copied back. Structural edits (seeding, densify and prune,
-/// pose corrections, opacity reset) stay on the host: GaussianTrainer downloads the state, edits
-/// it and uploads it again (see gaussian_trainer.h for when).
+/// depth (+ opacity, + SSIM) loss -> backward -> Adam -> statistics, all on the device, with only
+/// the loss and the six exposure gradients copied back; densify and prune run there too. Seeding,
+/// pose corrections and the opacity reset stay on the host: GaussianTrainer downloads the state,
+/// edits it and uploads it again (see gaussian_trainer.h for when).
 ///
-/// The loss is the CPU path's (GaussianTrainer::lossAndGradient) term by term; the SSIM term is
-/// computed on the host from the downloaded render, and its pixel gradients uploaded
-/// (setPixelGrads), when ssim_weight > 0. Header free of CUDA types (compiles in every build);
-/// without CUDA the constructor throws.
+/// The loss is the CPU path's (GaussianTrainer::lossAndGradient) term by term, the optional SSIM
+/// term included (ssim_math.h's per-pixel math, SsimLoss's passes). Header free of CUDA types
+/// (compiles in every build); without CUDA the constructor throws.
 
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "dypho/mapping/adam_math.h"
 #include "dypho/mapping/cuda_rasterizer.h"
@@ -34,6 +34,24 @@ struct TrainingStateView {
   float* second_moment[kTrainingBlocks] = {};
   float* grad_accum = nullptr;  ///< [count] summed screen-space gradient norms
   int* grad_count = nullptr;    ///< [count] iterations with a gradient
+};
+
+/// The densify and prune rules (GaussianMapperOptions: densify_grad_threshold,
+/// log(densify_scale_threshold_m), logit(prune_min_opacity), log(prune_max_scale_m)).
+struct DensifySettings {
+  float grad_threshold = 0.f;     ///< mean |dL/dmean2d| at or above which a Gaussian is densified [1/px]
+  float log_split_scale = 0.f;    ///< largest log std dev above which it is split, else cloned
+  float min_opacity_logit = 0.f;  ///< pruned below this opacity logit
+  float max_log_scale = 0.f;      ///< pruned above this largest log std dev
+  std::uint32_t seed = 0;         ///< of the split offsets
+};
+
+/// What densifyAndPrune did, for the host's bookkeeping of ids and anchors (GaussianMap): append
+/// a duplicate of each parent in order, then remove the flagged rows.
+struct DensifyOutcome {
+  std::vector<std::uint32_t> parents;  ///< parent row of each appended Gaussian, in order
+  std::vector<std::uint8_t> remove;    ///< [rows before + appended] 1 = removed afterwards
+  bool capacity_hit = false;           ///< some children did not fit under the capacity
 };
 
 /// Loss of one iteration and dL/d(exposure) (gain k_c, offset b_c; zeros when exposure is off).
@@ -69,17 +87,24 @@ class CudaTrainer {
   DeviceImages render(const gs::PinholeView<float>& view);
   /// Copies the last render to the host.
   void downloadRender(RenderResult<float>& out);
-  /// The masked L1 loss of the last render against target `id` (the size must match) and its
-  /// pixel gradients on the device: (1 - lambda) mean |Mc(exp(k) C_r + b - C)| over static
-  /// pixels and channels + (lambda mean |M(D_r - D)| + alpha_weight mean M(1 - A)) over static
-  /// pixels with depth. `exposure` (6 values: k_rgb, b_rgb) or null for identity.
-  CudaLossResult l1Loss(std::int64_t id, double lambda_depth, double alpha_weight, const float* exposure);
+  /// The loss of the last render against target `id` (the size must match) and its pixel
+  /// gradients on the device, GaussianTrainer::lossAndGradient term by term: (1 - lambda) mean
+  /// |Mc(exp(k) C_r + b - C)| over static pixels and channels + (lambda mean |M(D_r - D)| +
+  /// alpha_weight mean M(1 - A)) over static pixels with depth + ssim_weight (1 - masked SSIM)
+  /// (ssim_loss.h; 0 = off). `exposure` (6 values: k_rgb, b_rgb) or null for identity.
+  CudaLossResult loss(std::int64_t id, double lambda_depth, double alpha_weight, double ssim_weight,
+                      const float* exposure);
   /// Replaces the device pixel gradients by host ones (planar [3, H, W], [H, W], [H, W] of the
   /// last render's size; null = zero).
   void setPixelGrads(const float* color, const float* depth, const float* alpha);
   /// Backward of the last render with the current pixel gradients, one Adam step with `step`,
   /// and the densification statistics (grad_accum += |dL/dmean2d|, grad_count += 1 where > 0).
   void backwardAndStep(const AdamStepSizes& step);
+
+  /// Densify and prune on the device (GaussianTrainer::densifyAndPrune's rules and order: new
+  /// Gaussians appended in parent order up to `capacity` Gaussians in all, split offsets from
+  /// `settings.seed`); resets the densification statistics. The device state shrinks or grows.
+  DensifyOutcome densifyAndPrune(const DensifySettings& settings, std::size_t capacity);
 
   CudaRasterizer& rasterizer();
 

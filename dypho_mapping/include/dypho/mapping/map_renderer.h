@@ -36,8 +36,8 @@ struct RenderedView {
 class MapRenderer {
  public:
   /// `num_threads` >= 1 (the caller included).
-  /// With `device` kCuda the renders run on the GPU (CudaRasterizer; the map is uploaded per
-  /// render), else on the CPU with `num_threads` threads.
+  /// With `device` kCuda the renders run on the GPU (CudaRasterizer), else on the CPU with
+  /// `num_threads` threads.
   explicit MapRenderer(int num_threads = 1, ComputeDevice device = ComputeDevice::kCpu);
 
   /// Colour, depth and alpha of `map` seen from `T_world_camera` through `camera` (its size and
@@ -47,13 +47,25 @@ class MapRenderer {
   /// Depth only (CV_32FC1 [m], 0 = nothing rendered): R_d(G, T).
   cv::Mat renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
                       const CameraIntrinsics& camera);
+  /// The same for an immutable snapshot (MapSnapshot::map): on the GPU a snapshot is uploaded
+  /// once and kept on the device while it stays the latest one rendered (the live map, above,
+  /// is uploaded per render).
+  RenderedView render(const std::shared_ptr<const GaussianMap>& snapshot, const Eigen::Isometry3d& T_world_camera,
+                      const CameraIntrinsics& camera);
+  cv::Mat renderDepth(const std::shared_ptr<const GaussianMap>& snapshot, const Eigen::Isometry3d& T_world_camera,
+                      const CameraIntrinsics& camera);
 
  private:
   ThreadPool pool_;
   Rasterizer<float> raster_;
   std::unique_ptr<CudaRasterizer> cuda_;  ///< set for ComputeDevice::kCuda
+  /// Renders `out_` (the GPU: `snapshot` when it is the uploaded one, else uploads `map`).
+  RenderedView renderImpl(const GaussianMap& map, const std::shared_ptr<const GaussianMap>* snapshot,
+                          const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
+
   RenderResult<float> out_;
   UndistortedRayCache rays_;
+  std::shared_ptr<const GaussianMap> on_device_;  ///< the snapshot whose parameters cuda_ holds
 };
 
 /// The parameter view the rasterizer reads (no copy).

@@ -23,6 +23,8 @@
 
 #include "dypho/mapping/thread_pool.h"
 
+#include "dypho/mapping/ssim_math.h"
+
 namespace dypho::mapping {
 
 /// Masked SSIM with gradient. Templated on the scalar: float in the mapper, double for the
@@ -30,10 +32,10 @@ namespace dypho::mapping {
 template <typename T>
 class SsimLoss {
  public:
-  static constexpr int kWindow = 11;      ///< taps of the Gaussian window
-  static constexpr double kSigmaPx = 1.5; ///< its standard deviation [px]
-  static constexpr double kC1 = 0.01 * 0.01;
-  static constexpr double kC2 = 0.03 * 0.03;
+  static constexpr int kWindow = ssim::kWindow;       ///< taps of the Gaussian window
+  static constexpr double kSigmaPx = ssim::kSigmaPx;  ///< its standard deviation [px]
+  static constexpr double kC1 = ssim::kC1;
+  static constexpr double kC2 = ssim::kC2;
 
   /// `pool` (not owned, may be null = single-threaded) runs the row loops.
   explicit SsimLoss(ThreadPool* pool);
