@@ -43,12 +43,21 @@ AddKeyframeResult GaussianMapper::addKeyframe(const Keyframe& keyframe) {
   return r;
 }
 
+void GaussianMapper::reportDeviceFallback() {
+  if (fallback_reported_ || trainer_->device_fallback.empty()) return;
+  fallback_reported_ = true;
+  device_ = ComputeDevice::kCpu;
+  device_message_ = trainer_->device_fallback;
+  report(device_message_);
+}
+
 double GaussianMapper::optimize(int iterations) {
   double sum = 0.0;
   int n = 0;
   for (int i = 0; i < iterations; ++i) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double l = trainer_->iterate();
+    reportDeviceFallback();
     if (l < 0) break;
     sum += l;
     ++n;
@@ -72,7 +81,9 @@ bool GaussianMapper::idleStep() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (trainer_->keyframes.empty()) return false;
-    if (trainer_->iterate() < 0) return false;
+    const double l = trainer_->iterate();
+    reportDeviceFallback();
+    if (l < 0) return false;
   }
   // Renders (rviz views, R_d) follow the idle training about once a second.
   const auto now = std::chrono::steady_clock::now();
@@ -178,6 +189,7 @@ double GaussianMapper::finish(std::optional<double> budget_s) {
   for (int i = 0; i < options_.final_refine_iterations && within_budget(); ++i) {
     std::lock_guard<std::mutex> lock(mutex_);
     const double l = trainer_->iterate(/*all_keyframes=*/true);
+    reportDeviceFallback();
     if (l < 0) break;
     sum += l;
     ++n;

@@ -65,6 +65,9 @@ struct GaussianTrainer {
   void syncToHost();
   /// Marks the host training state as edited: the next GPU iteration uploads it.
   void hostChanged();
+  /// After a CUDA failure: training goes on on the CPU from the host copy as last synced
+  /// (its structure is always current), and `device_fallback` says why.
+  void leaveGpu(const std::string& reason);
 
   GaussianParamsView<float> params() const;
   /// Seeds a validated keyframe (see GaussianMapper::addKeyframe).
@@ -94,6 +97,7 @@ struct GaussianTrainer {
   GaussianMapperOptions options;
   ComputeDevice device = ComputeDevice::kCpu;
   std::unique_ptr<CudaTrainer> cuda;  ///< set when device is kCuda
+  std::string device_fallback;        ///< why training left the GPU (empty: it did not)
   /// Where the training state is current: both, the host only (edited), the device only (trained).
   enum class Current { kBoth, kHost, kDevice } current = Current::kBoth;
   std::vector<float> target_rgb;      ///< scratch: a keyframe's planar RGB for CudaTrainer::setTarget

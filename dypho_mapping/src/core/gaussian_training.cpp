@@ -1,6 +1,7 @@
 /// GaussianTrainer: loss, one optimisation iteration, densification, pruning, opacity reset.
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "gaussian_trainer.h"
 #include "dypho/mapping/map_renderer.h"
@@ -57,7 +58,19 @@ TrainingStateView GaussianTrainer::stateView() {
 
 void GaussianTrainer::syncToHost() {
   if (!cuda || current != Current::kDevice) return;
-  cuda->download(stateView());
+  try {
+    cuda->download(stateView());
+    current = Current::kBoth;
+  } catch (const std::runtime_error& e) {
+    leaveGpu(e.what());
+  }
+}
+
+void GaussianTrainer::leaveGpu(const std::string& reason) {
+  device_fallback = "CUDA training failed (" + reason +
+                    "); training continues on the CPU from the map as last copied from the GPU";
+  cuda.reset();
+  device = ComputeDevice::kCpu;
   current = Current::kBoth;
 }
 
@@ -257,7 +270,12 @@ double GaussianTrainer::iterate(bool all_keyframes) {
 
   double loss = 0.0;
   if (cuda) {
-    loss = iterateCuda(kf, fixed_exposure);
+    try {
+      loss = iterateCuda(kf, fixed_exposure);
+    } catch (const std::runtime_error& e) {  // CUDA errors; bad input is std::invalid_argument
+      leaveGpu(e.what());
+      return -1.0;
+    }
   } else {
     renderPinhole(kf.T_world_camera, kf.camera, raster, train_out);
     loss = lossAndGradient(kf, train_out);
@@ -277,7 +295,13 @@ double GaussianTrainer::iterate(bool all_keyframes) {
   last_loss = loss;
   const bool densify = options.densify_interval > 0 && iterations % options.densify_interval == 0;
   const bool reset = options.opacity_reset_interval > 0 && iterations % options.opacity_reset_interval == 0;
-  if (densify && cuda) densifyAndPruneOnDevice();
+  if (densify && cuda) {
+    try {
+      densifyAndPruneOnDevice();
+    } catch (const std::runtime_error& e) {
+      leaveGpu(e.what());  // the host structure is still the one before this densify
+    }
+  }
   if ((densify && !cuda) || reset) {
     syncToHost();  // edits of the host copy
     if (densify && !cuda) densifyAndPrune();

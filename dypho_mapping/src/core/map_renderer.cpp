@@ -20,7 +20,7 @@ GaussianParamsView<float> paramsView(const GaussianMap& map) {
 }
 
 MapRenderer::MapRenderer(int num_threads, ComputeDevice device)
-    : pool_(device == ComputeDevice::kCuda ? 1 : num_threads),
+    : pool_(num_threads),  // also the fallback after a CUDA failure
       raster_(&pool_),
       cuda_(device == ComputeDevice::kCuda ? std::make_unique<CudaRasterizer>() : nullptr) {}
 
@@ -46,15 +46,23 @@ RenderedView MapRenderer::renderImpl(const GaussianMap& map, const std::shared_p
   if (!T_world_camera.matrix().allFinite()) throw std::invalid_argument("MapRenderer::render: pose is not finite");
   CameraIntrinsics pinhole = camera;
   pinhole.distortion = {0, 0, 0, 0, 0};
+  bool rendered = false;
   if (cuda_) {
-    if (snapshot == nullptr || *snapshot != on_device_) {
-      cuda_->setParams(paramsView(map));
-      on_device_ = snapshot != nullptr ? *snapshot : nullptr;
+    try {
+      if (snapshot == nullptr || *snapshot != on_device_) {
+        on_device_.reset();
+        cuda_->setParams(paramsView(map));
+        on_device_ = snapshot != nullptr ? *snapshot : nullptr;
+      }
+      cuda_->forwardUploaded(makePinholeView<float>(T_world_camera, pinhole), out_);
+      rendered = true;
+    } catch (const std::runtime_error& e) {  // a CUDA failure: the CPU renders from now on
+      device_fallback_ = std::string("CUDA render failed (") + e.what() + "); rendering on the CPU";
+      cuda_.reset();
+      on_device_.reset();
     }
-    cuda_->forwardUploaded(makePinholeView<float>(T_world_camera, pinhole), out_);
-  } else {
-    raster_.forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
   }
+  if (!rendered) raster_.forward(paramsView(map), makePinholeView<float>(T_world_camera, pinhole), out_);
   const RenderResult<float>& r = out_;
   const std::size_t npix = static_cast<std::size_t>(r.width) * r.height;
   RenderedView view;

@@ -178,8 +178,12 @@ class GaussianMapper {
 
   GaussianMapperOptions options_;
   std::unique_ptr<GaussianTrainer> trainer_;  ///< guarded by mutex_
+  /// Reports (once) that training left the GPU after a CUDA failure; call under mutex_.
+  void reportDeviceFallback();
+
   ComputeDevice device_ = ComputeDevice::kCpu;
   std::string device_message_;
+  bool fallback_reported_ = false;
   mutable std::unique_ptr<MapRenderer> renderer_;  ///< renders of the live map, guarded by mutex_
   mutable std::mutex mutex_;
   std::size_t corrected_ = 0;  ///< guarded by mutex_

@@ -10,6 +10,7 @@
 /// Not thread-safe: one renderer per thread.
 
 #include <memory>
+#include <string>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -54,6 +55,8 @@ class MapRenderer {
                       const CameraIntrinsics& camera);
   cv::Mat renderDepth(const std::shared_ptr<const GaussianMap>& snapshot, const Eigen::Isometry3d& T_world_camera,
                       const CameraIntrinsics& camera);
+  /// Why renders left the GPU after a CUDA failure (they continue on the CPU); empty if they did not.
+  const std::string& deviceFallback() const { return device_fallback_; }
 
  private:
   ThreadPool pool_;
@@ -66,6 +69,7 @@ class MapRenderer {
   RenderResult<float> out_;
   UndistortedRayCache rays_;
   std::shared_ptr<const GaussianMap> on_device_;  ///< the snapshot whose parameters cuda_ holds
+  std::string device_fallback_;                   ///< why renders left the GPU (empty: they did not)
 };
 
 /// The parameter view the rasterizer reads (no copy).
