@@ -3,6 +3,7 @@
 ///
 ///   mapping_bench_cuda [--counts 10000,100000,1000000] [--size 640x480] [--repeats 20]
 ///                      [--threads 16] [--cpu-max 1000000] [--train-seconds 5]
+///                      [--frames FILE]
 ///
 /// Part 1, per Gaussian count: median wall time of forward, backward and forward+backward on the
 /// GPU (device arrays in and out, synchronised; --repeats runs after one warm-up) and on the CPU
@@ -10,7 +11,12 @@
 /// times (CUDA events). Part 2: training at 100k Gaussians against a target image of the room
 /// (the map starts from perturbed colours, opacities and positions): iterations per second of
 /// render + masked L1 loss + backward + Adam on each path, and the colour PSNR each reaches in
-/// the same wall time (--train-seconds). Builds in the standalone mapping build (no ROS, no OpenCV).
+/// the same wall time (--train-seconds). Part 3, with --frames (a file from export_training_frames,
+/// e.g. the shared Bonn crowd frames): a map seeded from the frames' depth (about 100k Gaussians),
+/// trained round-robin on them with the mapper's loss (masked L1 colour + depth + opacity, lambda
+/// 0.7, alpha weight 0.1; no densification) for the same wall time on each path: iterations per
+/// second and the mean colour PSNR over the frames. Builds in the standalone mapping build (no ROS,
+/// no OpenCV).
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -23,9 +29,12 @@
 #include <vector>
 
 #include "dypho/mapping/adam_math.h"
+#include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/cuda_rasterizer.h"
 #include "dypho/mapping/cuda_trainer.h"
 #include "dypho/mapping/rasterizer.h"
+#include "kernel_bodies.h"
+#include "training_frames.h"
 
 using namespace dypho::mapping;
 using Clock = std::chrono::steady_clock;
@@ -167,12 +176,180 @@ Scene perturbed(const Scene& s, std::mt19937& rng) {
   return p;
 }
 
+/// A map of SH degree 0 in GaussianParamsView layout.
+struct Map0 {
+  int n = 0;
+  std::vector<float> block[5];  // widths 3, 3, 4, 1, 3
+  GaussianParamsView<float> view() const {
+    GaussianParamsView<float> v;
+    v.position = block[0].data();
+    v.log_scale = block[1].data();
+    v.rotation = block[2].data();
+    v.opacity_logit = block[3].data();
+    v.sh = block[4].data();
+    v.count = n;
+    v.sh_degree = 0;
+    return v;
+  }
+};
+
+gs::PinholeView<float> frameView(const dypho::bench::TrainingFrames& t, const dypho::bench::TrainingFrame& f) {
+  gs::PinholeView<float> v{};
+  v.width = t.width;
+  v.height = t.height;
+  v.fx = static_cast<float>(t.fx);
+  v.fy = static_cast<float>(t.fy);
+  v.cx = static_cast<float>(t.cx);
+  v.cy = static_cast<float>(t.cy);
+  const double* T = f.T_world_camera;
+  for (int i = 0; i < 3; ++i) {
+    v.center_w[i] = static_cast<float>(T[4 * i + 3]);
+    for (int j = 0; j < 3; ++j) v.R_cw[i][j] = static_cast<float>(T[4 * j + i]);  // R^T
+  }
+  for (int i = 0; i < 3; ++i) {
+    double t_cw = 0.0;
+    for (int j = 0; j < 3; ++j) t_cw -= T[4 * j + i] * T[4 * j + 3];
+    v.t_cw[i] = static_cast<float>(t_cw);
+  }
+  return v;
+}
+
+/// Part 3: training on real frames, the same wall time on the CPU and the GPU.
+void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& cpu, bool with_gpu) {
+  const dypho::bench::TrainingFrames tf = dypho::bench::readTrainingFrames(path);
+  const int W = tf.width, H = tf.height;
+  const std::size_t npix = static_cast<std::size_t>(W) * H, nf = tf.frames.size();
+  std::vector<gs::PinholeView<float>> views;
+  std::size_t valid = 0;
+  for (const auto& f : tf.frames) {
+    views.push_back(frameView(tf, f));
+    for (float d : f.depth_m) valid += d > 0.f;
+  }
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid) / 100000.0))));
+  const float C0 = 0.28209479177387814f;
+  Map0 start;
+  for (const auto& f : tf.frames) {
+    const double* T = f.T_world_camera;
+    for (int v = 0; v < H; v += stride)
+      for (int u = 0; u < W; u += stride) {
+        const std::size_t p = static_cast<std::size_t>(v) * W + u;
+        const float d = f.depth_m[p];
+        if (!(d > 0.f)) continue;
+        const double pc[3] = {(u - tf.cx) / tf.fx * d, (v - tf.cy) / tf.fy * d, d};
+        for (int i = 0; i < 3; ++i)
+          start.block[0].push_back(static_cast<float>(T[4 * i] * pc[0] + T[4 * i + 1] * pc[1] + T[4 * i + 2] * pc[2] + T[4 * i + 3]));
+        const float ls = std::log(static_cast<float>(d / tf.fx * stride * 0.5));
+        start.block[1].insert(start.block[1].end(), {ls, ls, ls});
+        start.block[2].insert(start.block[2].end(), {1.f, 0.f, 0.f, 0.f});
+        start.block[3].push_back(0.f);
+        for (int ch = 0; ch < 3; ++ch) start.block[4].push_back((f.rgb[ch * npix + p] - 0.5f) / C0);
+        ++start.n;
+      }
+  }
+  std::vector<std::uint8_t> mask(npix, 1);
+  auto lossParams = [&](const dypho::bench::TrainingFrame& f) {
+    std::size_t nd = 0;
+    for (float d : f.depth_m) nd += d > 0.f;
+    cuda_body::LossParams L{};
+    L.npix = static_cast<int>(npix);
+    L.wc = static_cast<float>(0.3 / (3.0 * npix));
+    L.wd = nd > 0 ? static_cast<float>(0.7 / nd) : 0.f;
+    L.wa = nd > 0 ? static_cast<float>(0.1 / nd) : 0.f;
+    for (int c = 0; c < 3; ++c) L.gain[c] = 1.f;
+    return L;
+  };
+  auto meanPsnr = [&](auto&& render) {
+    double sum = 0.0;
+    RenderResult<float> out;
+    for (std::size_t k = 0; k < nf; ++k) {
+      render(k, out);
+      sum += psnr(out.color, tf.frames[k].rgb);
+    }
+    return sum / static_cast<double>(nf);
+  };
+  // CPU: forward, the mapper's loss (the same per-pixel body as the device), backward, Adam.
+  Map0 c = start;
+  std::vector<float> m[5], v[5];
+  for (int p = 0; p < 5; ++p) m[p].assign(c.block[p].size(), 0.f), v[p].assign(c.block[p].size(), 0.f);
+  std::vector<float> gc(3 * npix), gd(npix), ga(npix);
+  RenderResult<float> out;
+  GaussianGrads<float> grads;
+  const double psnr_start = meanPsnr([&](std::size_t k, RenderResult<float>& o) { cpu.forward(start.view(), views[k], o); });
+  int cpu_iters = 0;
+  const auto c0 = Clock::now();
+  while (std::chrono::duration<double>(Clock::now() - c0).count() < seconds) {
+    const std::size_t k = static_cast<std::size_t>(cpu_iters) % nf;
+    cpu.forward(c.view(), views[k], out);
+    const cuda_body::LossParams L = lossParams(tf.frames[k]);
+    float sums[cuda_body::kLossSums] = {};
+    for (std::size_t i = 0; i < npix; ++i)
+      cuda_body::l1LossPixel(static_cast<int>(i), L, out.color.data(), out.depth.data(), out.alpha.data(),
+                             tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(), mask.data(), gc.data(), gd.data(),
+                             ga.data(), sums);
+    cpu.backward(PixelGrads<float>{gc.data(), gd.data(), ga.data()}, grads);
+    const AdamStepSizes s = stepSizes(++cpu_iters);
+    const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit, &grads.sh};
+    for (int p = 0; p < 5; ++p)
+      for (std::size_t i = 0; i < c.block[p].size(); ++i)
+        adamUpdate((*gb[p])[i], s.step[p], s.inv_c2, c.block[p][i], m[p][i], v[p][i]);
+  }
+  const double cpu_s = std::chrono::duration<double>(Clock::now() - c0).count();
+  const double cpu_psnr = meanPsnr([&](std::size_t k, RenderResult<float>& o) { cpu.forward(c.view(), views[k], o); });
+  if (!with_gpu) {
+    std::printf("frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s: "
+                "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU not measured (no device)\n",
+                path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr);
+    return;
+  }
+  // GPU: CudaTrainer.
+  CudaTrainer trainer;
+  Map0 g = start;
+  std::vector<float> m2[5], v2[5], accum(g.n, 0.f);
+  std::vector<int> count(g.n, 0);
+  TrainingStateView state;
+  state.count = g.n;
+  state.sh_degree = 0;
+  const int widths[5] = {3, 3, 4, 1, 3};
+  for (int p = 0; p < 5; ++p) {
+    m2[p].assign(g.block[p].size(), 0.f);
+    v2[p].assign(g.block[p].size(), 0.f);
+    state.widths[p] = widths[p];
+    state.params[p] = g.block[p].data();
+    state.first_moment[p] = m2[p].data();
+    state.second_moment[p] = v2[p].data();
+  }
+  state.grad_accum = accum.data();
+  state.grad_count = count.data();
+  trainer.upload(state);
+  for (std::size_t k = 0; k < nf; ++k)
+    trainer.setTarget(static_cast<std::int64_t>(k), W, H, tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(), mask.data());
+  int gpu_iters = 0;
+  const auto g0 = Clock::now();
+  while (std::chrono::duration<double>(Clock::now() - g0).count() < seconds) {
+    const std::size_t k = static_cast<std::size_t>(gpu_iters) % nf;
+    trainer.render(views[k]);
+    trainer.loss(static_cast<std::int64_t>(k), 0.7, 0.1, 0.0, nullptr);
+    trainer.backwardAndStep(stepSizes(++gpu_iters));
+  }
+  CHECK(cudaDeviceSynchronize());
+  const double gpu_s = std::chrono::duration<double>(Clock::now() - g0).count();
+  const double gpu_psnr = meanPsnr([&](std::size_t k, RenderResult<float>& o) {
+    trainer.render(views[k]);
+    trainer.downloadRender(o);
+  });
+  std::printf("frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s each: "
+              "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU %d iterations (%.1f it/s) -> %.2f dB; ratio %.1fx\n",
+              path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr,
+              gpu_iters, gpu_iters / gpu_s, gpu_psnr, (gpu_iters / gpu_s) / std::max(cpu_iters / cpu_s, 1e-9));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string counts = "10000,100000,1000000", size = "640x480";
   int repeats = 20, threads = 16, cpu_max = 1000000;
   double train_seconds = 5.0;
+  std::string frames;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--counts") counts = v;
@@ -181,11 +358,24 @@ int main(int argc, char** argv) {
     else if (k == "--threads") threads = std::stoi(v);
     else if (k == "--cpu-max") cpu_max = std::stoi(v);
     else if (k == "--train-seconds") train_seconds = std::stod(v);
+    else if (k == "--frames") frames = v;
     else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 1; }
   }
   const int W = std::stoi(size.substr(0, size.find('x'))), H = std::stoi(size.substr(size.find('x') + 1));
   const std::size_t npix = static_cast<std::size_t>(W) * H;
   const gs::PinholeView<float> cam = camera(W, H);
+  std::string reason;
+  if (cudaDeviceCount(&reason) <= 0) {
+    // Nothing of the GPU can be measured; with --frames the CPU half still runs (a check of the
+    // frames file and of the CPU figures). Exit status 1: the GPU figures are missing.
+    std::printf("no CUDA device (%s): GPU figures not measured\n", reason.c_str());
+    if (!frames.empty()) {
+      ThreadPool pool(threads);
+      Rasterizer<float> cpu(&pool);
+      trainOnFrames(frames, train_seconds, cpu, false);
+    }
+    return 1;
+  }
   cudaDeviceProp prop{};
   CHECK(cudaGetDeviceProperties(&prop, 0));
   std::printf("GPU %s, CPU %d threads (tile kernels %s), %dx%d, SH degree 1, median of %d\n", prop.name, threads,
@@ -344,5 +534,6 @@ int main(int argc, char** argv) {
   }
   CHECK(cudaFree(d_gc));
   CHECK(cudaFree(d_gd));
+  if (!frames.empty()) trainOnFrames(frames, train_seconds, cpu, true);
   return 0;
 }

@@ -15,6 +15,16 @@ case "${1:-}" in
     rm -rf "$ROOT/third_party/eigen3" "$ROOT/third_party/googletest"
     cp -r /usr/include/eigen3 "$ROOT/third_party/eigen3"
     cp -r /usr/src/googletest "$ROOT/third_party/googletest"
+    # The shared Bonn crowd frames (20, 320x240, ground-truth poses) for the training benchmark,
+    # in a file the GPU machine reads without OpenCV (needs a build: scripts/build.sh).
+    BONN="$ROOT/../shared/data/rgbd_bonn_crowd_frames200to399"
+    EXPORT="${DYPHO_BUILD_DIR:-$ROOT/build}/devel/lib/dypho_slam/export_training_frames"
+    if [ -d "$BONN" ] && [ -x "$EXPORT" ]; then
+      "$EXPORT" --dataset "$BONN" --trajectory "$BONN/groundtruth.txt" --bonn-correction \
+        --out "$ROOT/third_party/bonn_frames.bin" --frames 20
+    else
+      echo "gpu_check: no $BONN or no $EXPORT: the benchmark will train on the synthetic room only"
+    fi
     echo "gpu_check: third_party/ ready ($(du -sh "$ROOT/third_party" | cut -f1))"
     ;;
   run)
@@ -37,7 +47,8 @@ case "${1:-}" in
         --gtest_filter='CudaParity.EdgeCaseScenes:CudaParity.ReuseAfterALargerSceneIsExact' \
         > "$OUT/sanitizer_$tool.log" 2>&1 || status=1
     done
-    "$BUILD/mapping_bench_cuda" > "$OUT/bench.log" 2>&1 || status=1
+    FRAMES=(); if [ -f "$ROOT/third_party/bonn_frames.bin" ]; then FRAMES=(--frames "$ROOT/third_party/bonn_frames.bin"); fi
+    "$BUILD/mapping_bench_cuda" "${FRAMES[@]}" > "$OUT/bench.log" 2>&1 || status=1
     tail -n 3 "$OUT"/ctest.log "$OUT"/sanitizer_*.log; cat "$OUT/bench.log"
     exit "$status"
     ;;
