@@ -112,6 +112,29 @@ TEST(TrackerMap, CullsMovingPointsButNotStaticOnesTheMaskCovered) {
   EXPECT_TRUE(map.cullMovingPoints({ids[2], ids[2], ids[2]}, 0).empty());
 }
 
+// Safe start: the first keyframe's points are removed after enough sightings on a dynamic
+// surface even when they were pose inliers every frame; other keyframes' points are not.
+TEST(TrackerMap, RemovesUnverifiedPointsOfTheFirstKeyframeOnly) {
+  TrackerMap map{TrackingOptions()};
+  const auto first = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(2, -1)));
+  const auto second = map.addKeyframe(makeKf(1, {first[0], -1}, 0.1));
+  const std::int64_t later_point = second[1];
+  ASSERT_NE(later_point, first[0]);
+  for (int f = 0; f < 5; ++f) map.updateVisibility({first[0], first[1], later_point}, {first[0], first[1], later_point});
+  const std::vector<std::int64_t> seen{first[1], later_point};
+  for (int hit = 1; hit <= 2; ++hit) {
+    map.cullMovingPoints(seen, 0);  // counts the sighting, removes nothing (test off)
+    EXPECT_TRUE(map.removePointsCreatedBy(0, seen, 3).empty()) << "after " << hit << " sightings";
+  }
+  map.cullMovingPoints(seen, 0);
+  const std::vector<std::int64_t> removed = map.removePointsCreatedBy(0, seen, 3);
+  ASSERT_EQ(removed.size(), 1u);
+  EXPECT_EQ(removed[0], first[1]);
+  EXPECT_EQ(map.point(first[1]), nullptr);
+  EXPECT_NE(map.point(later_point), nullptr);  // created by keyframe 1
+  EXPECT_NE(map.point(first[0]), nullptr);     // never seen on a dynamic surface
+}
+
 TEST(TrackerMap, MergeAndPoseCorrection) {
   TrackerMap map{TrackingOptions()};
   const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));

@@ -19,6 +19,22 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+/// A first keyframe's mask that calls nothing dynamic: no mask could judge it yet (the flow needs
+/// a previous frame) or the scene is empty; its points are verified (first_keyframe_moving_hits).
+/// A segmentation network that found people judged the frame.
+bool unjudged(const cv::Mat& mask) { return mask.empty() || cv::countNonZero(mask) == 0; }
+
+/// The static check's dense pose counts as evidence only when it explains at least this share of
+/// the reference keyframe's static samples.
+constexpr double kMinDenseAgreement = 0.75;
+
+StaticSceneCheckSettings staticCheckSettings(const TrackingOptions& o) {
+  StaticSceneCheckSettings s;
+  s.scale = o.static_check_scale;
+  s.depth_tolerance_m = o.moving_point_depth_tolerance_m;
+  return s;
+}
+
 }  // namespace
 
 RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
@@ -30,10 +46,13 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
       local_ba_(options),
       relocalizer_(options),
       loop_detector_(options),
-      loop_closer_(options) {}
+      loop_closer_(options),
+      pose_optimizer_(options),
+      static_check_(staticCheckSettings(options)) {}
 
 void RgbdOdometry::reset() {
   map_.clear();
+  static_check_.clear();
   reference_id_ = -1;
   views_stale_ = false;
   local_view_ = KeyframePoints();
@@ -42,6 +61,7 @@ void RgbdOdometry::reset() {
   T_world_odom_.setIdentity();
   last_loop_keyframe_id_ = -1;
   unanchored_from_keyframe_id_ = -1;
+  unverified_keyframe_id_ = -1;
   motion_.reset();
   reported_poses_.clear();
   has_stamp_ = false;
@@ -111,6 +131,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
                                const Pinhole& pinhole, TrackingResult* result) {
   MapKeyframe kf;
   kf.id = next_keyframe_id_++;
+  unverified_keyframe_id_ = -1;  // a later keyframe: the first one's verification window ends
   kf.stamp_ns = frame.stamp_ns;
   kf.T_world_camera = T_world_camera;
   kf.features = features;
@@ -135,6 +156,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   result->keyframe =
       makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
   setReference(id);
+  if (options_.static_check) static_check_.setReference(id, frame, mask);
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   result->T_world_camera = T_world_last_;
@@ -198,6 +220,65 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
                     " points fused)";
 }
 
+void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat& mask,
+                                           const FrameFeatures& features, const Pinhole& pinhole,
+                                           AlignmentResult* aligned, TrackingResult* result) {
+  const MapKeyframe* reference = map_.keyframe(reference_id_);
+  if (reference == nullptr || !aligned->T_camera_world.matrix().allFinite()) return;
+  const Eigen::Isometry3d T_world_reference = reference->T_world_camera;
+  static_check_.setCurrent(frame, mask);
+  const Eigen::Isometry3d T_features = aligned->T_camera_world;
+  const StaticAgreement by_features = static_check_.score(T_features * T_world_reference);
+  result->static_agreement = by_features.ratio();
+  const Eigen::Isometry3d T_dense =
+      static_check_.refine(T_features * T_world_reference) * T_world_reference.inverse();
+  const StaticAgreement by_dense = static_check_.score(T_dense * T_world_reference);
+  // Evidence only when the refined pose explains most of the static samples (sharp images, a
+  // static background that is really static) and clearly more than the feature pose does.
+  if (!T_dense.matrix().allFinite() || by_dense.ratio() < kMinDenseAgreement ||
+      by_dense.ratio() < by_features.ratio() + options_.static_check_min_gain) {
+    return;
+  }
+
+  // Moving matches carried the feature pose. Re-estimate from the matches that the static scene's
+  // pose explains (within the refining search radius), starting from that pose.
+  const KeyframePoints& ref = aligned->matches_refer_to_fallback ? own_view_ : local_view_;
+  std::vector<PoseObservation> observations;
+  std::vector<std::size_t> match_of;
+  for (std::size_t m = 0; m < aligned->matches.size(); ++m) {
+    const FeatureMatch& match = aligned->matches[m];
+    const auto f = static_cast<std::size_t>(match.frame_index);
+    PoseObservation o;
+    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(match.reference_index)];
+    o.uv_px = features.uv_undistorted_px[f];
+    o.level = features.keypoints[f].octave;
+    o.depth_m = features.depth_m[f];
+    const Eigen::Vector3d p_c = T_dense * o.p_world_m;
+    if (p_c.z() < 1e-3) continue;
+    const double radius_px = options_.refine_search_radius_px * std::pow(options_.scale_factor, std::max(0, o.level));
+    if ((pinhole.project(p_c) - o.uv_px).norm() > radius_px) continue;
+    observations.push_back(o);
+    match_of.push_back(m);
+  }
+  if (static_cast<int>(observations.size()) < options_.min_inliers) return;  // the features contradict it
+  // Usually the re-estimate; the dense pose itself when the matches cannot tell the two apart
+  // (the local map's points moved with the people while the reference keyframe's pixels did not).
+  const PoseOptimizerResult refined = pose_optimizer_.optimize(observations, pinhole, T_dense);
+  const bool use_refined = refined.success && refined.num_inliers >= options_.min_inliers &&
+                           static_check_.score(refined.T_camera_world * T_world_reference).ratio() >=
+                               by_dense.ratio() - 0.5 * options_.static_check_min_gain;
+  aligned->T_camera_world = use_refined ? refined.T_camera_world : T_dense;
+  std::fill(aligned->inliers.begin(), aligned->inliers.end(), false);
+  for (std::size_t k = 0; k < match_of.size(); ++k) aligned->inliers[match_of[k]] = !use_refined || refined.inliers[k];
+  aligned->num_inliers = static_cast<int>(std::count(aligned->inliers.begin(), aligned->inliers.end(), true));
+  const StaticAgreement by_final = static_check_.score(aligned->T_camera_world * T_world_reference);
+  result->static_agreement = by_final.ratio();
+  result->static_check_corrected = true;
+  result->message = "static check: the feature pose explained " + std::to_string(by_features.ratio()) +
+                    " of the keyframe's static samples, the corrected pose " + std::to_string(by_final.ratio()) +
+                    " (moving matches had carried it)";
+}
+
 void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
                                          const FrameFeatures& features, const RgbdFrame& frame,
                                          const cv::Mat& mask, TrackingResult* result) {
@@ -235,7 +316,12 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
     if (!depthAgrees(z_point, z_measured)) on_dynamic.push_back(ref.map_point_ids[r]);
   }
   map_.updateVisibility(visible, found);
-  const std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits);
+  std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits);
+  if (unverified_keyframe_id_ >= 0) {
+    const std::vector<std::int64_t> unverified =
+        map_.removePointsCreatedBy(unverified_keyframe_id_, on_dynamic, options_.first_keyframe_moving_hits);
+    moving.insert(moving.end(), unverified.begin(), unverified.end());
+  }
   result->num_moving_points_removed = static_cast<int>(moving.size());
   // The views must not offer removed points to the next frame; this frame's matches still index
   // the current views (keyframe creation below), so they are refreshed before the next frame.
@@ -310,6 +396,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
       return finish();
     }
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
+    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask)) unverified_keyframe_id_ = reference_id_;
     result.state = TrackingState::kOk;
     result.discontinuous = true;  // a new world starts here
     motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
@@ -324,6 +411,15 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
                              &result.times, &own_view_);
   } else {
     aligned.message = explainFewFeatures(frame, orb, features);
+  }
+  // The photometric comparison needs sharp images: no motion blur or rolling-shutter skew.
+  const bool slow = motion_.hasVelocity() &&
+                    Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI <
+                        options_.static_check_max_frame_rotation_deg;
+  if (aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
+    const auto t_check = Clock::now();
+    checkAgainstStaticScene(frame, mask, features, pinhole, &aligned, &result);
+    result.times.static_check = msSince(t_check);
   }
   const Eigen::Isometry3d T_world_camera = aligned.T_camera_world.inverse();
   if (aligned.success && T_world_camera.matrix().allFinite()) {
@@ -398,6 +494,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
     const std::int64_t first_new_keyframe_id = next_keyframe_id_;
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
+    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask)) unverified_keyframe_id_ = reference_id_;
     // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
     // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
     // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.

@@ -184,6 +184,19 @@ std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::in
   return removed;
 }
 
+std::vector<std::int64_t> TrackerMap::removePointsCreatedBy(std::int64_t keyframe_id,
+                                                           const std::vector<std::int64_t>& ids, int min_hits) {
+  std::vector<std::int64_t> removed;
+  for (std::int64_t id : ids) {
+    auto it = points_.find(id);
+    if (it == points_.end() || it->second.first_keyframe_id != keyframe_id || it->second.num_on_dynamic < min_hits) continue;
+    detachObservations(it->second);
+    points_.erase(it);
+    removed.push_back(id);
+  }
+  return removed;
+}
+
 bool TrackerMap::isRedundant(std::int64_t keyframe_id, double redundant_ratio) const {
   const MapKeyframe* kf = keyframe(keyframe_id);
   if (kf == nullptr) return false;

@@ -67,6 +67,10 @@ void TrackingOptions::validate() const {
   requireRange("cull_min_found_ratio", cull_min_found_ratio, 0.0, 1.0);
   requireRange("moving_point_min_hits", moving_point_min_hits, 0, 1000);
   requireRange("moving_point_depth_tolerance_m", moving_point_depth_tolerance_m, 0.0, 1.0, true);
+  requireRange("first_keyframe_moving_hits", first_keyframe_moving_hits, 0, 1000);
+  requireRange("static_check_min_gain", static_check_min_gain, 0.0, 1.0, true);
+  requireRange("static_check_scale", static_check_scale, 0.1, 1.0);
+  requireRange("static_check_max_frame_rotation_deg", static_check_max_frame_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_cull_redundant_ratio", keyframe_cull_redundant_ratio, 0.0, 1.0);
   requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
   requireRange("local_ba_iterations", local_ba_iterations, 1, 100);

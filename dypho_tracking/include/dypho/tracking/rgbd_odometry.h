@@ -24,7 +24,9 @@
 #include "dypho/tracking/loop_detector.h"
 #include "dypho/tracking/orb_extractor.h"
 #include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/pose_optimizer.h"
 #include "dypho/tracking/relocalizer.h"
+#include "dypho/tracking/static_scene_check.h"
 #include "dypho/tracking/tracking_options.h"
 #include "dypho/tracking/tracking_result.h"
 
@@ -105,6 +107,11 @@ class RgbdOdometry {
   void updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
                              const FrameFeatures& features, const RgbdFrame& frame,
                              const cv::Mat& mask, TrackingResult* result);
+  /// TrackingOptions::static_check: compares the feature pose in `aligned` with the dense
+  /// refinement against the reference keyframe's static pixels; when the refinement explains
+  /// clearly more of them, re-estimates the pose from the matches that agree with it.
+  void checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
+                               const Pinhole& pinhole, AlignmentResult* aligned, TrackingResult* result);
 
   TrackingOptions options_;
   bool views_stale_ = false;  ///< points of local_view_/own_view_ were removed: refresh them
@@ -116,6 +123,8 @@ class RgbdOdometry {
   Relocalizer relocalizer_;
   LoopDetector loop_detector_;
   LoopCloser loop_closer_;
+  PoseOptimizer pose_optimizer_;        ///< re-estimation after the static check
+  StaticSceneCheck static_check_;       ///< dense check against the reference keyframe
 
   std::int64_t reference_id_ = -1;  ///< keyframe tracked against; -1 before initialisation
   KeyframePoints local_view_;       ///< map points of the reference's local map
@@ -133,6 +142,9 @@ class RgbdOdometry {
   std::int64_t last_loop_keyframe_id_ = -1;  ///< keyframe where the last loop closed
   /// First keyframe of a re-initialised segment not yet tied to the earlier map; -1 = anchored.
   std::int64_t unanchored_from_keyframe_id_ = -1;
+  /// First keyframe after a start / re-initialisation while its points are unverified
+  /// (TrackingOptions::first_keyframe_moving_hits); -1 when none.
+  std::int64_t unverified_keyframe_id_ = -1;
 };
 
 }  // namespace tracking

@@ -110,6 +110,11 @@ class TrackerMap {
   /// (a moving point, not a static one the mask happened to cover). Returns the removed points'
   /// ids.
   std::vector<std::int64_t> cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits);
+  /// Removes the points of `ids` that keyframe `keyframe_id` created and that were seen on a
+  /// dynamic surface at least `min_hits` times (MapPoint::num_on_dynamic), whatever their pose
+  /// inlier count: the unverified points of a first keyframe. Returns the removed ids.
+  std::vector<std::int64_t> removePointsCreatedBy(std::int64_t keyframe_id, const std::vector<std::int64_t>& ids,
+                                                  int min_hits);
 
   /// True when the keyframe is redundant (see class comment, ratio in (0, 1]); false when
   /// unknown or it has no map points.

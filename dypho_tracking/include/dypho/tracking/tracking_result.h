@@ -33,6 +33,7 @@ struct TrackingTimesMs {
   double local_ba = 0;  ///< local bundle adjustment and map-point culling (keyframes only) [ms]
   double loop = 0;      ///< loop detection, pose graph and map correction (keyframes only) [ms]
   double relocalization = 0;  ///< relocalisation against the map's keyframes (lost frames) [ms]
+  double static_check = 0;    ///< dense check against the reference keyframe's static pixels [ms]
   double total = 0;     ///< whole `track` call [ms]
 };
 
@@ -78,6 +79,11 @@ struct TrackingResult {
   /// map points removed on this frame as moving (TrackingOptions::moving_point_min_hits) [count]
   int num_moving_points_removed = 0;
   int num_keyframes = 0;       ///< keyframes in the tracker's map [count]
+  /// Share of the reference keyframe's static samples the final pose explains (TrackingOptions::
+  /// static_check); -1 when not checked.
+  double static_agreement = -1.0;
+  /// The static check replaced the feature pose: moving matches had carried it.
+  bool static_check_corrected = false;
   TrackingTimesMs times;       ///< stage timings [ms]
 };
 
