@@ -10,11 +10,6 @@
 namespace dypho::mapping {
 namespace {
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion;
-}
-
 float logit(double p) { return static_cast<float>(std::log(p / (1.0 - p))); }
 
 }  // namespace

@@ -10,11 +10,6 @@ namespace dypho {
 namespace mapping {
 namespace {
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion;
-}
-
 }  // namespace
 
 UndistortedRayCache::UndistortedRayCache(std::size_t max_cameras)

@@ -34,11 +34,6 @@ GlobalMotionSettings globalMotionSettings(const FlowMaskOptions& o) {
   return s;
 }
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion;
-}
-
 MaskCleanerSettings cleanerSettings(const FlowMaskOptions& o) {
   MaskCleanerSettings s;
   // Lengths scale with flow_scale, areas with its square; a non-zero length stays >= 1 flow px.

@@ -25,8 +25,8 @@ inline float bilinear(const cv::Mat& img, double u, double v) {
 
 /// Grey (CV_32F), depth and mask of `frame` reduced by `scale` (a pixel is dynamic when any of
 /// the full-resolution pixels under it is), undistorted when the camera has distortion.
-void reduce(const RgbdFrame& frame, const cv::Mat& mask, double scale, cv::Mat* grey, cv::Mat* depth_m,
-            cv::Mat* mask_small) {
+void reduce(const RgbdFrame& frame, const cv::Mat& mask, double scale, UndistortMaps* maps, cv::Mat* grey,
+            cv::Mat* depth_m, cv::Mat* mask_small) {
   const cv::Size size(std::max(8, static_cast<int>(std::lround(frame.bgr.cols * scale))),
                       std::max(8, static_cast<int>(std::lround(frame.bgr.rows * scale))));
   cv::Mat g8;
@@ -50,13 +50,16 @@ void reduce(const RgbdFrame& frame, const cv::Mat& mask, double scale, cv::Mat* 
   const double sx = static_cast<double>(size.width) / frame.bgr.cols, sy = static_cast<double>(size.height) / frame.bgr.rows;
   const cv::Matx33d K(frame.camera.fx * sx, 0.0, (frame.camera.cx + 0.5) * sx - 0.5, 0.0, frame.camera.fy * sy,
                       (frame.camera.cy + 0.5) * sy - 0.5, 0.0, 0.0, 1.0);
-  const cv::Mat D(1, 5, CV_64F, const_cast<double*>(frame.camera.distortion.data()));
-  cv::Mat map_x, map_y, grey_out, depth_out, mask_out;  // separate outputs: remap reuses buffers
-  cv::initUndistortRectifyMap(K, D, cv::noArray(), K, size, CV_32FC1, map_x, map_y);
-  cv::remap(*grey, grey_out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::remap(*depth_m, depth_out, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+  if (maps->map_x.size() != size || !sameCamera(maps->camera, frame.camera)) {  // computed once per camera
+    const cv::Mat D(1, 5, CV_64F, const_cast<double*>(frame.camera.distortion.data()));
+    cv::initUndistortRectifyMap(K, D, cv::noArray(), K, size, CV_32FC1, maps->map_x, maps->map_y);
+    maps->camera = frame.camera;
+  }
+  cv::Mat grey_out, depth_out, mask_out;  // separate outputs: remap reuses buffers
+  cv::remap(*grey, grey_out, maps->map_x, maps->map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(*depth_m, depth_out, maps->map_x, maps->map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
   // Outside the distorted image: no depth, and marked dynamic so that nothing is compared there.
-  cv::remap(*mask_small, mask_out, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(255));
+  cv::remap(*mask_small, mask_out, maps->map_x, maps->map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(255));
   *grey = grey_out;
   *depth_m = depth_out;
   *mask_small = mask_out;
@@ -121,7 +124,7 @@ bool StaticSceneCheck::setReference(std::int64_t keyframe_id, const RgbdFrame& f
   for (int l = 0; l < 2; ++l) {
     const double scale = settings_.scale / (l == 0 ? 1.0 : 2.0);
     cv::Mat grey, depth, mask_small;
-    reduce(frame, mask, scale, &grey, &depth, &mask_small);
+    reduce(frame, mask, scale, &undistort_[l], &grey, &depth, &mask_small);
     levels_[l].pinhole = scaledPinhole(frame.camera, static_cast<double>(grey.cols) / frame.bgr.cols,
                                        static_cast<double>(grey.rows) / frame.bgr.rows);
     sampleLevel(grey, depth, mask_small, &levels_[l]);
@@ -138,7 +141,7 @@ void StaticSceneCheck::setCurrent(const RgbdFrame& frame, const cv::Mat& mask) {
   for (int l = 0; l < 2; ++l) {
     Level& level = levels_[l];
     const double scale = settings_.scale / (l == 0 ? 1.0 : 2.0);
-    reduce(frame, mask, scale, &level.grey, &level.depth_m, &level.mask);
+    reduce(frame, mask, scale, &undistort_[l], &level.grey, &level.depth_m, &level.mask);
     cv::Sobel(level.grey, level.grad_x, CV_32F, 1, 0, 3, 1.0 / 8.0);
     cv::Sobel(level.grey, level.grad_y, CV_32F, 0, 1, 3, 1.0 / 8.0);
   }

@@ -38,6 +38,13 @@ struct CameraIntrinsics {
   }
 };
 
+/// True when every number of `a` equals that of `b` (intrinsics, size and distortion): caches
+/// keyed by a camera are valid for the other.
+inline bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion;
+}
+
 /// Size of an image of `width` x `height` resized by `scale` (rounded, at least 1 x 1).
 inline cv::Size scaledImageSize(int width, int height, double scale) {
   return cv::Size(std::max(1, static_cast<int>(std::lround(width * scale))),

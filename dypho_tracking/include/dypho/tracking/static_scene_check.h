@@ -35,6 +35,12 @@ struct StaticSceneCheckSettings {
   int iterations = 12;
 };
 
+/// Undistortion maps of one working size, kept while the camera stays the same.
+struct UndistortMaps {
+  CameraIntrinsics camera;  ///< the camera they were computed for
+  cv::Mat map_x, map_y;     ///< cv::initUndistortRectifyMap output (CV_32FC1)
+};
+
 /// Share of the reference keyframe's static samples that a pose explains.
 struct StaticAgreement {
   int checked = 0;   ///< samples landing in the image on static current pixels with depth [count]
@@ -80,6 +86,7 @@ class StaticSceneCheck {
   StaticSceneCheckSettings settings_;
   std::int64_t reference_id_ = -1;
   Level levels_[2];  ///< [0] fine (scale), [1] coarse (scale / 2)
+  UndistortMaps undistort_[2];  ///< per level; used when the camera has distortion
 };
 
 }  // namespace tracking
