@@ -46,11 +46,13 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
       return out;
     }
     out.mask = result.mask;
+    out.judgement = result.unjudged ? tracking::MaskJudgement::kUnjudged : tracking::MaskJudgement::kJudged;
     report.masked_fraction = result.masked_fraction;
     report.mask_degraded = result.degraded;
     report.rendered_depth_used = result.rendered_depth_used;
   } else if (options_.mask_source == MaskSource::kExternal && !external_mask.empty()) {
     out.mask = external_mask;
+    out.judgement = tracking::MaskJudgement::kJudged;
     report.masked_fraction = static_cast<double>(cv::countNonZero(out.mask)) / static_cast<double>(out.mask.total());
   }
   report.mask_ms = msSince(t_mask);
@@ -60,7 +62,7 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
 FrameReport SlamPipeline::trackFrame(MaskedFrame masked) {
   FrameReport report = std::move(masked.report);
   if (report.dropped) return report;
-  tracking::TrackingOutput out = tracking_.process(masked.frame, masked.mask);
+  tracking::TrackingOutput out = tracking_.process(masked.frame, masked.mask, masked.judgement);
   if (out.dropped) {
     report.dropped = true;
     report.message = out.result.message;

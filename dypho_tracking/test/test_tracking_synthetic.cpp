@@ -205,6 +205,31 @@ TEST_F(SyntheticTracking, BadInputMidRunNeverGivesNaN) {
   EXPECT_EQ(odometry.map().keyframes().size(), 0u);
 }
 
+// Safe start: the first keyframe's points are verified (removed after first_keyframe_moving_hits
+// sightings on the dynamic mask) only when nothing judged its frame. Here the left half of the
+// view is called dynamic from frame 1 on: the unjudged first keyframe loses its points there, a
+// judged one (a network ran on it and found nobody) keeps them.
+TEST_F(SyntheticTracking, SafeStartVerifiesOnlyAnUnjudgedFirstKeyframe) {
+  const cv::Size size = frames_[0].frame.bgr.size();
+  cv::Mat left_half = cv::Mat::zeros(size, CV_8UC1);
+  left_half(cv::Rect(0, 0, size.width / 2, size.height)).setTo(255);
+  for (const MaskJudgement judgement : {MaskJudgement::kUnknown, MaskJudgement::kUnjudged, MaskJudgement::kJudged}) {
+    RgbdOdometry odometry{TrackingOptions()};
+    ASSERT_EQ(odometry.track(frames_[0].frame, cv::Mat::zeros(size, CV_8UC1), judgement).state, TrackingState::kOk);
+    int removed = 0;
+    for (int i = 1; i <= 4; ++i) {
+      const TrackingResult r = odometry.track(frames_[static_cast<size_t>(i)].frame, left_half);
+      ASSERT_EQ(r.state, TrackingState::kOk) << r.message;
+      removed += r.num_moving_points_removed;
+    }
+    if (judgement == MaskJudgement::kJudged) {
+      EXPECT_EQ(removed, 0);
+    } else {
+      EXPECT_GT(removed, 20) << "judgement " << static_cast<int>(judgement);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tracking
 }  // namespace dypho

@@ -174,11 +174,12 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   if (!seg.message.empty()) note("segment: " + seg.message);
 
   // Safe start: with no flow and no fresh network mask nothing has judged this frame's pixels;
-  // people in it would look static. The background model does not learn it either.
-  if (options_.unjudged_is_dynamic && flow_.lastFlow().empty() && !seg.fresh) {
+  // people in it would look static (tracking verifies a first keyframe built from such a frame).
+  // With unjudged_is_dynamic the frame is all dynamic and the background model does not learn it.
+  result.unjudged = flow_.lastFlow().empty() && !seg.fresh;
+  if (options_.unjudged_is_dynamic && result.unjudged) {
     result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
     result.masked_fraction = 1.0;
-    result.unjudged = true;
     note("nothing judged yet (no flow, no network mask): every pixel dynamic on this frame");
     previous_mask_.release();
     result.total_ms = msSince(t0);

@@ -202,7 +202,12 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     if (result.degraded && !result.message.empty() && degraded_log_.pass(result.message)) {
       NODELET_WARN_STREAM("mask degraded: " << result.message);
     }
-    mask_pub_.publish(rc::toImageMsg(result.mask, sensor_msgs::image_encodings::MONO8, rgb->header));
+    // A frame nothing judged (the flow's first frame, no network) gets no mask: an all-static one
+    // would say "no one here". Tracking goes on after its bounded wait and treats the frame as
+    // unjudged (safe start); with unjudged_is_dynamic the all-dynamic mask is published.
+    if (!result.unjudged || result.masked_fraction > 0.0) {
+      mask_pub_.publish(rc::toImageMsg(result.mask, sensor_msgs::image_encodings::MONO8, rgb->header));
+    }
     publishIfWanted(raw_pub_, result.raw_flow_mask, rgb->header);
     publishIfWanted(raw_segment_pub_, result.raw_segment_mask, rgb->header);
     publishIfWanted(consistency_pub_, result.consistency_mask, rgb->header);

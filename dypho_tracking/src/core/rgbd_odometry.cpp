@@ -19,10 +19,13 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-/// A first keyframe's mask that calls nothing dynamic: no mask could judge it yet (the flow needs
-/// a previous frame) or the scene is empty; its points are verified (first_keyframe_moving_hits).
-/// A segmentation network that found people judged the frame.
-bool unjudged(const cv::Mat& mask) { return mask.empty() || cv::countNonZero(mask) == 0; }
+/// A first keyframe nothing judged has its points verified (first_keyframe_moving_hits). Unsaid,
+/// a mask that calls nothing dynamic counts as unjudged: the flow needs a previous frame, and a
+/// mask that found people judged the frame.
+bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
+  if (judgement != MaskJudgement::kUnknown) return judgement == MaskJudgement::kUnjudged;
+  return mask.empty() || cv::countNonZero(mask) == 0;
+}
 
 /// The static check's dense pose counts as evidence only when it explains at least this share of
 /// the reference keyframe's static samples.
@@ -328,7 +331,7 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
   if (!moving.empty()) views_stale_ = true;
 }
 
-TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) {
+TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement) {
   const auto t_start = Clock::now();
   TrackingResult result;
   result.stamp_ns = frame.stamp_ns;
@@ -396,7 +399,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
       return finish();
     }
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
-    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask)) unverified_keyframe_id_ = reference_id_;
+    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask, judgement)) unverified_keyframe_id_ = reference_id_;
     result.state = TrackingState::kOk;
     result.discontinuous = true;  // a new world starts here
     motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
@@ -494,7 +497,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask) 
   if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
     const std::int64_t first_new_keyframe_id = next_keyframe_id_;
     addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
-    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask)) unverified_keyframe_id_ = reference_id_;
+    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask, judgement)) unverified_keyframe_id_ = reference_id_;
     // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
     // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
     // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.

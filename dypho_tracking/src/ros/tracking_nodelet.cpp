@@ -259,7 +259,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     const double t0 = steadyClockSeconds();
     try {
       std::lock_guard<std::mutex> lock(stage_mutex_);
-      out = stage_->process(frame, mask);
+      // Only the frame's own mask judged it; a carried one (or none) leaves the safe start on.
+      const tracking::MaskJudgement judgement = !params_.use_mask ? tracking::MaskJudgement::kUnknown
+                                                : ready.source == tracking::MaskSource::kMatched
+                                                    ? tracking::MaskJudgement::kJudged
+                                                    : tracking::MaskJudgement::kUnjudged;
+      out = stage_->process(frame, mask, judgement);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
       const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);

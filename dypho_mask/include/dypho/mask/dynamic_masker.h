@@ -64,8 +64,9 @@ struct MaskResult {
   /// Set by MaskStage only: the frame's stamp was repeated or late (stamp_gate.h); it was not
   /// masked, `mask` is empty and `message` says why.
   bool dropped = false;
-  /// No mask could judge this frame (first frame, no network mask): with
-  /// DynamicMaskOptions::unjudged_is_dynamic the mask is all dynamic.
+  /// No mask could judge this frame (first frame after a start or reset, no fresh network mask):
+  /// the mask is all static, or all dynamic with DynamicMaskOptions::unjudged_is_dynamic. A network
+  /// that ran on the frame judged it, even when it found nobody.
   bool unjudged = false;
   std::string message;             ///< why degraded, warnings, "first frame"
   bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)

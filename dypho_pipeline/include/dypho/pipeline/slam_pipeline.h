@@ -56,6 +56,9 @@ struct FrameReport {
 struct MaskedFrame {
   RgbdFrame frame;     ///< the input frame (images shared, not copied)
   cv::Mat mask;        ///< CV_8UC1, 255 = dynamic; empty = all static
+  /// Whether the mask judged this frame (the flow's first frame without a network did not; an
+  /// external mask did; no mask: unsaid).
+  tracking::MaskJudgement judgement = tracking::MaskJudgement::kUnknown;
   FrameReport report;  ///< render/mask fields filled; `dropped` when the mask stage rejected the stamp
 };
 

@@ -66,8 +66,10 @@ class RgbdOdometry {
   /// mask: CV_8UC1 255 = dynamic (no features there), or empty = all static. Never throws on
   /// bad data: returns a result with state kLost/kNotInitialized and a message (no valid depth,
   /// all masked, textureless, wrong types/sizes, stamp not after the previous one -> reset +
-  /// message). Never returns a NaN pose.
-  TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask);
+  /// message). Never returns a NaN pose. `judgement`: whether `mask` judged this frame (only the
+  /// safe start reads it: a first keyframe nothing judged has its points verified).
+  TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask,
+                       MaskJudgement judgement = MaskJudgement::kUnknown);
 
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).

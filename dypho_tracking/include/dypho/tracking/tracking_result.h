@@ -14,6 +14,18 @@
 namespace dypho {
 namespace tracking {
 
+/// Whether a mask judged a frame's pixels (the safe start, TrackingOptions::first_keyframe_moving_hits).
+enum class MaskJudgement {
+  /// Not said by the caller: the frame counts as judged when its mask calls any pixel dynamic (an
+  /// all-static mask may just mean that nothing could judge it yet).
+  kUnknown,
+  /// A mask of this very frame judged it (flow, network, external), even when it found nothing.
+  kJudged,
+  /// Nothing judged this frame's pixels: the flow's first frame without a network, or a mask
+  /// carried over from another frame.
+  kUnjudged,
+};
+
 /// State of the tracker after a frame.
 enum class TrackingState {
   kNotInitialized,  ///< no keyframe yet (first frames, after reset, or unusable first frame)

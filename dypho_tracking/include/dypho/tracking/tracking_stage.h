@@ -54,7 +54,9 @@ class TrackingStage {
 
   /// Tracks `frame` against the map outside `mask` (CV_8UC1 255 = dynamic, empty = all static).
   /// Never throws on bad data (RgbdOdometry::track).
-  TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask);
+  /// `judgement`: see RgbdOdometry::track.
+  TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask,
+                         MaskJudgement judgement = MaskJudgement::kUnknown);
 
   /// Final trajectory: every recorded frame, following its keyframe's current pose.
   PoseList finalTrajectory() const;
