@@ -16,6 +16,8 @@
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 
 #include "dypho/tools/synthetic_scene.h"
 
@@ -198,6 +200,31 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   EXPECT_GE(poses_after(20), 10) << "no poses after time jumped backwards";
   EXPECT_TRUE(logMentions(obs, "backwards")) << "the restart was not reported";
   EXPECT_EQ(obs.restarts, 1) << "the jump back was not a restart";
+
+  // 9. Moving points (tracking -> mask) without x/y/z fields, then with data shorter than its
+  // size says: ignored and named; the mask goes on.
+  {
+    ros::Publisher points = nh.advertise<sensor_msgs::PointCloud2>("/dypho/moving_points", 2);
+    const ros::WallTime start = ros::WallTime::now();
+    while (points.getNumSubscribers() == 0 && (ros::WallTime::now() - start).toSec() < 10.0) ros::WallDuration(0.1).sleep();
+    ASSERT_GT(points.getNumSubscribers(), 0u) << "the mask nodelet does not subscribe to moving_points";
+    sensor_msgs::PointCloud2 no_fields;
+    no_fields.header = header(t);
+    no_fields.width = 3;
+    no_fields.height = 1;
+    points.publish(no_fields);
+    sensor_msgs::PointCloud2 short_data;
+    short_data.header = header(t);
+    sensor_msgs::PointCloud2Modifier(short_data).setPointCloud2FieldsByString(1, "xyz");
+    sensor_msgs::PointCloud2Modifier(short_data).resize(4);
+    short_data.data.resize(short_data.data.size() / 2);
+    points.publish(short_data);
+    const int masks_before = obs.masks;
+    EXPECT_GE(poses_after(20), 10) << "no poses after the bad moving points";
+    EXPECT_GT(obs.masks - masks_before, 10) << "the mask stopped after the bad moving points";
+    EXPECT_TRUE(logMentions(obs, "no float32 field 'x'")) << "the cloud without fields was not named";
+    EXPECT_TRUE(logMentions(obs, "data shorter")) << "the truncated cloud was not named";
+  }
 
   EXPECT_EQ(obs.nan_poses, 0);
   EXPECT_GT(obs.masks, 40);

@@ -70,6 +70,7 @@ FrameReport SlamPipeline::trackFrame(MaskedFrame masked) {
     return report;
   }
   mask_.observePose(out.pose);
+  mask_.observeMovingPoints({out.result.stamp_ns, out.result.moving_points_camera_m});
   mapping_.observePose(out.pose);
   const auto t_map = std::chrono::steady_clock::now();
   mapping_.correctKeyframes(out.corrections());

@@ -8,6 +8,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 
 namespace dypho::ros_conversions {
 namespace enc = sensor_msgs::image_encodings;
@@ -235,6 +236,43 @@ KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg
     if (T.matrix().allFinite()) corrections.emplace_back(pose.id, T);
   }
   return corrections;
+}
+
+sensor_msgs::PointCloud2Ptr toPointCloudMsg(const std::vector<cv::Point3f>& p_camera_m, const std_msgs::Header& header) {
+  auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
+  msg->header = header;
+  sensor_msgs::PointCloud2Modifier modifier(*msg);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(p_camera_m.size());
+  sensor_msgs::PointCloud2Iterator<float> x(*msg, "x"), y(*msg, "y"), z(*msg, "z");
+  for (const cv::Point3f& p : p_camera_m) {
+    *x = p.x;
+    *y = p.y;
+    *z = p.z;
+    ++x, ++y, ++z;
+  }
+  return msg;
+}
+
+MovingPoints toMovingPoints(const sensor_msgs::PointCloud2& cloud) {
+  for (const char* name : {"x", "y", "z"}) {
+    bool found = false;
+    for (const sensor_msgs::PointField& f : cloud.fields) {
+      found = found || (f.name == name && f.datatype == sensor_msgs::PointField::FLOAT32 && f.count == 1);
+    }
+    if (!found) throw ConversionError(std::string("moving points cloud has no float32 field '") + name + "'");
+  }
+  if (cloud.data.size() < static_cast<std::size_t>(cloud.row_step) * cloud.height ||
+      static_cast<std::size_t>(cloud.point_step) * cloud.width > cloud.row_step) {
+    throw ConversionError("moving points cloud: data shorter than its width, height and steps say");
+  }
+  MovingPoints points;
+  points.stamp_ns = toTimestamp(cloud.header.stamp);
+  sensor_msgs::PointCloud2ConstIterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (; x != x.end(); ++x, ++y, ++z) {
+    if (std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z)) points.p_camera_m.emplace_back(*x, *y, *z);
+  }
+  return points;
 }
 
 std::string outputBaseDirectory(const std::string& output_dir) {

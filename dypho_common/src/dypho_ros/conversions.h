@@ -9,6 +9,7 @@
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
 
 #include <dypho_slam/Keyframe.h>
@@ -76,6 +77,13 @@ dypho_slam::KeyframeCorrectionsPtr toCorrectionsMsg(const KeyframePoseCorrection
 
 /// A correction batch from a message (poses that are not finite are left out).
 KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg);
+
+/// Moving points (tracking -> mask) as a cloud of float32 x, y, z in the camera optical frame
+/// `header.frame_id`, stamped with the frame they were seen in.
+sensor_msgs::PointCloud2Ptr toPointCloudMsg(const std::vector<cv::Point3f>& p_camera_m, const std_msgs::Header& header);
+/// Moving points from such a cloud; points that are not finite are left out. Throws
+/// ConversionError when the cloud has no float32 x, y and z fields.
+MovingPoints toMovingPoints(const sensor_msgs::PointCloud2& cloud);
 
 /// The folder services write into: `output_dir` when set, else $ROS_HOME/dypho (~/.ros/dypho).
 std::string outputBaseDirectory(const std::string& output_dir);

@@ -235,6 +235,9 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
       flow_small_.copyTo(raw_small_);  // no aliasing: both buffers are reused next frame
     }
     cv::bitwise_or(consistency_small_, raw_small_, combined_);
+    if (options_.moving_point_seeds && !prior.moving_points_camera_m.empty()) {
+      addMovingPointSeeds(prior.moving_points_camera_m, scaled(frame.camera, small, s));
+    }
     if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
     // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
     background_.update(depth_small_, rendered_small_, combined_);
@@ -249,6 +252,38 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   result.background_ms = test_ms + msSince(t_bg);
   result.total_ms = msSince(t0);
   return result;
+}
+
+void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m,
+                                        const CameraIntrinsics& camera_small) {
+  constexpr float kMaxDepthChangeM = 0.25f;  // a person moves a few cm per frame; more is another surface
+  constexpr int kSeedRadiusPx = 2;           // at background resolution
+  const cv::Mat& background = background_.prior();
+  const float sigma = static_cast<float>(options_.background.sigma_m);
+  seeds_small_.create(combined_.size(), CV_8UC1);
+  seeds_small_.setTo(0);
+  int seeds = 0;
+  for (const cv::Point3f& p : p_camera_m) {
+    if (!(p.z > 0.f)) continue;
+    const int u = static_cast<int>(std::lround(camera_small.fx * p.x / p.z + camera_small.cx));
+    const int v = static_cast<int>(std::lround(camera_small.fy * p.y / p.z + camera_small.cy));
+    if (u < 0 || v < 0 || u >= combined_.cols || v >= combined_.rows || combined_.at<uchar>(v, u) != 0) continue;
+    const float d = depth_small_.at<float>(v, u);
+    if (!(d > 0.f) || std::abs(d - p.z) > kMaxDepthChangeM) continue;  // no depth, or not the same surface
+    const float b = background.empty() ? 0.f : background.at<float>(v, u);
+    if (b > 0.f && d >= b - sigma) continue;  // the background explains it: static after all
+    cv::circle(seeds_small_, cv::Point(u, v), kSeedRadiusPx, cv::Scalar(255), cv::FILLED);
+    ++seeds;
+  }
+  if (seeds == 0) return;
+  DepthGrowSettings grow = grow_settings_;
+  grow.min_seed_area_px = 1;  // a seed is one point; the depth cluster and the background bound it
+  if (!background.empty() && background.size() == seeds_small_.size()) {
+    growRegionsInDepth(depth_small_, background, grow, seeds_small_);
+  } else {
+    growRegionsInDepth(depth_small_, cv::Mat::zeros(seeds_small_.size(), CV_32FC1), grow, seeds_small_);
+  }
+  combined_ |= seeds_small_;
 }
 
 void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {

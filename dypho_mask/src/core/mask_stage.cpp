@@ -14,6 +14,11 @@ void MaskStage::observePose(const PoseUpdate& update) {
   motion_.observe(update);
 }
 
+void MaskStage::observeMovingPoints(MovingPoints points) {
+  std::lock_guard<std::mutex> lock(prior_mutex_);
+  if (points.stamp_ns >= moving_points_.stamp_ns) moving_points_ = std::move(points);
+}
+
 void MaskStage::setPredictedDepth(Timestamp stamp_ns, cv::Mat depth_m) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1) return;
   std::lock_guard<std::mutex> lock(prior_mutex_);
@@ -55,6 +60,7 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
       motion_.reset();
       rendered_depth_m_.release();
       previous_frame_ns_.reset();
+      moving_points_ = MovingPoints();
       ++stats_.restarts;
       restarted = true;
     }
@@ -71,6 +77,19 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
       } else if (rendered_stamp_ns_ < frame.stamp_ns) {
         rendered_depth_m_.release();  // rendered for an earlier frame: never used for this one
         ++stats_.rendered_depth_unmatched;
+      }
+    }
+    if (!moving_points_.p_camera_m.empty() && moving_points_.stamp_ns < frame.stamp_ns &&
+        timestampToSeconds(frame.stamp_ns - moving_points_.stamp_ns) <= stage_options_.moving_points_max_age_s) {
+      const std::optional<Eigen::Isometry3d> T_world_seen = poseAt(moving_points_.stamp_ns);
+      const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
+      const Eigen::Isometry3f T_cur_seen = T_world_seen && T_world_cur
+                                               ? (T_world_cur->inverse() * *T_world_seen).cast<float>()
+                                               : Eigen::Isometry3f::Identity();
+      prior.moving_points_camera_m.reserve(moving_points_.p_camera_m.size());
+      for (const cv::Point3f& p : moving_points_.p_camera_m) {
+        const Eigen::Vector3f q = T_cur_seen * Eigen::Vector3f(p.x, p.y, p.z);
+        prior.moving_points_camera_m.emplace_back(q.x(), q.y(), q.z());
       }
     }
     previous_frame_ns_ = frame.stamp_ns;
@@ -97,6 +116,7 @@ void MaskStage::reset() {
   previous_frame_ns_.reset();
   stamp_gate_.reset();
   rendered_depth_m_.release();
+  moving_points_ = MovingPoints();
   stats_ = MaskStageStats();
 }
 

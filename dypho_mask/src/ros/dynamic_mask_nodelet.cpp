@@ -125,6 +125,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     depth_sub_.subscribe(*it_, "depth/image", queue_size);
     info_sub_.subscribe(nh, "rgb/camera_info", queue_size);
     tracking_sub_ = nh.subscribe("tracking_status", 20, &DynamicMaskNodelet::trackingCallback, this);
+    if (stage_->masker().options().moving_point_seeds) {
+      moving_points_sub_ = nh.subscribe("moving_points", 5, &DynamicMaskNodelet::movingPointsCallback, this);
+    }
     if (stage_->wantsRenderedDepth()) {  // else mapping renders no R_d for us (no subscriber)
       rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
     }
@@ -297,6 +300,15 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     stage_->observePose(rc::toPoseUpdate(*msg));
   }
 
+  void movingPointsCallback(const sensor_msgs::PointCloud2ConstPtr& msg) {
+    try {
+      stage_->observeMovingPoints(rc::toMovingPoints(*msg));
+    } catch (const std::exception& e) {
+      const std::string message = std::string("moving points ignored: ") + e.what();
+      if (input_log_.pass(message)) NODELET_WARN_STREAM(message);
+    }
+  }
+
   void renderedCallback(const sensor_msgs::ImageConstPtr& msg) {
     try {
       stage_->setPredictedDepth(rc::toTimestamp(msg->header.stamp), rc::toDepthMetres(*msg).clone());
@@ -320,6 +332,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   ros::WallTimer diagnostics_timer_;
   rc::ThrottledLog input_log_, degraded_log_;  ///< each kind of problem is named at once, then every 5 s
   ros::Subscriber tracking_sub_;
+  ros::Subscriber moving_points_sub_;  ///< tracking's moving points (DynamicMaskOptions::moving_point_seeds)
   image_transport::Subscriber rendered_sub_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::Publisher mask_pub_, raw_pub_, raw_segment_pub_, consistency_pub_;

@@ -27,6 +27,14 @@ bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
   return mask.empty() || cv::countNonZero(mask) == 0;
 }
 
+/// Records a feature seen moving (TrackingResult::moving_points_camera_m) at its measured depth.
+void addMovingPoint(const Pinhole& pinhole, const Eigen::Vector2d& uv_undistorted_px, double depth_m,
+                    TrackingResult* result) {
+  const Eigen::Vector3d p = pinhole.backProject(uv_undistorted_px, depth_m);
+  result->moving_points_camera_m.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                              static_cast<float>(p.z()));
+}
+
 /// The static check's dense pose counts as evidence only when it explains at least this share of
 /// the reference keyframe's static samples.
 constexpr double kMinDenseAgreement = 0.75;
@@ -271,6 +279,15 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
                            static_check_.score(refined.T_camera_world * T_world_reference).ratio() >=
                                by_dense.ratio() - 0.5 * options_.static_check_min_gain;
   aligned->T_camera_world = use_refined ? refined.T_camera_world : T_dense;
+  // The matches the static scene's pose does not explain moved: the mask is told where they are.
+  std::vector<bool> explained(aligned->matches.size(), false);
+  for (const std::size_t m : match_of) explained[m] = true;
+  for (std::size_t m = 0; m < aligned->matches.size(); ++m) {
+    const auto f = static_cast<std::size_t>(aligned->matches[m].frame_index);
+    if (!explained[m] && features.depth_m[f] > 0.f) {
+      addMovingPoint(pinhole, features.uv_undistorted_px[f], features.depth_m[f], result);
+    }
+  }
   std::fill(aligned->inliers.begin(), aligned->inliers.end(), false);
   for (std::size_t k = 0; k < match_of.size(); ++k) aligned->inliers[match_of[k]] = !use_refined || refined.inliers[k];
   aligned->num_inliers = static_cast<int>(std::count(aligned->inliers.begin(), aligned->inliers.end(), true));

@@ -147,6 +147,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     keyframe_pub_ = nh.advertise<dypho_slam::Keyframe>("keyframe", 10);
     corrections_pub_ = nh.advertise<dypho_slam::KeyframeCorrections>("keyframe_corrections", 100);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("tracking/timing", 10);
+    moving_points_pub_ = nh.advertise<sensor_msgs::PointCloud2>("moving_points", 5);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
     path_.header.frame_id = params_.map_frame;
@@ -324,6 +325,11 @@ class TrackingNodelet : public nodelet::Nodelet {
       NODELET_INFO_STREAM("tracking: " << result.message);
     }
     publishTiming(result, header);
+    if (!result.moving_points_camera_m.empty()) {  // the mask grows them into its next masks
+      std_msgs::Header points_header = header;
+      points_header.frame_id = camera_frame;
+      moving_points_pub_.publish(rc::toPointCloudMsg(result.moving_points_camera_m, points_header));
+    }
     publishCorrections(out.corrections(), header.stamp);
     // Never publish a pose we do not trust, nor one not anchored to the map (re-initialised).
     if (!out.pose.trusted || !out.pose.anchored) return;
@@ -535,6 +541,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   bool path_changed_ = false;
 
   ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
+  ros::Publisher moving_points_pub_;  ///< features seen moving (sensor_msgs/PointCloud2, camera optical frame)
   ros::ServiceServer reset_srv_, save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   ros::WallTimer path_timer_, diagnostics_timer_;  ///< after what their callbacks use: destroyed first

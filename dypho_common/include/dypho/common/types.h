@@ -47,6 +47,14 @@ struct RgbdFrame {
   CameraIntrinsics camera;  ///< intrinsics of `bgr` (distortion may be non-zero)
 };
 
+/// Points that tracking saw move on one frame (tracking -> mask): the matches the static check
+/// found carried along with people it did not mask. The mask grows them over the surface they lie
+/// on from the next frame on.
+struct MovingPoints {
+  Timestamp stamp_ns = 0;                 ///< the frame they were seen in [ns]
+  std::vector<cv::Point3f> p_camera_m;    ///< at their measured depth, that frame's camera optical frame [m]
+};
+
 /// A keypoint of a keyframe as handed from tracking to mapping.
 struct KeyframeKeypoint {
   float u_px = 0.f;            ///< pixel column in the (distorted) input image [px]

@@ -114,6 +114,11 @@ struct DynamicMaskOptions {
   /// Off by default: on sequences that start with a static scene it shifts the first keyframe
   /// for no gain (TUM fr1/rpy 2.9 -> 5.7 cm). Default false.
   bool unjudged_is_dynamic = false;
+  /// Grow the points tracking saw move on the previous frame (MovingPoints: the matches the
+  /// static check found carried along with people the mask missed) over the surface they lie on,
+  /// where the current depth is within 0.25 m of theirs and the background model does not explain
+  /// it, so that the same people cannot carry the next pose. Default true.
+  bool moving_point_seeds = true;
 
   /// Throws std::invalid_argument naming the first bad field (of any part).
   void validate() const;

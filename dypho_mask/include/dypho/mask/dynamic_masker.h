@@ -49,6 +49,9 @@ struct MaskPrior {
   /// pose, at the input size or at workingSize() (no resampling then); empty = none (0/NaN
   /// pixels = no value).
   cv::Mat rendered_depth_m;
+  /// Points tracking saw move (MovingPoints), carried into the current camera optical frame [m]
+  /// (DynamicMaskOptions::moving_point_seeds); empty = none.
+  std::vector<cv::Point3f> moving_points_camera_m;
 };
 
 /// Output of `DynamicMasker::compute`. All masks CV_8UC1, input size, 255 = dynamic.
@@ -112,6 +115,8 @@ class DynamicMasker {
   const cv::Mat& backgroundPrior() const { return background_.prior(); }
 
  private:
+  /// ORs into combined_ the surfaces grown from the moving points (moving_point_seeds).
+  void addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m, const CameraIntrinsics& camera_small);
   /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
   /// when `at_background`, else at input resolution).
   void finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
@@ -132,6 +137,7 @@ class DynamicMasker {
   cv::Mat nearest_layer_small_, farther_layers_small_, no_occluder_small_;  ///< depth-layer cut (DynamicMaskOptions::depth_layers)
   cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
   cv::Mat margin_depth_, margin_grown_;
+  cv::Mat seeds_small_;  ///< moving-point seeds at background resolution
   int halo_small_px_ = 6;  ///< width of the flow's halo at background resolution [px]
   cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };

@@ -11,6 +11,9 @@
 ///  - R_d: depth rendered from the Gaussian map at the predicted pose of a frame, offered with the
 ///    frame's stamp; used only by the frame with that stamp (within rendered_depth_tolerance_s),
 ///    never by a later one whose pose it does not show.
+///  - Moving points (tracking -> mask): the newest set seen at most moving_points_max_age_s before
+///    a frame is carried into that frame's camera with the motion model (as is, without poses)
+///    and grown into the mask (DynamicMaskOptions::moving_point_seeds).
 ///  - Stamps (stamp_gate.h, the same rule as tracking): a repeated stamp, or one at most 1 s
 ///    before the newest (a late frame), is dropped (MaskResult::dropped, no mask); a jump back by
 ///    more (a looped bag) restarts the masker: the flow, the background model B_i and the motion
@@ -38,6 +41,9 @@ struct MaskStageOptions {
   double rendered_depth_tolerance_s = 0.005;
   /// Poses further apart than this give no velocity (motion_prior.h) [s]; default 1.0.
   double motion_max_gap_s = 1.0;
+  /// Moving points seen at most this long before a frame are grown into its mask [s]; default
+  /// 0.1 (three 30 Hz frames: tracking may run a frame or two behind the mask).
+  double moving_points_max_age_s = 0.1;
 };
 
 /// Counters since construction or reset() (the graph test and diagnostics read them).
@@ -59,6 +65,8 @@ class MaskStage {
 
   /// The tracked pose of a frame (tracking -> mask).
   void observePose(const PoseUpdate& update);
+  /// Points tracking saw move on a frame (tracking -> mask), for the next frames' masks.
+  void observeMovingPoints(MovingPoints points);
   /// R_d for the frame stamped `stamp_ns`: CV_32FC1 [m], at workingCamera() or the input size.
   void setPredictedDepth(Timestamp stamp_ns, cv::Mat depth_m);
   /// True when R_d can enter the mask: the background model is on and its weight tau > 0. The
@@ -89,6 +97,7 @@ class MaskStage {
   StampGate stamp_gate_;
   cv::Mat rendered_depth_m_;
   Timestamp rendered_stamp_ns_ = 0;
+  MovingPoints moving_points_;
   MaskStageStats stats_;
 };
 

@@ -96,6 +96,11 @@ struct TrackingResult {
   double static_agreement = -1.0;
   /// The static check replaced the feature pose: moving matches had carried it.
   bool static_check_corrected = false;
+  /// Matched features seen moving on this frame, at their measured depth in this frame's camera
+  /// optical frame [m]: the matches the static check's pose does not explain when it corrected the
+  /// feature pose (the coherent group that had carried it). Handed to the mask (MovingPoints) so
+  /// that it covers the surface they lie on from the next frame on.
+  std::vector<cv::Point3f> moving_points_camera_m;
   TrackingTimesMs times;       ///< stage timings [ms]
 };
 
