@@ -258,7 +258,7 @@ void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera
                                         const CameraIntrinsics& camera_small) {
   constexpr float kMaxDepthChangeM = 0.25f;  // a person moves a few cm per frame; more is another surface
   constexpr int kSeedRadiusPx = 2;           // at background resolution
-  const cv::Mat& background = background_.prior();
+  const cv::Mat& background = background_.prior();  // the test of this frame made it, at this size
   const float sigma = static_cast<float>(options_.background.sigma_m);
   seeds_small_.create(combined_.size(), CV_8UC1);
   seeds_small_.setTo(0);
@@ -270,7 +270,7 @@ void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera
     if (u < 0 || v < 0 || u >= combined_.cols || v >= combined_.rows || combined_.at<uchar>(v, u) != 0) continue;
     const float d = depth_small_.at<float>(v, u);
     if (!(d > 0.f) || std::abs(d - p.z) > kMaxDepthChangeM) continue;  // no depth, or not the same surface
-    const float b = background.empty() ? 0.f : background.at<float>(v, u);
+    const float b = background.at<float>(v, u);
     if (b > 0.f && d >= b - sigma) continue;  // the background explains it: static after all
     cv::circle(seeds_small_, cv::Point(u, v), kSeedRadiusPx, cv::Scalar(255), cv::FILLED);
     ++seeds;
@@ -278,11 +278,7 @@ void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera
   if (seeds == 0) return;
   DepthGrowSettings grow = grow_settings_;
   grow.min_seed_area_px = 1;  // a seed is one point; the depth cluster and the background bound it
-  if (!background.empty() && background.size() == seeds_small_.size()) {
-    growRegionsInDepth(depth_small_, background, grow, seeds_small_);
-  } else {
-    growRegionsInDepth(depth_small_, cv::Mat::zeros(seeds_small_.size(), CV_32FC1), grow, seeds_small_);
-  }
+  growRegionsInDepth(depth_small_, background, grow, seeds_small_);
   combined_ |= seeds_small_;
 }
 
