@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <sys/stat.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "dypho/mask/dynamic_masker.h"
 #include "dypho/mask/yolo_segmenter.h"
@@ -125,6 +127,63 @@ TEST(DynamicMasker, UnjudgedFirstFrameIsAllDynamicWhenAsked) {
     masker.reset();  // a reset starts unjudged again
     EXPECT_TRUE(masker.compute(scene.render(2).frame).unjudged);
   }
+}
+
+/// A frame of a textured wall 2 m away whose eight vertical strips each moved by their own shift
+/// against `texture` (shift 0 = the wall as in `texture`): no motion holds 30 % of the flow.
+RgbdFrame stripsFrame(const cv::Mat& texture, bool shifted, std::int64_t stamp_ns) {
+  const cv::Size size(640, 480);
+  const cv::Point shifts[8] = {{12, 0}, {-12, 0}, {0, 12}, {0, -12}, {9, 9}, {-9, -9}, {9, -9}, {-9, 9}};
+  RgbdFrame f;
+  f.stamp_ns = stamp_ns;
+  f.bgr.create(size, CV_8UC3);
+  const int strip = size.width / 8;
+  for (int k = 0; k < 8; ++k) {
+    const cv::Point d = shifted ? shifts[k] : cv::Point(0, 0);
+    const cv::Rect to(k * strip, 0, strip, size.height);
+    texture(to + cv::Point(16, 16) - d).copyTo(f.bgr(to));
+  }
+  f.depth_m = cv::Mat(size, CV_32FC1, cv::Scalar(2.f));
+  f.camera.fx = f.camera.fy = 525.0;
+  f.camera.cx = 319.5;
+  f.camera.cy = 239.5;
+  f.camera.width = size.width;
+  f.camera.height = size.height;
+  return f;
+}
+
+// Start in a crowd: a frame whose camera motion the flow cannot find, with no earlier mask to
+// carry, is all dynamic until the background model is established (unknown_motion_is_dynamic);
+// by default off it stays all static (nothing found to move), and so it does once the model has
+// had background_veto_after_updates updates. Fails if the rule is dropped, fires late, or never
+// stops.
+TEST(DynamicMasker, UnknownCameraMotionAtTheStartIsAllDynamic) {
+  cv::Mat texture(512, 672, CV_8UC3);
+  cv::RNG rng(3);
+  rng.fill(texture, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(texture, texture, cv::Size(5, 5), 1.2);
+  for (const bool rule : {true, false}) {
+    DynamicMaskOptions o;
+    o.unknown_motion_is_dynamic = rule;
+    DynamicMasker masker(o);
+    std::int64_t t = 0;
+    masker.compute(stripsFrame(texture, false, t += 33000000));
+    const MaskResult lost = masker.compute(stripsFrame(texture, true, t += 33000000));
+    ASSERT_TRUE(lost.degraded) << "the strips must defeat the global-motion fit: " << lost.message;
+    EXPECT_DOUBLE_EQ(lost.masked_fraction, rule ? 1.0 : 0.0) << lost.message;
+    if (rule) EXPECT_NE(lost.message.find("camera motion not found"), std::string::npos) << lost.message;
+  }
+  // Established background: the same frame is no longer all dynamic.
+  DynamicMaskOptions o;
+  DynamicMasker masker(o);
+  std::int64_t t = 0;
+  for (int i = 0; i <= o.background.veto_after_updates + 1; ++i) {
+    const MaskResult still = masker.compute(stripsFrame(texture, false, t += 33000000));
+    ASSERT_LT(still.masked_fraction, 0.05) << "frame " << i << ": " << still.message;
+  }
+  const MaskResult lost = masker.compute(stripsFrame(texture, true, t += 33000000));
+  ASSERT_TRUE(lost.degraded) << lost.message;
+  EXPECT_LT(lost.masked_fraction, 1.0) << lost.message;
 }
 
 TEST(DynamicMaskOptions, RejectsANegativeVetoWarmUp) {

@@ -186,6 +186,20 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     return result;
   }
 
+  // Start in a crowd: until the background model is established, a frame whose camera motion the
+  // flow did not find and that carries no earlier mask says nothing about what is static; people
+  // who fill the view would carry its pose (a still camera walked away with them). It is all
+  // dynamic, and the background model does not learn it.
+  if (options_.unknown_motion_is_dynamic && flow.motion_unknown && seg.mask.empty() &&
+      background_updates_ < options_.background.veto_after_updates) {
+    result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
+    result.masked_fraction = 1.0;
+    note("camera motion not found and no earlier mask to carry: every pixel dynamic on this frame");
+    previous_mask_.release();
+    result.total_ms = msSince(t0);
+    return result;
+  }
+
   // 3. Raw mask, background model, consistency.
   const auto t_bg = Clock::now();
   if (run_background) {

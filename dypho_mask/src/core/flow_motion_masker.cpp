@@ -404,7 +404,10 @@ bool FlowMotionMasker::followsCarried() const {
 
 void FlowMotionMasker::useCarried(const cv::Size& size, FlowMaskResult& result) {
   result.degraded = true;
-  if (carried_.empty() || cv::countNonZero(carried_) == 0) return;  // nothing known: all static
+  if (carried_.empty() || cv::countNonZero(carried_) == 0) {  // nothing known: all static
+    result.motion_unknown = true;
+    return;
+  }
   // The previous mask already holds the margin, which the caller adds again: take it off first
   // so that a run of degraded frames does not grow the mask by a margin per frame.
   const int r = cleanerSettings(options_).dilate_radius_px;

@@ -69,6 +69,9 @@ struct FlowMaskResult {
   /// True when the global motion was found only without the previous frame's dynamic pixels
   /// (the plain fit had too few inliers; see compute()).
   bool fit_excluded_previous_mask = false;
+  /// True when the global motion was not found and no previous mask could be carried: nothing
+  /// says which pixels move (the mask is all static for want of evidence, not because of it).
+  bool motion_unknown = false;
   /// How still the camera is, in [0, 1]: 1 while the median flow of the textured pixels (the
   /// camera's own image motion while people cover less than half of the view) is below 2 px per
   /// frame, 0 from 6 px on, linear between (full-res). The ego-motion model's errors grow with
