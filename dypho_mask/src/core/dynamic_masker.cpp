@@ -68,6 +68,7 @@ DynamicMasker::~DynamicMasker() = default;
 
 void DynamicMasker::reset() {
   background_updates_ = 0;
+  flow_frames_ = 0;
   previous_mask_.release();
   flow_.reset();
   segment_->reset();
@@ -186,12 +187,15 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     return result;
   }
 
-  // Start in a crowd: until the background model is established, a frame whose camera motion the
-  // flow did not find and that carries no earlier mask says nothing about what is static; people
-  // who fill the view would carry its pose (a still camera walked away with them). It is all
-  // dynamic, and the background model does not learn it.
+  // Start in a crowd: on the first frames with a flow (as many as the background model needs to
+  // be established, background_veto_after_updates), a frame whose camera motion the flow did not
+  // find and that carries no earlier mask says nothing about what is static; people who fill the
+  // view would carry its pose (a still camera walked away with them). It is all dynamic, and the
+  // background model does not learn it. Counted in flow frames, so that the start also ends
+  // without depth or with the background model off.
+  if (!flow_.lastFlow().empty()) ++flow_frames_;
   if (options_.unknown_motion_is_dynamic && flow.motion_unknown && seg.mask.empty() &&
-      background_updates_ < options_.background.veto_after_updates) {
+      flow_frames_ <= options_.background.veto_after_updates) {
     result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
     result.masked_fraction = 1.0;
     note("camera motion not found and no earlier mask to carry: every pixel dynamic on this frame");

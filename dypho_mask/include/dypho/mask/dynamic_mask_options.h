@@ -114,8 +114,8 @@ struct DynamicMaskOptions {
   /// Off by default: on sequences that start with a static scene it shifts the first keyframe
   /// for no gain (TUM fr1/rpy 2.9 -> 5.7 cm). Default false.
   bool unjudged_is_dynamic = false;
-  /// Until the background model is established (background_veto_after_updates updates), a frame
-  /// whose camera motion the flow did not find (fewer than flow_min_inlier_ratio of its samples
+  /// On the first background_veto_after_updates frames with a flow after a start or a reset (the
+  /// time the background model needs to be established), a frame whose camera motion the flow did not find (fewer than flow_min_inlier_ratio of its samples
   /// follow one motion) and that carries no earlier mask is returned all dynamic and not learnt:
   /// nothing says what is static there, and people who fill the view from the first frame would
   /// carry its pose (tracking skips the frame instead). Still camera, 6 people crossing from frame

@@ -130,6 +130,7 @@ class DynamicMasker {
   MaskCleaner small_cleaner_;
   bool warned_ = false;
   int background_updates_ = 0;  ///< updates of B since construction / reset()
+  int flow_frames_ = 0;         ///< frames with a flow since construction / reset() (the start: unknown_motion_is_dynamic)
   BoxDepthSettings box_settings_;
   DepthGrowSettings grow_settings_;
   cv::Mat seg_small_, flow_small_;
