@@ -179,10 +179,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   // With unjudged_is_dynamic the frame is all dynamic and the background model does not learn it.
   result.unjudged = flow_.lastFlow().empty() && !seg.fresh;
   if (options_.unjudged_is_dynamic && result.unjudged) {
-    result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
-    result.masked_fraction = 1.0;
-    note("nothing judged yet (no flow, no network mask): every pixel dynamic on this frame");
-    previous_mask_.release();
+    allDynamic(size, "nothing judged yet (no flow, no network mask)", result);
     result.total_ms = msSince(t0);
     return result;
   }
@@ -196,10 +193,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   if (!flow_.lastFlow().empty()) ++flow_frames_;
   if (options_.unknown_motion_is_dynamic && flow.motion_unknown && seg.mask.empty() &&
       flow_frames_ <= options_.background.veto_after_updates) {
-    result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
-    result.masked_fraction = 1.0;
-    note("camera motion not found and no earlier mask to carry: every pixel dynamic on this frame");
-    previous_mask_.release();
+    allDynamic(size, "camera motion not found and no earlier mask to carry", result);
     result.total_ms = msSince(t0);
     return result;
   }
@@ -298,6 +292,13 @@ void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera
   grow.min_seed_area_px = 1;  // a seed is one point; the depth cluster and the background bound it
   growRegionsInDepth(depth_small_, background, grow, seeds_small_);
   combined_ |= seeds_small_;
+}
+
+void DynamicMasker::allDynamic(const cv::Size& size, const std::string& why, MaskResult& result) {
+  result.mask = cv::Mat(size, CV_8UC1, cv::Scalar(255));
+  result.masked_fraction = 1.0;
+  result.message += (result.message.empty() ? "" : "; ") + why + ": every pixel dynamic on this frame";
+  previous_mask_.release();  // nothing to carry into the next frame
 }
 
 void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {

@@ -119,6 +119,9 @@ class DynamicMasker {
   void addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m, const CameraIntrinsics& camera_small);
   /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
   /// when `at_background`, else at input resolution).
+  /// The frame says nothing about what is static: `result` all dynamic (255), `why` added to its
+  /// message, and nothing carried into the next frame.
+  void allDynamic(const cv::Size& size, const std::string& why, MaskResult& result);
   void finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
   void finishMask(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
 
