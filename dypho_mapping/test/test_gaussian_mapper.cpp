@@ -2,6 +2,7 @@
 /// re-anchoring, training on a synthetic sequence (PSNR, no ghosts).
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 
 #include "dypho/mapping/gaussian_mapper.h"
 #include "dypho/mapping/mapping_stage.h"
+#include "dypho/mapping/thread_pool.h"
 #include "plane_keyframe.h"
 #include "dypho/mapping/gaussian_ply.h"
 #include "dypho/tools/synthetic_scene.h"
@@ -231,6 +233,69 @@ TEST(GaussianMapper, WorkerThreadProcessesQueuedKeyframes) {
   ASSERT_EQ(messages.size(), 1u);
   EXPECT_NE(messages[0].find("keyframe 9"), std::string::npos);
   mapper.stop();
+}
+
+// Training threads lower themselves to the idle class (training_idle_class, default on): the
+// pool's extra threads and the worker do, the caller of the pool keeps its own class. Linux only
+// (thread_budget.h); lowering one's own priority needs no privilege, so this holds in CI too.
+TEST(GaussianMapper, TrainingThreadsRunInTheIdleClass) {
+#ifdef __linux__
+  EXPECT_TRUE(GaussianMapperOptions().training_idle_class);
+  EXPECT_TRUE(GaussianMapperOptions().trainingPriority().idle_class);
+  std::vector<int> idle(2, -1);
+  {
+    ThreadPool pool(2, GaussianMapperOptions().trainingPriority());
+    pool.parallelForStatic(2, [&](int i, int) { idle[static_cast<std::size_t>(i)] = currentThreadIsIdleClass() ? 1 : 0; });
+  }
+  EXPECT_EQ(idle[0], 0) << "the caller keeps its class";
+  EXPECT_EQ(idle[1], 1) << "the pool thread runs in the idle class";
+  std::atomic<int> worker_idle{-1};
+  {
+    MappingWorker worker(1, [&](const MappingJob&) { worker_idle = currentThreadIsIdleClass() ? 1 : 0; }, {},
+                         ThreadPriority{10, true});
+    worker.push(MappingJob{}, true);
+    worker.waitUntilIdle();
+    worker.stop();
+  }
+  EXPECT_EQ(worker_idle.load(), 1);
+  // Off: nice only.
+  std::atomic<int> niced_idle{-1};
+  {
+    MappingWorker worker(1, [&](const MappingJob&) { niced_idle = currentThreadIsIdleClass() ? 1 : 0; }, {},
+                         ThreadPriority{10, false});
+    worker.push(MappingJob{}, true);
+    worker.waitUntilIdle();
+    worker.stop();
+  }
+  EXPECT_EQ(niced_idle.load(), 0);
+#else
+  GTEST_SKIP() << "thread classes are only set on Linux";
+#endif
+}
+
+// stats() reads counters refreshed after each change: it does not wait for the running training
+// iteration (the ROS cloud timer and diagnostics call it beside a training that may hold the
+// trainer for a long time at the idle priority).
+TEST(GaussianMapper, StatsFollowEveryChange) {
+  GaussianMapperOptions o = smallOptions();
+  GaussianMapper mapper(o);
+  EXPECT_EQ(mapper.stats().num_keyframes, 0u);
+  ASSERT_TRUE(mapper.addKeyframe(planeKeyframe(0, Eigen::Isometry3d::Identity())).added);
+  GaussianMapperStats s = mapper.stats();
+  EXPECT_EQ(s.num_keyframes, 1u);
+  EXPECT_GT(s.num_gaussians, 0u);
+  EXPECT_EQ(s.num_stored_images, 1u);
+  mapper.optimize(2);
+  EXPECT_EQ(mapper.stats().iterations, 2);
+  Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+  moved.translation().x() = 0.1;
+  EXPECT_TRUE(mapper.updateKeyframePose(0, moved));
+  EXPECT_EQ(mapper.stats().corrected_keyframes, 1u);
+  mapper.reset();
+  s = mapper.stats();
+  EXPECT_EQ(s.num_keyframes, 0u);
+  EXPECT_EQ(s.num_gaussians, 0u);
+  EXPECT_EQ(s.iterations, 2) << "a counter over the mapper's life";
 }
 
 // Live policy: when the next job already waits, a keyframe gets live_min_iterations_per_keyframe

@@ -21,10 +21,24 @@ void GaussianMapper::report(const std::string& message) const {
   if (!message.empty() && sink_) sink_(message);
 }
 
+/// The trainer's lock for a change: on release (still under the lock) the counters stats() reads
+/// are refreshed, so stats() never waits for a training iteration.
+class GaussianMapper::ChangeLock {
+ public:
+  explicit ChangeLock(const GaussianMapper& mapper) : mapper_(mapper), lock_(mapper.mutex_) {}
+  ~ChangeLock() { mapper_.refreshStats(); }
+  ChangeLock(const ChangeLock&) = delete;
+  ChangeLock& operator=(const ChangeLock&) = delete;
+
+ private:
+  const GaussianMapper& mapper_;
+  std::lock_guard<std::mutex> lock_;
+};
+
 AddKeyframeResult GaussianMapper::addKeyframe(const Keyframe& keyframe) {
   AddKeyframeResult r;
   const std::string problem = checkKeyframe(keyframe);
-  std::lock_guard<std::mutex> lock(mutex_);
+  ChangeLock lock(*this);
   if (!problem.empty()) {
     ++trainer_->skipped;
     r.message = "keyframe " + std::to_string(keyframe.id) + " skipped: " + problem;
@@ -55,7 +69,7 @@ double GaussianMapper::optimize(int iterations) {
   double sum = 0.0;
   int n = 0;
   for (int i = 0; i < iterations; ++i) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    ChangeLock lock(*this);
     const double l = trainer_->iterate();
     reportDeviceFallback();
     if (l < 0) break;
@@ -71,7 +85,7 @@ void GaussianMapper::start(std::size_t queue_capacity, bool live) {
   std::function<bool()> idle;
   if (live && options_.live_train_when_idle) idle = [this] { return idleStep(); };
   worker_ = std::make_unique<MappingWorker>(
-      queue_capacity, [this](const MappingJob& job) { runJob(job); }, std::move(idle), options_.training_nice);
+      queue_capacity, [this](const MappingJob& job) { runJob(job); }, std::move(idle), options_.trainingPriority());
 }
 
 bool GaussianMapper::idleStep() {
@@ -79,7 +93,7 @@ bool GaussianMapper::idleStep() {
   // here (the worker checks its own stop flag before each idle step).
   if (idle_paused_ || hurry_) return false;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    ChangeLock lock(*this);
     if (trainer_->keyframes.empty()) return false;
     const double l = trainer_->iterate();
     reportDeviceFallback();
@@ -161,7 +175,7 @@ void GaussianMapper::enqueueCorrections(KeyframePoseCorrections corrections, boo
 }
 
 std::size_t GaussianMapper::applyCorrections(const KeyframePoseCorrections& corrections) {
-  std::lock_guard<std::mutex> lock(mutex_);
+  ChangeLock lock(*this);
   const std::size_t n = trainer_->correctKeyframePoses(corrections);
   corrected_ += n;
   return n;
@@ -187,7 +201,7 @@ double GaussianMapper::finish(std::optional<double> budget_s) {
   double sum = 0.0;
   int n = 0;
   for (int i = 0; i < options_.final_refine_iterations && within_budget(); ++i) {
-    std::lock_guard<std::mutex> lock(mutex_);
+    ChangeLock lock(*this);
     const double l = trainer_->iterate(/*all_keyframes=*/true);
     reportDeviceFallback();
     if (l < 0) break;
@@ -235,7 +249,7 @@ void GaussianMapper::savePly(const std::string& path) const {
 std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) {
   // Read first (throws before touching the map), then swap under the lock.
   GaussianMap loaded = loadGaussianPly(path, options_.sh_degree, options_.max_gaussians, note);
-  std::lock_guard<std::mutex> lock(mutex_);
+  ChangeLock lock(*this);
   GaussianTrainer& t = *trainer_;
   t.map = std::move(loaded);
   t.adam.compact(t.map, std::vector<std::uint8_t>());
@@ -248,19 +262,26 @@ std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) 
 
 void GaussianMapper::saveCentresPcd(const std::string& path) const { mapping::saveCentresPcd(path, centres()); }
 
+void GaussianMapper::refreshStats() const {
+  GaussianMapperStats s;
+  const GaussianTrainer& t = *trainer_;
+  s.num_gaussians = t.map.size();
+  s.num_keyframes = t.keyframes.size();
+  for (const auto& kf : t.keyframes) s.num_stored_images += kf.hasImages() ? 1 : 0;
+  s.iterations = t.iterations;
+  s.skipped_keyframes = t.skipped;
+  s.capacity_hits = t.capacity_hits;
+  s.last_loss = t.last_loss;
+  s.corrected_keyframes = corrected_;
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_ = s;
+}
+
 GaussianMapperStats GaussianMapper::stats() const {
   GaussianMapperStats s;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const GaussianTrainer& t = *trainer_;
-    s.num_gaussians = t.map.size();
-    s.num_keyframes = t.keyframes.size();
-    for (const auto& kf : t.keyframes) s.num_stored_images += kf.hasImages() ? 1 : 0;
-    s.iterations = t.iterations;
-    s.skipped_keyframes = t.skipped;
-    s.capacity_hits = t.capacity_hits;
-    s.last_loss = t.last_loss;
-    s.corrected_keyframes = corrected_;
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    s = stats_;
   }
   if (worker_) {
     s.queued = worker_->queued();
@@ -279,7 +300,7 @@ KeyframePoseCorrections GaussianMapper::keyframePoses() const {
 void GaussianMapper::reset() {
   if (worker_) worker_->clear();
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    ChangeLock lock(*this);
     trainer_->clear();
   }
   std::lock_guard<std::mutex> lock(snapshot_mutex_);

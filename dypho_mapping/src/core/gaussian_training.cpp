@@ -27,7 +27,7 @@ GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o, ComputeDevice d
       device(d),
       cuda(d == ComputeDevice::kCuda ? std::make_unique<CudaTrainer>() : nullptr),
       map(o.sh_degree, o.max_gaussians),
-      pool(o.resolvedNumThreads(), o.training_nice),
+      pool(o.resolvedNumThreads(), o.trainingPriority()),
       raster(&pool),
       render_raster(&pool),
       adam(ratesFrom(o)),

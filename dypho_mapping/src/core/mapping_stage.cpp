@@ -1,6 +1,8 @@
 /// MappingStage: Gaussian map + keyframe cloud with the queue, R_d and refinement policy.
 #include "dypho/mapping/mapping_stage.h"
 
+#include "dypho/mapping/gaussian_map_io.h"
+
 #include <stdexcept>
 
 namespace dypho::mapping {
@@ -150,6 +152,11 @@ MappingStageStats MappingStage::stats() const {
 KeyframeCloudMap::Cloud::Ptr MappingStage::buildCloud() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return cloud_.buildCloud();
+}
+
+std::vector<GaussianCentre> MappingStage::latestGaussianCentres() const {
+  const MapSnapshot snapshot = gaussians_.latestSnapshot();
+  return snapshot.map ? mapping::gaussianCentres(*snapshot.map) : std::vector<GaussianCentre>();
 }
 
 std::size_t MappingStage::numCloudPoints() const {

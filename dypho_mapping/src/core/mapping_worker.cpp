@@ -8,10 +8,10 @@
 namespace dypho::mapping {
 
 MappingWorker::MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler,
-                             std::function<bool()> idle_handler, int nice_increment)
+                             std::function<bool()> idle_handler, ThreadPriority priority)
     : handler_(std::move(handler)),
       idle_handler_(std::move(idle_handler)),
-      nice_increment_(nice_increment),
+      priority_(priority),
       capacity_(std::max<std::size_t>(1, capacity)) {
   thread_ = std::thread([this] { loop(); });
 }
@@ -45,7 +45,7 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
 }
 
 void MappingWorker::loop() {
-  lowerCurrentThreadPriority(nice_increment_);  // best effort: a failure only keeps the priority
+  lowerCurrentThreadPriority(priority_);  // best effort: a failure only keeps the priority
   bool idle_work_left = true;
   for (;;) {
     MappingJob job;

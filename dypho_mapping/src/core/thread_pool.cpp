@@ -6,8 +6,8 @@
 
 namespace dypho::mapping {
 
-ThreadPool::ThreadPool(int num_threads, int nice_increment)
-    : num_threads_(std::max(1, num_threads)), nice_increment_(std::max(0, nice_increment)) {
+ThreadPool::ThreadPool(int num_threads, ThreadPriority priority)
+    : num_threads_(std::max(1, num_threads)), priority_(priority) {
   for (int i = 1; i < num_threads_; ++i) workers_.emplace_back([this, i] { workerLoop(i); });
 }
 
@@ -52,7 +52,7 @@ void ThreadPool::runItems(int thread_index) {
 }
 
 void ThreadPool::workerLoop(int thread_index) {
-  lowerCurrentThreadPriority(nice_increment_);  // best effort: a failure only keeps the priority
+  lowerCurrentThreadPriority(priority_);  // best effort: a failure only keeps the priority
   long seen = 0;
   for (;;) {
     {

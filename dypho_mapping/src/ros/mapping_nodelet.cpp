@@ -145,6 +145,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (options.gaussian.num_threads == 0) options.gaussian.num_threads = planThreadBudget(params_.cores).mapping_threads;
     NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\nthread budget: " << options.gaussian.num_threads
                                               << " training threads at nice +" << options.gaussian.training_nice
+                                              << (options.gaussian.training_idle_class ? " in the idle class (SCHED_IDLE)" : "")
                                               << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
 
     // 2. Cores and threads.
@@ -288,7 +289,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
     if (gaussian_cloud_pub_.getNumSubscribers() > 0) {
       pcl::PointCloud<pcl::PointXYZRGB> cloud;
-      for (const mapping::GaussianCentre& c : stage_->gaussianCentres()) {
+      for (const mapping::GaussianCentre& c : stage_->latestGaussianCentres()) {
         pcl::PointXYZRGB p(c.r, c.g, c.b);
         p.x = c.x;
         p.y = c.y;

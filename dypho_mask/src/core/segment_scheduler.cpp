@@ -88,7 +88,7 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
       YoloSegmenter* seg = segmenter_.get();
       const int nice = options_.async_nice;
       pending_ = std::async(std::launch::async, [seg, bgr, depth, nice] {
-        lowerCurrentThreadPriority(nice);  // best effort: a failure only keeps the priority
+        lowerCurrentThreadPriority({nice, /*idle_class=*/false});  // best effort: a failure only keeps the priority
         return seg->segment(bgr, depth);
       });
     } else {

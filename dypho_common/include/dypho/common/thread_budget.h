@@ -5,6 +5,7 @@
 /// the network and the Gaussian training run beside it at a lower priority (a higher nice value),
 /// so on a loaded machine they take the time the camera-rate path leaves and never delay it.
 
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -26,6 +27,15 @@ struct ThreadBudget {
   int mapping_nice = 10;    ///< nice increment of the mapping worker and its pool
 };
 
+/// The priority a background thread lowers itself to.
+struct ThreadPriority {
+  int nice_increment = 0;  ///< added to the thread's nice value (capped at 19), >= 0
+  /// Linux SCHED_IDLE: the thread runs only on CPU time no other thread wants. A niced thread
+  /// still takes a share of a core it shares (nice +10: about 10 %); an idle-class one does not.
+  /// Lowering a thread's own priority needs no privilege.
+  bool idle_class = false;
+};
+
 /// The budget for `cores` cores (0 = every core of this machine).
 inline ThreadBudget planThreadBudget(int cores) {
   ThreadBudget budget;
@@ -36,22 +46,40 @@ inline ThreadBudget planThreadBudget(int cores) {
   return budget;
 }
 
-/// Raises the nice value of the calling thread by `increment` (Linux: nice is per thread), which
+/// Lowers the calling thread's priority (Linux: nice and scheduling class are per thread), which
 /// needs no privilege. Returns an empty string on success, else the reason (the thread then keeps
-/// its priority; callers log it once).
-inline std::string lowerCurrentThreadPriority(int increment) {
-  if (increment <= 0) return {};
+/// what it could not change; callers log it once).
+inline std::string lowerCurrentThreadPriority(const ThreadPriority& priority) {
 #ifdef __linux__
   const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
-  errno = 0;
-  const int current = ::getpriority(PRIO_PROCESS, tid);
-  if (current == -1 && errno != 0) return std::string("getpriority: ") + std::strerror(errno);
-  if (::setpriority(PRIO_PROCESS, tid, std::min(19, current + increment)) != 0) {
-    return std::string("setpriority: ") + std::strerror(errno);
+  if (priority.nice_increment > 0) {
+    errno = 0;
+    const int current = ::getpriority(PRIO_PROCESS, tid);
+    if (current == -1 && errno != 0) return std::string("getpriority: ") + std::strerror(errno);
+    if (::setpriority(PRIO_PROCESS, tid, std::min(19, current + priority.nice_increment)) != 0) {
+      return std::string("setpriority: ") + std::strerror(errno);
+    }
+  }
+  if (priority.idle_class) {
+    sched_param param{};
+    param.sched_priority = 0;
+    if (::sched_setscheduler(static_cast<pid_t>(tid), SCHED_IDLE, &param) != 0) {
+      return std::string("sched_setscheduler(SCHED_IDLE): ") + std::strerror(errno);
+    }
   }
   return {};
 #else
+  if (priority.nice_increment <= 0 && !priority.idle_class) return {};
   return "thread priorities are only set on Linux";
+#endif
+}
+
+/// True when the calling thread runs in the SCHED_IDLE class (for tests and diagnostics).
+inline bool currentThreadIsIdleClass() {
+#ifdef __linux__
+  return ::sched_getscheduler(0) == SCHED_IDLE;
+#else
+  return false;
 #endif
 }
 

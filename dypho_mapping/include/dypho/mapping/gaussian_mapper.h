@@ -14,7 +14,8 @@
 /// MappingWorker (thread + ordered job queue), MapRenderer (renders, also of snapshots outside the
 /// lock), keyframe_evaluation.h, gaussian_map_io.h (PLY/PCD). This class composes them.
 ///
-/// Threads: every public function is thread-safe (one mutex guards the trainer). With `start()`,
+/// Threads: every public function is thread-safe (one mutex guards the trainer; stats() reads
+/// counters refreshed after each change and never waits for an iteration). With `start()`,
 /// the worker takes jobs in order: a keyframe is seeded and trained on for
 /// `iterations_per_keyframe` iterations, then the map is copied into a snapshot tagged with that
 /// keyframe's id; a correction batch re-anchors its keyframes. Results do not depend on timing
@@ -187,6 +188,14 @@ class GaussianMapper {
   mutable std::unique_ptr<MapRenderer> renderer_;  ///< renders of the live map, guarded by mutex_
   mutable std::mutex mutex_;
   std::size_t corrected_ = 0;  ///< guarded by mutex_
+  /// mutex_ for a change to the trainer (defined in the .cpp): refreshes stats_ on release.
+  class ChangeLock;
+  /// Copies the trainer's counters into stats_; call under mutex_.
+  void refreshStats() const;
+  /// The counters as they stood after the last change, guarded by stats_mutex_ (never held
+  /// during an iteration): stats() is called from ROS timer threads and must not wait for training.
+  mutable std::mutex stats_mutex_;
+  mutable GaussianMapperStats stats_;
 
   std::unique_ptr<MappingWorker> worker_;
   std::function<void(const std::string&)> sink_;

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 
+#include "dypho/common/thread_budget.h"
 #include "dypho/mapping/cloud_map_options.h"
 
 namespace dypho::mapping {
@@ -32,6 +33,13 @@ struct GaussianMapperOptions {
   /// Nice increment of the mapping worker and its pool threads (thread_budget.h): training takes
   /// the time the camera-rate threads leave, in [0, 19]. Default 10.
   int training_nice = 10;
+  /// Linux: the mapping worker and its pool also run in the SCHED_IDLE class, so training gets
+  /// only the CPU time no other thread wants and never slows the camera-rate threads (a niced
+  /// thread still takes about 10 % of a core it shares with them). False: training_nice alone.
+  /// Default true.
+  bool training_idle_class = true;
+  /// The priority the training threads lower themselves to (training_nice, training_idle_class).
+  ThreadPriority trainingPriority() const { return {training_nice, training_idle_class}; }
   /// Iterations of the final refinement run by GaussianMapper::finish() at the end of a sequence,
   /// visiting every stored keyframe equally often, >= 0. Default 300.
   int final_refine_iterations = 300;

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <thread>
 
+#include "dypho/common/thread_budget.h"
 #include "dypho/common/types.h"
 
 namespace dypho::mapping {
@@ -32,9 +33,9 @@ class MappingWorker {
   /// Runs `handler` on the worker thread for every job. `capacity` >= 1 waiting jobs.
   /// `idle_handler` (optional): called again and again while no job waits; it does one small
   /// step of background work and returns false when there is none (the worker then sleeps until
-  /// the next job). The thread raises its nice value by `nice_increment` (thread_budget.h).
+  /// the next job). The thread lowers its priority to `priority` (thread_budget.h).
   MappingWorker(std::size_t capacity, std::function<void(const MappingJob&)> handler,
-                std::function<bool()> idle_handler = {}, int nice_increment = 0);
+                std::function<bool()> idle_handler = {}, ThreadPriority priority = {});
   ~MappingWorker();  ///< stop()
   MappingWorker(const MappingWorker&) = delete;
   MappingWorker& operator=(const MappingWorker&) = delete;
@@ -57,7 +58,7 @@ class MappingWorker {
 
   std::function<void(const MappingJob&)> handler_;
   std::function<bool()> idle_handler_;
-  int nice_increment_ = 0;
+  ThreadPriority priority_;
   std::size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;

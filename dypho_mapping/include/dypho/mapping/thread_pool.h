@@ -11,14 +11,16 @@
 #include <thread>
 #include <vector>
 
+#include "dypho/common/thread_budget.h"
+
 namespace dypho::mapping {
 
 class ThreadPool {
  public:
   /// `num_threads` >= 1 threads in total (including the caller of parallelFor). The extra
-  /// threads raise their nice value by `nice_increment` (>= 0; thread_budget.h), so a pool of a
-  /// background job yields to the camera-rate threads; the caller keeps its own priority.
-  explicit ThreadPool(int num_threads, int nice_increment = 0);
+  /// threads lower their priority to `priority` (thread_budget.h), so a pool of a background job
+  /// yields to the camera-rate threads; the caller keeps its own priority.
+  explicit ThreadPool(int num_threads, ThreadPriority priority = {});
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
   ThreadPool& operator=(const ThreadPool&) = delete;
@@ -40,7 +42,7 @@ class ThreadPool {
   void runItems(int thread_index);
 
   int num_threads_;
-  int nice_increment_;
+  ThreadPriority priority_;
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable start_cv_, done_cv_;
