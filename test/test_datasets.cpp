@@ -47,6 +47,11 @@ std::string sharedDir() {
   return env != nullptr ? env : DYPHO_SHARED_DIR;
 }
 
+/// The trajectory tests run mask and tracking only (--no-map): with R_d off (the default) the map
+/// does not feed back into the trajectory (SyntheticDefaultInput checks that the trajectory is the
+/// same with and without it), and training the map took most of each run's time.
+constexpr const char* kTrajectoryOnly = "--no-map";
+
 /// Runs dypho_run_dataset and returns its exit code; output goes to <out>/log.txt.
 int runDataset(const std::string& dataset, const std::string& out, const std::string& extra = "") {
   const std::string cmd = std::string("mkdir -p '") + out + "' && '" + DYPHO_RUN_DATASET +
@@ -56,6 +61,11 @@ int runDataset(const std::string& dataset, const std::string& out, const std::st
   std::ifstream log(out + "/log.txt");
   std::cout << log.rdbuf() << std::endl;
   return WEXITSTATUS(status);
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 double ateOf(const std::string& out, const std::vector<dypho::StampedPose>& gt) {
@@ -90,7 +100,7 @@ TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
     std::ofstream config(out + "/detector.yaml");
     config << "mask:\n  yolo_model_path: \"" << model << "\"\n";
   }
-  ASSERT_EQ(runDataset(data, out, "--config '" + out + "/detector.yaml'"), 0);
+  ASSERT_EQ(runDataset(data, out, std::string(kTrajectoryOnly) + " --config '" + out + "/detector.yaml'"), 0);
   const auto gt = dypho::tools::applyBonnCorrection(
       dypho::readTumTrajectory(data + "/groundtruth.txt"));
   const double ate = ateOf(out, gt);
@@ -102,7 +112,7 @@ TEST(DatasetRun, BonnCrowdFrames200to399FlowMaskOnly) {
   const std::string data = sharedDir() + "/data/rgbd_bonn_crowd_frames200to399";
   if (!exists(data)) GTEST_SKIP() << "SKIPPED: " << data << " not found (needs ../shared beside the repo)";
   const std::string out = std::string(DYPHO_TEST_OUT) + "/bonn_flow";
-  ASSERT_EQ(runDataset(data, out), 0);
+  ASSERT_EQ(runDataset(data, out, kTrajectoryOnly), 0);
   const auto gt = dypho::tools::applyBonnCorrection(dypho::readTumTrajectory(data + "/groundtruth.txt"));
   const double ate = ateOf(out, gt);
   std::cout << "Bonn crowd 200-399, flow mask only: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
@@ -127,7 +137,7 @@ TEST_P(HardCase, FlowMaskOnlyStaysOnTheStaticRoom) {
                           std::to_string(GetParam().seed) + " --no-bag " + GetParam().synth_args + " > /dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string out = data + "_run";
-  ASSERT_EQ(runDataset(data, out), 0);
+  ASSERT_EQ(runDataset(data, out, kTrajectoryOnly), 0);
   const double ate = ateOf(out, dypho::readTumTrajectory(data + "/groundtruth.txt"));
   std::cout << name << ": ATE RMSE " << ate * 100 << " cm\n";
   EXPECT_LT(ate, DYPHO_HARD_CASE_ATE_BOUND_M);
@@ -151,6 +161,17 @@ TEST(DatasetRun, SyntheticDefaultInput) {
   const double ate = ateOf(out, dypho::readTumTrajectory(data + "/groundtruth.txt"));
   std::cout << "synthetic halfsphere, 2 people: ATE RMSE " << ate * 100 << " cm\n";
   EXPECT_LT(ate, DYPHO_SYNTH_ATE_BOUND_M);
+  EXPECT_TRUE(exists(out + "/map.ply"));
+  // Without the map: no map files, and the same trajectory to the last digit (what lets the other
+  // trajectory tests skip the map).
+  const std::string no_map = std::string(DYPHO_TEST_OUT) + "/synth_run_no_map";
+  ASSERT_EQ(std::system(("rm -rf '" + no_map + "'").c_str()), 0);
+  ASSERT_EQ(runDataset(data, no_map, kTrajectoryOnly), 0);
+  EXPECT_FALSE(exists(no_map + "/map.ply"));
+  EXPECT_FALSE(exists(no_map + "/map.pcd"));
+  const std::string with_map_trajectory = readText(out + "/trajectory.txt");
+  EXPECT_FALSE(with_map_trajectory.empty());
+  EXPECT_EQ(readText(no_map + "/trajectory.txt"), with_map_trajectory);
 }
 
 #ifdef DYPHO_SYNTH_BAG
@@ -160,7 +181,7 @@ TEST(DatasetRun, SyntheticBagInput) {
   // frames (depth as float metres instead of 16-bit PNG, which only removes quantisation).
   const std::string bag = DYPHO_SYNTH_BAG;
   const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_bag_run";
-  ASSERT_EQ(runDataset(bag, out), 0);
+  ASSERT_EQ(runDataset(bag, out, kTrajectoryOnly), 0);
   const std::string gt = bag.substr(0, bag.find_last_of('/')) + "/groundtruth.txt";
   const double ate = ateOf(out, dypho::readTumTrajectory(gt));
   std::cout << "synthetic bag (120 frames): ATE RMSE " << ate * 100 << " cm\n";
@@ -187,10 +208,6 @@ std::vector<std::string> listedFiles(const std::string& list) {
   return files;
 }
 
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 // A recording with one truncated PNG and one garbage line in rgb.txt: the run goes on, skips that
 // frame and that line, names both, and writes every other frame's pose.

@@ -71,12 +71,14 @@ FrameReport SlamPipeline::trackFrame(MaskedFrame masked) {
   }
   mask_.observePose(out.pose);
   mask_.observeMovingPoints({out.result.stamp_ns, out.result.moving_points_camera_m});
-  mapping_.observePose(out.pose);
-  const auto t_map = std::chrono::steady_clock::now();
-  mapping_.correctKeyframes(out.corrections());
-  // A keyframe at an untrusted pose (re-initialised, not yet anchored) would corrupt the map.
-  if (out.result.keyframe && out.pose.trusted && out.pose.anchored) mapping_.addKeyframe(out.result.keyframe);
-  report.mapping_ms = msSince(t_map);
+  if (options_.build_map) {
+    mapping_.observePose(out.pose);
+    const auto t_map = std::chrono::steady_clock::now();
+    mapping_.correctKeyframes(out.corrections());
+    // A keyframe at an untrusted pose (re-initialised, not yet anchored) would corrupt the map.
+    if (out.result.keyframe && out.pose.trusted && out.pose.anchored) mapping_.addKeyframe(out.result.keyframe);
+    report.mapping_ms = msSince(t_map);
+  }
   report.tracking = std::move(out.result);
   return report;
 }

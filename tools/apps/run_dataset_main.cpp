@@ -4,7 +4,7 @@
 /// (realtime_runner.h): what the graph would get on this machine.
 ///
 ///   dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML] [--config YAML]
-///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--quiet]
+///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--no-map] [--quiet]
 ///                     [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]
 ///   dypho_run_dataset --print-config
 ///
@@ -56,6 +56,7 @@ struct Args {
   std::string mask = "flow";
   long max_frames = -1;
   bool eval = true;
+  bool build_map = true;  ///< --no-map: mask and tracking only
   bool quiet = false;
   bool print_config = false;
   bool save_masks = false;
@@ -67,7 +68,7 @@ struct Args {
 void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
         "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
-        "                         [--no-eval] [--quiet]\n"
+        "                         [--no-eval] [--no-map] [--quiet]\n"
         "                         [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
@@ -80,6 +81,9 @@ void usage(std::ostream& os) {
         "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
         "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
         "  --mask      flow (default, the mask core), gt (DIR/mask/*.png, synthetic data), none\n"
+        "  --no-map    mask and tracking only: no map is built, trained or written (no map.pcd,\n"
+        "              map.ply, map_render/, map PSNR; R_d has no map to render), for trajectory\n"
+        "              benchmarks; the trajectory is the same as with the map unless R_d is on\n"
         "  --save-masks  writes the mask tracking used for each frame to OUT/mask/<stamp>.png (8-bit,\n"
         "              255 = dynamic) and OUT/mask.txt (the dypho_synth layout: --mask gt reads it back)\n"
         "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
@@ -120,6 +124,7 @@ Args parseArgs(int argc, char** argv) {
     else if (k == "--mask") a.mask = value();
     else if (k == "--max-frames") a.max_frames = std::stol(value());
     else if (k == "--no-eval") a.eval = false;
+    else if (k == "--no-map") a.build_map = false;
     else if (k == "--quiet") a.quiet = true;
     else if (k == "--print-config") a.print_config = true;
     else if (k == "--save-masks") a.save_masks = true;
@@ -278,6 +283,7 @@ int run(const Args& args) {
   const std::string config_dir = defaultConfigDir();
   PipelineOptions options = loadPipelineOptions(config_dir, args.config);
   options.mask_source = parseMaskSource(args.mask);
+  options.build_map = args.build_map;
   if (args.print_config) {
     writePipelineOptionsYaml(std::cout, options);
     return 0;
@@ -391,9 +397,12 @@ int run(const Args& args) {
   const std::size_t num_final_keyframes = pipeline.tracking().keyframePoses().size();
   writeTiming(args.out + "/timing.csv", rows);
   mask_writer.finish();
-  pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
-  makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
-  const mapping::KeyframeEvaluation map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
+  mapping::KeyframeEvaluation map_eval;
+  if (args.build_map) {
+    pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
+    makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
+    map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
+  }
   const mapping::MappingStageStats map_stats = pipeline.mapping().stats();
   const mask::MaskStageStats mask_stats = pipeline.mask().stats();
   std::cout << "frames:       " << processed << " of " << n << " processed (" << lost << " not tracked, "
@@ -413,14 +422,18 @@ int run(const Args& args) {
                          : " ms/frame median (mask + tracking + mapping)\n")
             << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
-            << "timing:       " << args.out << "/timing.csv\n"
-            << "map:          " << args.out << "/map.pcd (" << pipeline.mapping().numCloudPoints()
-            << " points before voxel filter)\n"
-            << "gaussians:    " << args.out << "/map.ply (" << map_stats.gaussians.num_gaussians << " Gaussians, "
-            << map_stats.gaussians.iterations << " iterations, " << map_stats.gaussians.corrected_keyframes
-            << " keyframe re-anchorings)\n"
-            << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
-            << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
+            << "timing:       " << args.out << "/timing.csv\n";
+  if (!args.build_map) {
+    std::cout << "map:          not built (--no-map)\n";
+  } else {
+    std::cout << "map:          " << args.out << "/map.pcd (" << pipeline.mapping().numCloudPoints()
+              << " points before voxel filter)\n"
+              << "gaussians:    " << args.out << "/map.ply (" << map_stats.gaussians.num_gaussians << " Gaussians, "
+              << map_stats.gaussians.iterations << " iterations, " << map_stats.gaussians.corrected_keyframes
+              << " keyframe re-anchorings)\n"
+              << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
+              << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
+  }
 
   if (args.eval && !source->groundtruth().empty()) {
     std::vector<StampedPose> gt = source->groundtruth();

@@ -32,6 +32,10 @@ struct PipelineOptions {
   MaskSource mask_source = MaskSource::kFlow;  ///< where masks come from
   mask::MaskStageOptions mask_stage;     ///< R_d hand-over and motion prior of the mask stage
   mapping::MappingStageOptions mapping_stage;  ///< queue of the mapping stage
+  /// false: the mapping stage gets no poses, corrections or keyframes, so no map is built (mask
+  /// and tracking only: trajectory benchmarks). R_d then has no map to render and the mask runs
+  /// without it. Default true.
+  bool build_map = true;
 };
 
 /// Loads `<config_dir>/{mask,tracking,mapping}.yaml`, then applies `override_yaml` (a file with
