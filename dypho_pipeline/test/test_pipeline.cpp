@@ -68,6 +68,27 @@ TEST(ConstantVelocityModel, ResetRules) {
   EXPECT_FALSE(model.hasVelocity());
 }
 
+// A correction of the earlier poses (a local BA applied late) is applied to the last pose before
+// the step is formed: the velocity stays the camera's motion, not the correction.
+TEST(ConstantVelocityModel, CorrectionOfTheEarlierPosesIsNotMotion) {
+  ConstantVelocityModel model;
+  model.observe({0, poseAt(0.0, 0.0), true, false});
+  model.observe({kFrameNs, poseAt(0.01, 0.0), true, false});
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  correction.translation() << 0.0, 0.05, 0.0;  // the world moved 5 cm under frames 0 and 1
+  PoseUpdate update{2 * kFrameNs, correction * poseAt(0.02, 0.0), true, false};
+  update.T_correction = correction;
+  model.observe(update);
+  ASSERT_TRUE(model.lastStep().has_value());
+  EXPECT_TRUE(model.lastStep()->isApprox(poseAt(0.01, 0.0), 1e-9)) << model.lastStep()->matrix();
+  // Without it, the 5 cm would have become velocity.
+  ConstantVelocityModel uncorrected;
+  uncorrected.observe({0, poseAt(0.0, 0.0), true, false});
+  uncorrected.observe({kFrameNs, poseAt(0.01, 0.0), true, false});
+  uncorrected.observe({2 * kFrameNs, correction * poseAt(0.02, 0.0), true, false});
+  EXPECT_GT((uncorrected.lastStep()->translation() - poseAt(0.01, 0.0).translation()).norm(), 0.04);
+}
+
 struct RunResult {
   std::vector<Eigen::Isometry3d> poses;
   std::vector<std::int64_t> keyframes;

@@ -211,6 +211,11 @@ PoseUpdate toPoseUpdate(const dypho_slam::TrackingStatus& status) {
   update.anchored = status.anchored;
   update.discontinuous = status.discontinuous || status.restarted;
   update.restarted = status.restarted;
+  const Eigen::Isometry3d T_correction = toIsometry(status.T_correction);
+  // A message without the field (all zeros: no valid rotation) or a broken one: no correction.
+  const bool valid = T_correction.matrix().allFinite() &&
+                     std::abs(T_correction.linear().determinant() - 1.0) < 1e-3;
+  update.T_correction = valid ? T_correction : Eigen::Isometry3d::Identity();
   return update;
 }
 

@@ -41,35 +41,46 @@ LocalBundleAdjuster::LocalBundleAdjuster(const TrackingOptions& options) : optio
 
 LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
                                           const Pinhole& pinhole) const {
-  LocalBaResult result;
-  if (options_.local_ba_keyframes <= 0) {
-    result.message = "local BA disabled (local_ba_keyframes = 0)";
-    return result;
-  }
-  if (map == nullptr || map->keyframe(newest_keyframe_id) == nullptr) {
+  if (map == nullptr) {
+    LocalBaResult result;
     result.message = "unknown keyframe";
     return result;
   }
+  return apply(solve(prepare(*map, newest_keyframe_id, pinhole)), map);
+}
+
+LocalBaProblem LocalBundleAdjuster::prepare(const TrackerMap& map, std::int64_t newest_keyframe_id,
+                                            const Pinhole& pinhole) const {
+  LocalBaProblem problem;
+  problem.newest_keyframe_id = newest_keyframe_id;
+  problem.pinhole = pinhole;
+  if (options_.local_ba_keyframes <= 0) {
+    problem.message = "local BA disabled (local_ba_keyframes = 0)";
+    return problem;
+  }
+  if (map.keyframe(newest_keyframe_id) == nullptr) {
+    problem.message = "unknown keyframe";
+    return problem;
+  }
   // Window and points.
-  std::map<std::int64_t, PoseBlock> poses;
   std::vector<std::int64_t> free_ids{newest_keyframe_id};
-  for (std::int64_t id : map->covisibleKeyframes(newest_keyframe_id, options_.local_ba_keyframes - 1)) {
+  for (std::int64_t id : map.covisibleKeyframes(newest_keyframe_id, options_.local_ba_keyframes - 1)) {
     free_ids.push_back(id);
   }
   if (free_ids.size() < 2) {
-    result.message = "no covisible keyframe yet";
-    return result;
+    problem.message = "no covisible keyframe yet";
+    return problem;
   }
   std::set<std::int64_t> point_ids;
   for (std::int64_t k : free_ids) {
-    for (std::int64_t id : map->keyframe(k)->map_point_ids) {
-      if (map->point(id) != nullptr) point_ids.insert(id);
+    for (std::int64_t id : map.keyframe(k)->map_point_ids) {
+      if (map.point(id) != nullptr) point_ids.insert(id);
     }
   }
   const std::set<std::int64_t> free_set(free_ids.begin(), free_ids.end());
   std::map<std::int64_t, int> fixed_weight;  // keyframes outside the window seeing the points
   for (std::int64_t id : point_ids) {
-    for (const auto& obs : map->point(id)->observations) {
+    for (const auto& obs : map.point(id)->observations) {
       if (free_set.count(obs.first) == 0) ++fixed_weight[obs.first];
     }
   }
@@ -79,57 +90,80 @@ LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_k
   if (static_cast<int>(fixed_sorted.size()) > options_.local_ba_max_fixed_keyframes) {
     fixed_sorted.resize(static_cast<size_t>(options_.local_ba_max_fixed_keyframes));
   }
-  const auto addPose = [&](std::int64_t id, bool fixed) {
-    const Eigen::Isometry3d T_cw = map->keyframe(id)->T_world_camera.inverse();
-    poses[id] = {Eigen::Quaterniond(T_cw.rotation()).normalized(), T_cw.translation(), fixed};
-  };
-  for (std::int64_t id : free_ids) addPose(id, false);
-  for (const auto& f : fixed_sorted) addPose(f.second, true);
-  if (fixed_sorted.empty()) poses.begin()->second.fixed = true;  // oldest of the window: gauge
+  for (std::int64_t id : free_ids) {
+    problem.T_world_keyframe[id] = map.keyframe(id)->T_world_camera;
+    problem.fixed[id] = false;
+  }
+  for (const auto& f : fixed_sorted) {
+    problem.T_world_keyframe[f.second] = map.keyframe(f.second)->T_world_camera;
+    problem.fixed[f.second] = true;
+  }
+  if (fixed_sorted.empty()) problem.fixed.begin()->second = true;  // oldest of the window: gauge
+  for (std::int64_t id : point_ids) problem.p_world_m[id] = map.point(id)->p_world_m;
+  for (const auto& kv : problem.T_world_keyframe) {
+    const MapKeyframe* kf = map.keyframe(kv.first);
+    for (size_t i = 0; i < kf->map_point_ids.size(); ++i) {
+      if (problem.p_world_m.count(kf->map_point_ids[i]) == 0) continue;
+      LocalBaObservation o;
+      o.keyframe_id = kv.first;
+      o.point_id = kf->map_point_ids[i];
+      o.feature_index = static_cast<int>(i);
+      o.uv_px = kf->features.uv_undistorted_px[i];
+      o.level = std::clamp(kf->features.keypoints[i].octave, 0, options_.num_levels - 1);
+      o.depth_m = kf->features.depth_m[i];
+      problem.observations.push_back(o);
+    }
+  }
+  return problem;
+}
 
-  std::unordered_map<std::int64_t, Eigen::Vector3d> points;
-  for (std::int64_t id : point_ids) points[id] = map->point(id)->p_world_m;
+LocalBaSolution LocalBundleAdjuster::solve(const LocalBaProblem& input) const {
+  LocalBaSolution solution;
+  solution.newest_keyframe_id = input.newest_keyframe_id;
+  if (!input.message.empty()) {
+    solution.message = input.message;
+    return solution;
+  }
+  const Pinhole& pinhole = input.pinhole;
+  std::map<std::int64_t, PoseBlock> poses;
+  for (const auto& [id, T_world_keyframe] : input.T_world_keyframe) {
+    const Eigen::Isometry3d T_cw = T_world_keyframe.inverse();
+    poses[id] = {Eigen::Quaterniond(T_cw.rotation()).normalized(), T_cw.translation(), input.fixed.at(id)};
+  }
+  std::unordered_map<std::int64_t, Eigen::Vector3d> points = input.p_world_m;
 
   ceres::Problem::Options po;
   po.enable_fast_removal = true;
   ceres::Problem problem(po);
   ceres::LossFunction* loss = new ceres::HuberLoss(options_.huber_px);
   std::vector<Observation> observations;
+  std::vector<std::size_t> source;  // index into input.observations
   std::vector<double> level_sigma(static_cast<size_t>(options_.num_levels));
   for (int l = 0; l < options_.num_levels; ++l) {
     level_sigma[static_cast<size_t>(l)] = std::pow(options_.scale_factor, l);
   }
   const double bf = options_.local_ba_depth_baseline_m * pinhole.fx;
-  for (auto& kv : poses) {
-    const MapKeyframe* kf = map->keyframe(kv.first);
-    PoseBlock& pose = kv.second;
-    for (size_t i = 0; i < kf->map_point_ids.size(); ++i) {
-      auto p = points.find(kf->map_point_ids[i]);
-      if (p == points.end()) continue;
-      const int level = std::clamp(kf->features.keypoints[i].octave, 0, options_.num_levels - 1);
-      auto* cost = new BaReprojectionError(kf->features.uv_undistorted_px[i],
-                                           level_sigma[static_cast<size_t>(level)], pinhole);
-      // Skip observations behind the camera at the start (would make Evaluate fail).
-      const Eigen::Vector3d p_c = pose.q * p->second + pose.t;
-      if (!(p_c.z() > 1e-3)) {
-        delete cost;
-        continue;
-      }
-      const auto block = problem.AddResidualBlock(cost, loss, pose.q.coeffs().data(),
-                                                  pose.t.data(), p->second.data());
-      ceres::ResidualBlockId depth_block = nullptr;
-      const double depth = kf->features.depth_m[i];
-      if (bf > 0 && depth > 0) {
-        depth_block = problem.AddResidualBlock(
-            new BaDepthError(depth, bf, level_sigma[static_cast<size_t>(level)]), loss,
-            pose.q.coeffs().data(), pose.t.data(), p->second.data());
-      }
-      observations.push_back({kv.first, p->first, static_cast<int>(i), block, depth_block});
+  for (std::size_t k = 0; k < input.observations.size(); ++k) {
+    const LocalBaObservation& o = input.observations[k];
+    PoseBlock& pose = poses.at(o.keyframe_id);
+    Eigen::Vector3d& p = points.at(o.point_id);
+    const double sigma = level_sigma[static_cast<size_t>(o.level)];
+    // Skip observations behind the camera at the start (would make Evaluate fail).
+    const Eigen::Vector3d p_c = pose.q * p + pose.t;
+    if (!(p_c.z() > 1e-3)) continue;
+    const auto block = problem.AddResidualBlock(new BaReprojectionError(o.uv_px, sigma, pinhole), loss,
+                                                pose.q.coeffs().data(), pose.t.data(), p.data());
+    ceres::ResidualBlockId depth_block = nullptr;
+    if (bf > 0 && o.depth_m > 0) {
+      depth_block = problem.AddResidualBlock(new BaDepthError(o.depth_m, bf, sigma), loss,
+                                             pose.q.coeffs().data(), pose.t.data(), p.data());
     }
+    observations.push_back({o.keyframe_id, o.point_id, o.feature_index, block, depth_block});
+    source.push_back(k);
   }
   if (observations.empty()) {
-    result.message = "no observations";
-    return result;
+    solution.message = "no observations";
+    return solution;
   }
   for (auto& kv : poses) {
     if (!problem.HasParameterBlock(kv.second.q.coeffs().data())) continue;
@@ -148,11 +182,10 @@ LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_k
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   if (!summary.IsSolutionUsable()) {
-    result.message = "Ceres failed: " + summary.message;
-    return result;
+    solution.message = "Ceres failed: " + summary.message;
+    return solution;
   }
   // Remove chi2 outliers, then a second round.
-  std::vector<bool> outlier(observations.size(), false);
   for (size_t k = 0; k < observations.size(); ++k) {
     double r[2], r_depth = 0;
     double cost = 0;
@@ -165,43 +198,63 @@ LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_k
     const double threshold = observations[k].depth_block != nullptr ? options_.chi2_threshold_depth
                                                                     : options_.chi2_threshold;
     if (!ok || chi2 > threshold) {
-      outlier[k] = true;
+      solution.outliers.push_back(input.observations[source[k]]);
       problem.RemoveResidualBlock(observations[k].block);
       if (observations[k].depth_block != nullptr) {
         problem.RemoveResidualBlock(observations[k].depth_block);
       }
-      ++result.removed_observations;
     }
   }
   ceres::Solve(so, &problem, &summary);
   if (!summary.IsSolutionUsable()) {
-    result.message = "Ceres failed in round 2: " + summary.message;
-    return result;
+    solution.message = "Ceres failed in round 2: " + summary.message;
+    return solution;
   }
-  // Write back.
   for (const auto& kv : poses) {
     if (kv.second.fixed) continue;
     Eigen::Isometry3d T_cw = Eigen::Isometry3d::Identity();
     T_cw.linear() = kv.second.q.normalized().toRotationMatrix();
     T_cw.translation() = kv.second.t;
     if (!T_cw.matrix().allFinite()) continue;
-    map->mutableKeyframe(kv.first)->T_world_camera = T_cw.inverse();
-    ++result.optimized_keyframes;
+    solution.T_world_keyframe[kv.first] = T_cw.inverse();
   }
   for (const auto& kv : points) {
-    if (kv.second.allFinite()) map->mutablePoint(kv.first)->p_world_m = kv.second;
+    if (kv.second.allFinite()) solution.p_world_m.insert(kv);
   }
-  for (size_t k = 0; k < observations.size(); ++k) {
-    if (!outlier[k]) continue;
-    MapPoint* p = map->mutablePoint(observations[k].point_id);
-    MapKeyframe* kf = map->mutableKeyframe(observations[k].keyframe_id);
+  solution.fixed_keyframes = static_cast<int>(poses.size() - solution.T_world_keyframe.size());
+  solution.observations = static_cast<int>(observations.size());
+  solution.usable = true;
+  return solution;
+}
+
+LocalBaResult LocalBundleAdjuster::apply(const LocalBaSolution& solution, TrackerMap* map) const {
+  LocalBaResult result;
+  if (!solution.usable) {
+    result.message = solution.message;
+    return result;
+  }
+  for (const auto& [id, T_world_keyframe] : solution.T_world_keyframe) {
+    MapKeyframe* kf = map->mutableKeyframe(id);
+    if (kf == nullptr) continue;  // removed since the window was prepared
+    kf->T_world_camera = T_world_keyframe;
+    ++result.optimized_keyframes;
+  }
+  for (const auto& [id, p_world_m] : solution.p_world_m) {
+    if (MapPoint* p = map->mutablePoint(id)) p->p_world_m = p_world_m;
+  }
+  for (const LocalBaObservation& o : solution.outliers) {
+    MapPoint* p = map->mutablePoint(o.point_id);
+    MapKeyframe* kf = map->mutableKeyframe(o.keyframe_id);
     if (p == nullptr || kf == nullptr || p->observations.size() <= 1) continue;  // keep sole obs
-    p->observations.erase(observations[k].keyframe_id);
-    kf->map_point_ids[static_cast<size_t>(observations[k].feature_index)] = -1;
+    const auto index = static_cast<size_t>(o.feature_index);
+    if (index >= kf->map_point_ids.size() || kf->map_point_ids[index] != o.point_id) continue;  // re-assigned
+    p->observations.erase(o.keyframe_id);
+    kf->map_point_ids[index] = -1;
+    ++result.removed_observations;
   }
-  result.fixed_keyframes = static_cast<int>(poses.size()) - result.optimized_keyframes;
-  result.points = static_cast<int>(points.size());
-  result.observations = static_cast<int>(observations.size());
+  result.fixed_keyframes = solution.fixed_keyframes;
+  result.points = static_cast<int>(solution.p_world_m.size());
+  result.observations = solution.observations;
   result.ran = true;
   return result;
 }

@@ -62,6 +62,10 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
       static_check_(staticCheckSettings(options)) {}
 
 void RgbdOdometry::reset() {
+  if (pending_ba_.valid()) pending_ba_.wait();  // its copy belongs to the world being forgotten
+  pending_ba_ = std::future<LocalBaSolution>();
+  pending_ba_keyframe_id_ = -1;
+  pending_ba_frames_left_ = 0;
   map_.clear();
   static_check_.clear();
   reference_id_ = -1;
@@ -137,9 +141,17 @@ void RgbdOdometry::setReference(std::int64_t keyframe_id) {
 
 void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
                                const FrameFeatures& features,
-                               const Eigen::Isometry3d& T_world_camera,
-                               const std::vector<std::int64_t>& map_point_ids,
+                               Eigen::Isometry3d T_world_tracked,
+                               const std::vector<std::int64_t>& tracked_point_ids,
                                const Pinhole& pinhole, TrackingResult* result) {
+  // The previous keyframe's adjustment goes into the map first; this frame was tracked against
+  // the map before it, so its pose moves with the reference keyframe and its matches to points
+  // removed since are dropped.
+  const Eigen::Isometry3d T_world_camera = finishLocalBa(pinhole, result) * T_world_tracked;
+  std::vector<std::int64_t> map_point_ids = tracked_point_ids;
+  for (std::int64_t& id : map_point_ids) {
+    if (id >= 0 && map_.point(id) == nullptr) id = -1;
+  }
   MapKeyframe kf;
   kf.id = next_keyframe_id_++;
   unverified_keyframe_id_ = -1;  // a later keyframe: the first one's verification window ends
@@ -150,15 +162,20 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   const std::int64_t id = kf.id;
   map_.addKeyframe(std::move(kf));
 
-  auto t0 = Clock::now();
-  local_ba_.adjust(&map_, id, pinhole);
-  if (options_.cull_min_found_ratio > 0) map_.cullPoints();
-  if (options_.keyframe_cull_redundant_ratio > 0) cullKeyframes(id);
-  result->times.local_ba = msSince(t0);
-  t0 = Clock::now();
-  closeLoops(id, pinhole, result);
-  result->times.loop = msSince(t0);
-  if (result->loop_closed) result->discontinuous = true;  // consumers must not difference across it
+  const auto t0 = Clock::now();
+  LocalBaProblem problem = local_ba_.prepare(map_, id, pinhole);
+  if (options_.local_ba_async_frames > 0 && problem.message.empty()) {
+    const LocalBundleAdjuster* adjuster = &local_ba_;
+    pending_ba_ = std::async(std::launch::async,
+                             [adjuster, problem = std::move(problem)] { return adjuster->solve(problem); });
+    pending_ba_keyframe_id_ = id;
+    pending_ba_frames_left_ = options_.local_ba_async_frames;
+    result->times.local_ba += msSince(t0);
+  } else {
+    local_ba_.apply(local_ba_.solve(problem), &map_);
+    result->times.local_ba += msSince(t0);
+    afterLocalBa(id, /*keep_id=*/-1, pinhole, result);
+  }
 
   collectCorrections(id, result);
   MapKeyframe* stored = map_.mutableKeyframe(id);
@@ -175,13 +192,55 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   reported_poses_[id] = stored->T_world_camera;  // what mapping receives with the keyframe
 }
 
-void RgbdOdometry::cullKeyframes(std::int64_t newest_keyframe_id) {
+void RgbdOdometry::cullKeyframes(std::int64_t newest_keyframe_id, std::int64_t keep_id) {
   const std::int64_t oldest_id = map_.keyframes().begin()->first;
   for (std::int64_t id : map_.covisibleKeyframes(newest_keyframe_id, options_.local_map_keyframes)) {
-    if (id != oldest_id && map_.isRedundant(id, options_.keyframe_cull_redundant_ratio)) {
+    if (id != oldest_id && id != keep_id && map_.isRedundant(id, options_.keyframe_cull_redundant_ratio)) {
       map_.removeKeyframe(id);
     }
   }
+}
+
+void RgbdOdometry::afterLocalBa(std::int64_t keyframe_id, std::int64_t keep_id, const Pinhole& pinhole,
+                                TrackingResult* result) {
+  auto t0 = Clock::now();
+  if (options_.cull_min_found_ratio > 0) map_.cullPoints();
+  if (options_.keyframe_cull_redundant_ratio > 0 && map_.keyframe(keyframe_id) != nullptr) {
+    cullKeyframes(keyframe_id, keep_id);
+  }
+  result->times.local_ba += msSince(t0);
+  t0 = Clock::now();
+  if (map_.keyframe(keyframe_id) != nullptr) closeLoops(keyframe_id, pinhole, result);
+  result->times.loop += msSince(t0);
+  if (result->loop_closed) result->discontinuous = true;  // consumers must not difference across it
+}
+
+Eigen::Isometry3d RgbdOdometry::finishLocalBa(const Pinhole& pinhole, TrackingResult* result) {
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  if (!pending_ba_.valid()) return correction;
+  const auto t0 = Clock::now();
+  const LocalBaSolution solution = pending_ba_.get();  // waits when it has not finished
+  const std::int64_t id = pending_ba_keyframe_id_;
+  pending_ba_keyframe_id_ = -1;
+  pending_ba_frames_left_ = 0;
+  // The frames since the keyframe were tracked against the map before the adjustment: the last
+  // pose keeps its place relative to the reference keyframe (which is never culled here).
+  const MapKeyframe* reference = map_.keyframe(reference_id_);
+  const std::optional<Eigen::Isometry3d> T_world_reference_before =
+      reference != nullptr ? std::optional<Eigen::Isometry3d>(reference->T_world_camera) : std::nullopt;
+  local_ba_.apply(solution, &map_);
+  result->times.local_ba += msSince(t0);
+  afterLocalBa(id, /*keep_id=*/reference_id_, pinhole, result);
+  reference = map_.keyframe(reference_id_);
+  if (T_world_reference_before && reference != nullptr) {
+    correction = reference->T_world_camera * T_world_reference_before->inverse();
+    T_world_last_ = correction * T_world_last_;
+    motion_.correctLast(T_world_last_);
+    result->T_correction = correction * result->T_correction;
+  }
+  views_stale_ = true;  // points moved or were removed: the views are rebuilt before matching
+  collectCorrections(/*new_keyframe_id=*/-1, result);
+  return correction;
 }
 
 void RgbdOdometry::collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result) {
@@ -392,6 +451,9 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   }
   has_stamp_ = true;
   last_stamp_ns_ = frame.stamp_ns;
+  const Pinhole pinhole = Pinhole::fromIntrinsics(frame.camera);
+  // The local BA in flight is applied at its frame, before this frame is matched against the map.
+  if (pending_ba_.valid() && --pending_ba_frames_left_ <= 0) finishLocalBa(pinhole, &result);
 
   // Features with depth.
   auto t0 = Clock::now();
@@ -408,7 +470,6 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   result.num_features = static_cast<int>(features.size());
   result.masked_fraction = orb.masked_fraction;
   const bool enough_to_start = result.num_features >= options_.min_init_features;
-  const Pinhole pinhole = Pinhole::fromIntrinsics(frame.camera);
 
   if (reference_id_ < 0) {
     if (!enough_to_start) {

@@ -36,6 +36,7 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
   out.pose.anchored = r.anchored;
   out.pose.discontinuous = r.discontinuous || out.restarted;
   out.pose.restarted = out.restarted;
+  out.pose.T_correction = r.T_correction;
   return out;
 }
 

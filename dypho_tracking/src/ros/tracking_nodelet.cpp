@@ -316,6 +316,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     status->anchored = out.pose.anchored;
     status->discontinuous = out.pose.discontinuous;
     status->restarted = out.restarted;
+    status->T_correction = rc::toPoseMsg(out.pose.T_correction);
     fillLiveFigures(*status, live);
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {

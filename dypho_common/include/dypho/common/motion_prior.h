@@ -38,6 +38,11 @@ struct PoseUpdate {
   /// until relocalisation or a loop closure ties it to the map): motion within the segment is
   /// right, but its start is a guess; nothing may render or build the map from such a pose.
   bool anchored = true;
+  /// The world moved under the earlier poses before this one (a local BA applied a few frames
+  /// after its keyframe): T_world_after * T_world_before^-1, to be applied to the last pose
+  /// before this one is taken, so that the step between them is the camera's motion and not the
+  /// correction. Identity otherwise.
+  Eigen::Isometry3d T_correction = Eigen::Isometry3d::Identity();
 };
 
 /// Constant-velocity prediction from the last two trusted, continuous poses.
@@ -48,6 +53,7 @@ class ConstantVelocityModel {
 
   /// Takes the pose of the newest frame (rules in the file comment).
   void observe(const PoseUpdate& update) {
+    if (last_) last_ = update.T_correction * *last_;
     if (!update.trusted || !update.T_world_camera.matrix().allFinite()) {
       reset();
       return;

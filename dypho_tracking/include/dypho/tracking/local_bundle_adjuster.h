@@ -3,7 +3,12 @@
 /// Local bundle adjustment (Ceres) of the newest keyframes and the points they see.
 
 #include <cstdint>
+#include <map>
 #include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Geometry>
 
 #include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pinhole.h"
@@ -23,6 +28,40 @@ struct LocalBaResult {
   std::string message;          ///< why it did not run; empty when it ran
 };
 
+/// One observation of a LocalBaProblem, copied out of the map.
+struct LocalBaObservation {
+  std::int64_t keyframe_id = -1;
+  std::int64_t point_id = -1;
+  int feature_index = -1;                         ///< keypoint index in the keyframe
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  ///< undistorted keypoint [px]
+  int level = 0;                                  ///< pyramid level
+  double depth_m = 0.0;                           ///< measured depth, 0 = none
+};
+
+/// A local BA window copied out of the map (LocalBundleAdjuster::prepare): solving it touches
+/// nothing shared, so it may run on another thread while tracking goes on.
+struct LocalBaProblem {
+  std::int64_t newest_keyframe_id = -1;
+  std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;  ///< free and fixed keyframes
+  std::map<std::int64_t, bool> fixed;                          ///< keyframe id -> held constant
+  std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< map points
+  std::vector<LocalBaObservation> observations;
+  Pinhole pinhole;
+  std::string message;  ///< why there is nothing to solve; empty when there is
+};
+
+/// What LocalBundleAdjuster::solve found, to be written back by apply().
+struct LocalBaSolution {
+  bool usable = false;
+  std::int64_t newest_keyframe_id = -1;
+  std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;   ///< the free keyframes' poses
+  std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< the points' positions
+  std::vector<LocalBaObservation> outliers;                     ///< observations to remove
+  int fixed_keyframes = 0;
+  int observations = 0;
+  std::string message;  ///< why it is not usable
+};
+
 /// Local BA in the style of ORB-SLAM: free = the newest keyframe and its local_ba_keyframes - 1
 /// most covisible keyframes; points = every map point they observe; fixed = up to
 /// local_ba_max_fixed_keyframes other keyframes observing those points (at least one keyframe is
@@ -31,8 +70,10 @@ struct LocalBaResult {
 /// local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
 /// Huber (huber_px); two rounds of local_ba_iterations LM steps (sparse Schur); after the first,
 /// observations with chi2 > chi2_threshold (chi2_threshold_depth with the depth term) are
-/// removed from the map (a point's last observation is kept). Writes poses and points back into the map. Synchronous (~10-40 ms per keyframe
-/// at 1000 features on one core).
+/// removed from the map (a point's last observation is kept). Writes poses and points back into the map. adjust() does it at once
+/// (~40-80 ms per keyframe at 1000 features on one core of the 2-core VM); prepare(), solve()
+/// and apply() split it so that solve() can run beside tracking (RgbdOdometry,
+/// TrackingOptions::local_ba_async_frames).
 class LocalBundleAdjuster {
  public:
   /// Uses the local_ba_* fields, huber_px, chi2_threshold, scale_factor.
@@ -42,6 +83,14 @@ class LocalBundleAdjuster {
   /// the camera (all keyframes share it). Never throws on data.
   LocalBaResult adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
                        const Pinhole& pinhole) const;
+
+  /// The window of `newest_keyframe_id`, copied out of `map` (message set when there is none).
+  LocalBaProblem prepare(const TrackerMap& map, std::int64_t newest_keyframe_id, const Pinhole& pinhole) const;
+  /// Solves a prepared window; reads nothing else (thread-safe on distinct problems).
+  LocalBaSolution solve(const LocalBaProblem& problem) const;
+  /// Writes a solution into `map`, skipping keyframes, points and observations that were removed
+  /// or re-assigned since the window was prepared.
+  LocalBaResult apply(const LocalBaSolution& solution, TrackerMap* map) const;
 
  private:
   TrackingOptions options_;

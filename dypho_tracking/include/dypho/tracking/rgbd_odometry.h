@@ -3,6 +3,7 @@
 /// Frame-to-keyframe RGB-D visual odometry: the public entry point of dypho_tracking_core.
 
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <string>
 #include <map>
@@ -40,10 +41,12 @@ namespace tracking {
 /// and its local_map_keyframes most covisible keyframes (KeyframeAligner: constant-velocity
 /// prediction, projection matching with scale prediction, PnP RANSAC fallback on the last
 /// keyframe's own points, Ceres motion-only BA with chi2 rounds) -> visibility bookkeeping ->
-/// KeyframeSelector. On a new keyframe (synchronously): TrackerMap::addKeyframe (RGB-D points,
-/// matched points get a new observation), LocalBundleAdjuster, map-point culling,
-/// redundant-keyframe culling, LoopDetector + LoopCloser (pose graph; corrected keyframes in the
-/// result).
+/// KeyframeSelector. On a new keyframe: TrackerMap::addKeyframe (RGB-D points, matched points get
+/// a new observation), then LocalBundleAdjuster, map-point culling, redundant-keyframe culling,
+/// LoopDetector + LoopCloser (pose graph; corrected keyframes in the result). Local BA runs on
+/// its own thread on a copy of its window (TrackingOptions::local_ba_async_frames); its result
+/// and the steps after it are applied a fixed number of frames later, on the calling thread, so
+/// the map is only ever changed there and runs stay repeatable.
 ///
 /// State machine:
 ///  - NOT_INITIALIZED: the first frame with >= min_init_features keypoints with depth becomes
@@ -57,7 +60,7 @@ namespace tracking {
 ///  - A stamp not after the previous one (time going backwards or repeated) resets everything:
 ///    NOT_INITIALIZED, identity pose, message; the following frame starts a new world.
 ///
-/// Not thread-safe: call `track` from one thread.
+/// Not thread-safe: call `track` from one thread (the local BA thread reads only its own copy).
 class RgbdOdometry {
  public:
   /// Throws std::invalid_argument when options.validate() does.
@@ -89,16 +92,26 @@ class RgbdOdometry {
                                  const FrameFeatures& features) const;
   /// Adds `features` as a new keyframe at T_world_camera (map_point_ids per feature: the matched
   /// map point or -1), runs local BA, point and keyframe culling and loop closure, fills the result fields.
+  /// T_world_tracked is taken by value: it may be the last pose, which a local BA finished here
+  /// moves.
   void addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
-                   const Eigen::Isometry3d& T_world_camera,
+                   Eigen::Isometry3d T_world_tracked,
                    const std::vector<std::int64_t>& map_point_ids, const Pinhole& pinhole,
                    TrackingResult* result);
   /// Keyframes (other than the new one) whose pose moved by more than the correction thresholds
   /// since it was last reported, appended to result->corrected_keyframes; the pose mapping holds
   /// thus never differs from the tracker's by more than those thresholds.
   void collectCorrections(std::int64_t new_keyframe_id, TrackingResult* result);
-  /// Removes the redundant keyframes of the newest keyframe's local map (not the oldest keyframe).
-  void cullKeyframes(std::int64_t newest_keyframe_id);
+  /// Removes the redundant keyframes of the newest keyframe's local map (not the oldest keyframe,
+  /// nor `keep_id`).
+  void cullKeyframes(std::int64_t newest_keyframe_id, std::int64_t keep_id = -1);
+  /// Map-point and keyframe culling, then loop closure, after local BA of `keyframe_id`.
+  void afterLocalBa(std::int64_t keyframe_id, std::int64_t keep_id, const Pinhole& pinhole, TrackingResult* result);
+  /// The local BA in flight, if any: waits for it, writes it into the map, runs afterLocalBa and
+  /// keeps the last pose where it was relative to the reference keyframe; corrections go into
+  /// `result`. Returns the correction applied to the last pose (T_world_after * T_world_before^-1;
+  /// identity when nothing was in flight), for poses computed against the map before.
+  Eigen::Isometry3d finishLocalBa(const Pinhole& pinhole, TrackingResult* result);
   /// Loop detection and correction for the newest keyframe.
   void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
@@ -127,6 +140,10 @@ class RgbdOdometry {
   LoopCloser loop_closer_;
   PoseOptimizer pose_optimizer_;        ///< re-estimation after the static check
   StaticSceneCheck static_check_;       ///< dense check against the reference keyframe
+  /// Local BA in flight (local_ba_async_frames > 0); declared after local_ba_, which it uses.
+  std::future<LocalBaSolution> pending_ba_;
+  std::int64_t pending_ba_keyframe_id_ = -1;
+  int pending_ba_frames_left_ = 0;  ///< frames until it is applied
 
   std::int64_t reference_id_ = -1;  ///< keyframe tracked against; -1 before initialisation
   KeyframePoints local_view_;       ///< map points of the reference's local map

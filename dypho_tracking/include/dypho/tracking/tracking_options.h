@@ -199,6 +199,13 @@ struct TrackingOptions {
   /// Most keyframes held fixed in local BA (those seeing the window's points most) [count];
   /// default 10, range [1, 100].
   int local_ba_max_fixed_keyframes = 10;
+  /// Local BA of a new keyframe runs on its own thread on a copy of its window while the next
+  /// frames are tracked; its result, with the point and keyframe culling and the loop detection
+  /// that follow it, is applied at the start of the frame this many frames later, or before the
+  /// next keyframe when that comes first, waiting for it when it has not finished [frames];
+  /// default 0, range [0, 30]; 0 = at once, inside the keyframe's frame. Where it is applied
+  /// depends on frame counts only, so runs stay repeatable.
+  int local_ba_async_frames = 0;
 
   // --- relocalisation (Relocalizer) ---
   /// Keyframes tried per lost frame, newest first then spread over the map [count]; default 20,

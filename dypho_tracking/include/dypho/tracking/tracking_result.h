@@ -81,6 +81,11 @@ struct TrackingResult {
   /// Accumulated loop-closure correction: T_world_camera = T_world_odom * T_odom_camera, where
   /// odom is the uncorrected odometry frame (REP-105 map -> odom). Identity until a loop closes.
   Eigen::Isometry3d T_world_odom = Eigen::Isometry3d::Identity();
+  /// The map moved under the earlier poses before this frame was tracked (a local BA applied
+  /// late, TrackingOptions::local_ba_async_frames): T_world_after * T_world_before^-1; the
+  /// previous frames' poses, as reported, are that much off in this frame's world. Consumers'
+  /// motion models apply it to their last pose (PoseUpdate::T_correction). Identity otherwise.
+  Eigen::Isometry3d T_correction = Eigen::Isometry3d::Identity();
   /// Keyframe this frame was tracked against (this frame's own id when it became a keyframe);
   /// -1 before initialisation. With T_reference_camera it lets a trajectory follow later local-BA
   /// and loop corrections of that keyframe (TrajectoryRecorder, as ORB-SLAM saves trajectories).
