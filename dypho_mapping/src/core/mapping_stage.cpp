@@ -25,8 +25,11 @@ bool MappingStage::addKeyframe(KeyframeConstPtr keyframe) {
   if (!keyframe) return true;
   std::int64_t previous = -1;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(cloud_mutex_);
     cloud_.addKeyframe(*keyframe);  // cheap (strided unprojection)
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
     previous = newest_keyframe_id_;
     newest_keyframe_id_ = keyframe->id;
     ++counters_.keyframes_received;
@@ -45,8 +48,11 @@ bool MappingStage::addKeyframe(KeyframeConstPtr keyframe) {
 void MappingStage::correctKeyframes(const KeyframePoseCorrections& corrections) {
   if (corrections.empty()) return;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(cloud_mutex_);
     for (const auto& [id, T_world_camera] : corrections) cloud_.updateKeyframePose(id, T_world_camera);
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.correction_batches;
   }
   gaussians_.enqueueCorrections(corrections, /*block_when_full=*/mode_ == MappingMode::kDeterministic);
@@ -118,7 +124,7 @@ std::vector<std::string> MappingStage::save(const std::string& dir, bool refine,
   const std::vector<std::string> paths{dir + "/map.ply", dir + "/map.pcd", dir + "/gaussian_centres.pcd"};
   gaussians_.savePly(paths[0]);
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::lock_guard<std::mutex> lock(cloud_mutex_);
     cloud_.savePcd(paths[1]);
   }
   gaussians_.saveCentresPcd(paths[2]);
@@ -131,8 +137,11 @@ std::size_t MappingStage::loadMap(const std::string& path, std::string* note) {
 
 void MappingStage::reset() {
   gaussians_.reset();
+  {
+    std::lock_guard<std::mutex> lock(cloud_mutex_);
+    cloud_.reset();
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  cloud_.reset();
   motion_.reset();
   newest_keyframe_id_ = -1;
   render_snapshot_ = MapSnapshot();
@@ -150,7 +159,7 @@ MappingStageStats MappingStage::stats() const {
 }
 
 KeyframeCloudMap::Cloud::Ptr MappingStage::buildCloud() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<std::mutex> lock(cloud_mutex_);
   return cloud_.buildCloud();
 }
 
@@ -160,7 +169,7 @@ std::vector<GaussianCentre> MappingStage::latestGaussianCentres() const {
 }
 
 std::size_t MappingStage::numCloudPoints() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::lock_guard<std::mutex> lock(cloud_mutex_);
   return cloud_.numPoints();
 }
 

@@ -119,8 +119,11 @@ class MappingStage {
   MappingStageOptions stage_options_;
   GaussianMapper gaussians_;
 
-  mutable std::mutex mutex_;  ///< guards everything below
+  /// Guards cloud_ alone: building the cloud (voxel filter over every keyframe, tens of ms) must
+  /// not hold up the pose updates, which arrive on a ROS callback thread for every frame.
+  mutable std::mutex cloud_mutex_;
   KeyframeCloudMap cloud_;
+  mutable std::mutex mutex_;  ///< guards everything below
   ConstantVelocityModel motion_;
   std::int64_t newest_keyframe_id_ = -1;
   MapSnapshot render_snapshot_;  ///< kDeterministic: the map R_d is rendered from
