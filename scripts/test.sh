@@ -19,13 +19,19 @@ if [ "${CI:-}" = "true" ]; then
   done
   export DYPHO_STRICT=1
 fi
+# How long each part took, printed as it ends (the suite's budget is 45 minutes on 2 cores).
+phase_start=$SECONDS
+phase_done() { echo "test.sh: $1 took $((SECONDS - phase_start)) s"; phase_start=$SECONDS; }
 bash "$ROOT/scripts/install_deps.sh"
+phase_done "install"
 bash "$ROOT/scripts/build.sh" "$BUILD"
+phase_done "build"
 cd "$BUILD"
 # rostest starts its own roscore on a free port; ROS_HOME keeps logs inside the build folder.
 export ROS_HOME="$BUILD/ros_home"
 status=0
 ctest --output-on-failure -j 1 --timeout 1200 || status=$?
+phase_done "ctest"
 # Skipped tests (ctest lists them as "Not Run"/"Skipped"): show why, from the test output.
 if grep -q ": Skipped$" Testing/Temporary/LastTest.log 2>/dev/null; then
   echo "test.sh: tests that skipped themselves, and why:"
@@ -37,8 +43,12 @@ STANDALONE="$BUILD-standalone"
 { cmake -S "$ROOT/dypho_mapping/standalone" -B "$STANDALONE" > "$BUILD/standalone-configure.log" 2>&1 &&
   cmake --build "$STANDALONE" -j "${DYPHO_JOBS:-$(nproc)}" > "$BUILD/standalone-build.log" 2>&1 &&
   (cd "$STANDALONE" && ctest --output-on-failure); } || { echo "test.sh: standalone mapping build or tests failed (logs in $BUILD)"; status=1; }
+phase_done "standalone mapping build and tests"
 # The ROS-free cores and unit tests again, built with plain CMake under ASan + UBSan (leaks too),
 # then a short run of each libFuzzer target on its seed corpus (longer runs: scripts/fuzz.sh).
 bash "$ROOT/scripts/test_sanitized.sh" "$BUILD-sanitized" || status=1
+phase_done "sanitized build and tests"
 bash "$ROOT/scripts/fuzz.sh" "${DYPHO_FUZZ_SECONDS:-20}" "$BUILD-fuzz" || status=1
+phase_done "fuzzing"
+echo "test.sh: all parts took $SECONDS s"
 exit "$status"
