@@ -249,25 +249,17 @@ TEST(GaussianMapper, TrainingThreadsRunInTheIdleClass) {
   }
   EXPECT_EQ(idle[0], 0) << "the caller keeps its class";
   EXPECT_EQ(idle[1], 1) << "the pool thread runs in the idle class";
-  std::atomic<int> worker_idle{-1};
-  {
-    MappingWorker worker(1, [&](const MappingJob&) { worker_idle = currentThreadIsIdleClass() ? 1 : 0; }, {},
-                         ThreadPriority{10, true});
+  // 1 when the worker's thread ran its job in the idle class, 0 when not.
+  const auto workerIsIdleClass = [](ThreadPriority priority) {
+    std::atomic<int> idle_class{-1};
+    MappingWorker worker(1, [&](const MappingJob&) { idle_class = currentThreadIsIdleClass() ? 1 : 0; }, {}, priority);
     worker.push(MappingJob{}, true);
     worker.waitUntilIdle();
     worker.stop();
-  }
-  EXPECT_EQ(worker_idle.load(), 1);
-  // Off: nice only.
-  std::atomic<int> niced_idle{-1};
-  {
-    MappingWorker worker(1, [&](const MappingJob&) { niced_idle = currentThreadIsIdleClass() ? 1 : 0; }, {},
-                         ThreadPriority{10, false});
-    worker.push(MappingJob{}, true);
-    worker.waitUntilIdle();
-    worker.stop();
-  }
-  EXPECT_EQ(niced_idle.load(), 0);
+    return idle_class.load();
+  };
+  EXPECT_EQ(workerIsIdleClass(ThreadPriority{10, true}), 1);
+  EXPECT_EQ(workerIsIdleClass(ThreadPriority{10, false}), 0) << "off: nice only";
 #else
   GTEST_SKIP() << "thread classes are only set on Linux";
 #endif
