@@ -194,15 +194,21 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   std::cout << "graph test: mask used R_d on " << mask_status.frames_with_rendered_depth << " of "
             << mask_status.frames << " frames (" << mask_status.rendered_depth_offered << " offered, "
             << mask_status.rendered_depth_unmatched << " unmatched)\n";
-  if (rendered_depth_on) EXPECT_GE(mask_status.frames_with_rendered_depth * 2, mask_status.frames);
-  if (!rendered_depth_on) EXPECT_EQ(mask_status.frames_with_rendered_depth, 0u) << "R_d is off by default";
+  if (rendered_depth_on) {
+    EXPECT_GE(mask_status.frames_with_rendered_depth * 2, mask_status.frames);
+  }
+  if (!rendered_depth_on) {
+    EXPECT_EQ(mask_status.frames_with_rendered_depth, 0u) << "R_d is off by default";
+  }
 
   // The same stages in process on the same frames (the sequence folder the bag was written from).
   const InProcessRun in_process = runInProcess(dataset, background_tau);
   std::cout << "in process: R_d on " << in_process.frames_with_rendered_depth << " of " << in_process.frames
             << " frames, " << in_process.keyframe_stamps_s.size() << " keyframes, " << in_process.trajectory.size()
             << " poses\n";
-  if (rendered_depth_on) EXPECT_GE(in_process.frames_with_rendered_depth * 2, in_process.frames);
+  if (rendered_depth_on) {
+    EXPECT_GE(in_process.frames_with_rendered_depth * 2, in_process.frames);
+  }
   // Trajectories: the graph's poses against the in-process ones (rigid alignment, matched by
   // stamp). Bound 5 mm: both are about 4 mm from the ground truth, and the graph differs only in
   // timing (which R_d arrives in time for which frame, frames the synchroniser drops).
