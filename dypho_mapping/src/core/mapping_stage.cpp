@@ -163,9 +163,10 @@ KeyframeCloudMap::Cloud::Ptr MappingStage::buildCloud() const {
   return cloud_.buildCloud();
 }
 
-std::vector<GaussianCentre> MappingStage::latestGaussianCentres() const {
+std::optional<std::vector<GaussianCentre>> MappingStage::latestGaussianCentres() const {
   const MapSnapshot snapshot = gaussians_.latestSnapshot();
-  return snapshot.map ? mapping::gaussianCentres(*snapshot.map) : std::vector<GaussianCentre>();
+  if (!snapshot.map) return std::nullopt;
+  return mapping::gaussianCentres(*snapshot.map);
 }
 
 std::size_t MappingStage::numCloudPoints() const {

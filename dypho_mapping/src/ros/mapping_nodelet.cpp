@@ -287,9 +287,14 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       msg->header.stamp = ros::Time::now();
       cloud_pub_.publish(msg);
     }
-    if (gaussian_cloud_pub_.getNumSubscribers() > 0) {
+    // From the latest snapshot, which never waits for training; before the first snapshot of
+    // this world there is nothing to show yet (not an empty map): tried again next period.
+    const std::optional<std::vector<mapping::GaussianCentre>> centres =
+        gaussian_cloud_pub_.getNumSubscribers() > 0 ? stage_->latestGaussianCentres() : std::nullopt;
+    if (gaussian_cloud_pub_.getNumSubscribers() > 0 && !centres) changed_ = true;
+    if (centres) {
       pcl::PointCloud<pcl::PointXYZRGB> cloud;
-      for (const mapping::GaussianCentre& c : stage_->latestGaussianCentres()) {
+      for (const mapping::GaussianCentre& c : *centres) {
         pcl::PointXYZRGB p(c.r, c.g, c.b);
         p.x = c.x;
         p.y = c.y;

@@ -105,9 +105,9 @@ class MappingStage {
   /// Centres of the live map (waits for the running training iteration).
   std::vector<GaussianCentre> gaussianCentres() const { return gaussians_.centres(); }
   /// Centres of the latest snapshot (after a keyframe's job, or about once a second of idle
-  /// training): never waits for training, for publishers on ROS callback threads. Empty before
-  /// the first snapshot.
-  std::vector<GaussianCentre> latestGaussianCentres() const;
+  /// training): never waits for training, for publishers on ROS callback threads. Empty (no
+  /// value) before the first snapshot of a world.
+  std::optional<std::vector<GaussianCentre>> latestGaussianCentres() const;
   /// The Gaussian mapper (evaluation, direct queries).
   GaussianMapper& gaussians() { return gaussians_; }
   const GaussianMapper& gaussians() const { return gaussians_; }
