@@ -137,8 +137,10 @@ void GaussianMapper::publishSnapshot(std::int64_t keyframe_id) {
     s.iterations = trainer_->iterations;
   }
   s.after_keyframe_id = keyframe_id;
+  MapSnapshot previous;  // freed after the lock is released: readers never wait for that
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
+    previous = std::move(snapshot_);
     snapshot_ = std::move(s);
     done_keyframe_id_ = std::max(done_keyframe_id_, keyframe_id);
   }

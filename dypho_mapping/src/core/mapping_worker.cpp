@@ -31,6 +31,7 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
       if (oldest != queue_.end()) {
         if (oldest->corrections.empty()) {
           queue_.erase(oldest);
+          queued_ = queue_.size();
         } else {
           oldest->keyframe.reset();  // keep its corrections
         }
@@ -39,6 +40,7 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
       }
     }
     queue_.push_back(std::move(job));
+    queued_ = queue_.size();
   }
   cv_.notify_all();
   return kept_all;
@@ -61,6 +63,7 @@ void MappingWorker::loop() {
       idle_work_left = true;
       job = std::move(queue_.front());
       queue_.pop_front();
+      queued_ = queue_.size();
       busy_ = true;
     }
     cv_.notify_all();  // room for a blocked producer
@@ -86,6 +89,7 @@ bool MappingWorker::stopping() const {
 void MappingWorker::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   queue_.clear();
+  queued_ = queue_.size();
 }
 
 void MappingWorker::stop() {
@@ -93,18 +97,17 @@ void MappingWorker::stop() {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
     queue_.clear();
+    queued_ = queue_.size();
   }
   cv_.notify_all();
   if (thread_.joinable()) thread_.join();
 }
 
 std::size_t MappingWorker::queued() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return queue_.size();
+  return queued_;
 }
 
 std::size_t MappingWorker::dropped() const {
-  std::lock_guard<std::mutex> lock(mutex_);
   return dropped_;
 }
 

@@ -10,6 +10,7 @@
 ///    pile up); correction batches are never dropped (they are small, and a lost correction
 ///    would leave a keyframe's Gaussians at a stale pose for good).
 
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -65,7 +66,11 @@ class MappingWorker {
   std::deque<MappingJob> queue_;
   bool busy_ = false;
   bool stop_ = false;
-  std::size_t dropped_ = 0;
+  // Mirrors written under mutex_ and read without it: queued() and dropped() are read by ROS
+  // timer threads (stats, diagnostics) and must not wait for a worker thread of the idle class
+  // that was preempted inside its lock.
+  std::atomic<std::size_t> queued_{0};
+  std::atomic<std::size_t> dropped_{0};
   std::thread thread_;
 };
 
