@@ -20,17 +20,27 @@ rm -rf "$out"
 mkdir -p "$out"
 failures=0
 
-run_case() {  # NAME INTERRUPT_AFTER_S (0 = let the bag end)
+start_delay=3.0  # tum_bag.launch start_delay: the player waits this long before it plays
+
+run_case() {  # NAME PLAYED_S (Ctrl-C after the bag has played this long; 0 = let the bag end)
   local name="$1" interrupt_after="$2"
   # The output folder does not exist yet: the nodelets create it.
   local dir="$out/$name/run" log="$out/$name.log"
   local port=$((20000 + RANDOM % 20000))
   mkdir -p "$out/$name"
   setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
-    start_delay:=3.0 > "$log" 2>&1 &
+    start_delay:="$start_delay" > "$log" 2>&1 &
   local pid=$!
   if [[ "$interrupt_after" != 0 ]]; then
-    sleep "$interrupt_after"
+    # Counted from the player's start, not roslaunch's: starting the master and loading the
+    # nodelets takes 1-4 s on a loaded 2-core machine, and a fixed delay from roslaunch's start
+    # left as little as half a second of play (17 frames).
+    local waited_for_player=0
+    while ! pgrep -P "$pid" -f "rosbag/play" > /dev/null && ((waited_for_player < 600)); do
+      sleep 0.1
+      waited_for_player=$((waited_for_player + 1))
+    done
+    sleep "$(python3 -c "print($start_delay + $interrupt_after)")"
     kill -INT "$pid" 2>/dev/null
   fi
   local waited=0
@@ -68,6 +78,6 @@ run_case() {  # NAME INTERRUPT_AFTER_S (0 = let the bag end)
   fi
 }
 
-run_case ctrl_c_while_playing 6
+run_case ctrl_c_while_playing 1.5  # the synthetic bag plays 4 s: Ctrl-C in its middle
 run_case bag_ended 0
 exit $((failures > 0 ? 1 : 0))
