@@ -7,6 +7,7 @@
 #                                       # sources into third_party/ (git-ignored) to travel along
 #   scripts/gpu_check.sh run [OUT_DIR]  # on the GPU machine: build, tests, sanitizers, benchmark;
 #                                       # logs go to OUT_DIR (default build-gpu/out)
+#   DYPHO_CUDA_ARCHITECTURES=90 scripts/gpu_check.sh run ...   # build for that GPU only (faster)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 case "${1:-}" in
@@ -37,7 +38,8 @@ case "${1:-}" in
     GEN=(); if command -v ninja > /dev/null; then GEN=(-G Ninja); fi
     nvidia-smi > "$OUT/nvidia-smi.txt" 2>&1 || true
     cmake -S "$ROOT/dypho_mapping/standalone" -B "$BUILD" "${GEN[@]}" -DDYPHO_EIGEN_INCLUDE_DIR="$EIGEN" \
-      -DDYPHO_GTEST_SOURCE_DIR="$GTEST" > "$OUT/configure.log" 2>&1
+      -DDYPHO_GTEST_SOURCE_DIR="$GTEST" ${DYPHO_CUDA_ARCHITECTURES:+-DCMAKE_CUDA_ARCHITECTURES="$DYPHO_CUDA_ARCHITECTURES"} \
+      > "$OUT/configure.log" 2>&1
     cmake --build "$BUILD" -j "$(nproc)" > "$OUT/build.log" 2>&1
     status=0
     (cd "$BUILD" && ctest --output-on-failure) > "$OUT/ctest.log" 2>&1 || status=1
