@@ -1,7 +1,8 @@
 #!/bin/bash
 # The GPU checks of the mapping core on a machine with an NVIDIA GPU and CUDA but without ROS,
 # OpenCV or Eigen installed: builds dypho_mapping/standalone, runs the CUDA parity tests, runs them
-# again under compute-sanitizer (memcheck, racecheck), and runs the GPU benchmark.
+# again under compute-sanitizer (memcheck, racecheck), runs the whole mapper's CUDA tests packed by
+# `prepare` (plainly and sanitized), and runs the GPU benchmark.
 #
 #   scripts/gpu_check.sh prepare        # on this machine: copies Eigen headers and GoogleTest
 #                                       # sources into third_party/ (git-ignored) to travel along
@@ -26,6 +27,29 @@ case "${1:-}" in
     else
       echo "gpu_check: no $BONN or no $EXPORT: the benchmark will train on the synthetic room only"
     fi
+    # The whole mapper on CUDA (test_dypho_cuda_parity, with the CudaTraining tests) needs OpenCV
+    # core/imgproc/calib3d: linked here from the build's objects without PCL and image codecs and
+    # packed with the libraries it loads (about 10 MB), for a GPU machine without OpenCV.
+    BUILD_DIR="${DYPHO_BUILD_DIR:-$ROOT/build}"
+    OBJ="$BUILD_DIR/dypho_mapping/CMakeFiles"
+    CUDA_LIB="$BUILD_DIR/devel/lib/libdypho_mapping_cuda.a"
+    if [ -f "$CUDA_LIB" ] && [ -d "$OBJ/test_dypho_cuda_parity.dir" ]; then
+      PACK="$(mktemp -d)"
+      mkdir -p "$PACK/lib"
+      g++ -O2 -c "$ROOT/dypho_mapping/test/imwrite_unavailable.cpp" -I/usr/include/opencv4 -o "$PACK/imwrite_unavailable.o"
+      # Every core object but the keyframe cloud and the stage (PCL); the mapper does not use them.
+      mapfile -t CORE < <(ls "$OBJ"/dypho_mapping_core.dir/src/core/*.o | grep -v -E 'keyframe_cloud_map|mapping_stage')
+      g++ -O3 -o "$PACK/test_dypho_cuda_parity" "$OBJ"/test_dypho_cuda_parity.dir/test/*.o "${CORE[@]}" \
+        "$OBJ"/dypho_raster_tiles_*.dir/src/core/raster_tile_kernels.cpp.o "$PACK/imwrite_unavailable.o" \
+        /usr/lib/x86_64-linux-gnu/libgtest.a "$CUDA_LIB" /usr/local/cuda/lib64/libcudart_static.a -Wl,--as-needed \
+        -lopencv_calib3d -lopencv_imgproc -lopencv_core -ldl -lrt -lpthread
+      ldd "$PACK/test_dypho_cuda_parity" | awk '{print $3}' | grep '^/' \
+        | grep -v -E '/(libc|libm|libstdc\+\+|libgcc_s)\.so|ld-linux' | xargs -I{} cp -L {} "$PACK/lib/"
+      tar -C "$PACK" -cf - test_dypho_cuda_parity lib | xz -T0 -6 > "$ROOT/third_party/cuda_parity_portable.tar.xz"
+      rm -rf "$PACK"
+    else
+      echo "gpu_check: no CUDA objects in $BUILD_DIR: the whole-mapper CUDA tests will not travel"
+    fi
     echo "gpu_check: third_party/ ready ($(du -sh "$ROOT/third_party" | cut -f1))"
     ;;
   run)
@@ -49,9 +73,19 @@ case "${1:-}" in
         --gtest_filter='CudaParity.EdgeCaseScenes:CudaParity.ReuseAfterALargerSceneIsExact' \
         > "$OUT/sanitizer_$tool.log" 2>&1 || status=1
     done
+    PORTABLE="$ROOT/third_party/cuda_parity_portable.tar.xz"
+    if [ -f "$PORTABLE" ]; then  # the whole mapper on CUDA (CudaTraining), plainly and sanitized
+      mkdir -p "$BUILD/portable" && tar -xJf "$PORTABLE" -C "$BUILD/portable"
+      T="$BUILD/portable/test_dypho_cuda_parity"
+      LD_LIBRARY_PATH="$BUILD/portable/lib" "$T" > "$OUT/training.log" 2>&1 || status=1
+      for tool in memcheck racecheck; do
+        LD_LIBRARY_PATH="$BUILD/portable/lib" compute-sanitizer --tool "$tool" --error-exitcode 1 "$T" \
+          --gtest_filter='CudaTraining.*' > "$OUT/training_$tool.log" 2>&1 || status=1
+      done
+    fi
     FRAMES=(); if [ -f "$ROOT/third_party/bonn_frames.bin" ]; then FRAMES=(--frames "$ROOT/third_party/bonn_frames.bin"); fi
     "$BUILD/mapping_bench_cuda" "${FRAMES[@]}" > "$OUT/bench.log" 2>&1 || status=1
-    tail -n 3 "$OUT"/ctest.log "$OUT"/sanitizer_*.log; cat "$OUT/bench.log"
+    tail -n 3 "$OUT"/ctest.log "$OUT"/sanitizer_*.log "$OUT"/training*.log 2>/dev/null; cat "$OUT/bench.log"
     exit "$status"
     ;;
   *)

@@ -1,8 +1,12 @@
 #pragma once
 /// \file plane_keyframe.h
 /// Test helper: a keyframe of a textured fronto-parallel plane at 2 m (checkerboard in blue, a
-/// horizontal ramp in red), centred principal point.
+/// horizontal ramp in red), centred principal point. The texture is fixed on the plane: a camera
+/// translated sideways (x, y of `T_world_camera`) sees it shifted, so keyframes taken from
+/// translated poses are views of one scene. Rotations are not modelled (the plane stays at 2 m in
+/// front of each camera).
 
+#include <cmath>
 #include <cstdint>
 
 #include <Eigen/Geometry>
@@ -22,15 +26,24 @@ inline Keyframe texturedPlaneKeyframe(std::int64_t id, const Eigen::Isometry3d& 
   c.fx = c.fy = focal_px;
   c.cx = (width_px - 1) / 2.0;
   c.cy = (height_px - 1) / 2.0;
+  constexpr double kPlaneDepthM = 2.0;
+  // Pixel shift of the texture: where this camera's pixel lies on the plane, in the pixels of a
+  // camera at the world origin (exactly 0 for the identity pose).
+  const double shift_u_px = focal_px * T_world_camera.translation().x() / kPlaneDepthM;
+  const double shift_v_px = focal_px * T_world_camera.translation().y() / kPlaneDepthM;
   kf.frame.bgr.create(height_px, width_px, CV_8UC3);
   for (int v = 0; v < height_px; ++v) {
     for (int u = 0; u < width_px; ++u) {
-      const int checker = (u / checker_px + v / checker_px) % 2;
+      const double u_plane = u + shift_u_px, v_plane = v + shift_v_px;
+      const long cell = static_cast<long>(std::floor(u_plane / checker_px)) +
+                        static_cast<long>(std::floor(v_plane / checker_px));
+      const int checker = static_cast<int>(((cell % 2) + 2) % 2);
+      const long red = ((static_cast<long>(std::lround(2.0 * u_plane)) % 256) + 256) % 256;  // a ramp that wraps
       kf.frame.bgr.at<cv::Vec3b>(v, u) =
-          cv::Vec3b(static_cast<uchar>(checker * 150 + 50), 120, static_cast<uchar>(2 * u));
+          cv::Vec3b(static_cast<uchar>(checker * 150 + 50), 120, static_cast<uchar>(red));
     }
   }
-  kf.frame.depth_m = cv::Mat(height_px, width_px, CV_32FC1, cv::Scalar(2.f));
+  kf.frame.depth_m = cv::Mat(height_px, width_px, CV_32FC1, cv::Scalar(kPlaneDepthM));
   kf.T_world_camera = T_world_camera;
   return kf;
 }
