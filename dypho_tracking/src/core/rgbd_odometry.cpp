@@ -300,8 +300,24 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   const Eigen::Isometry3d T_features = aligned->T_camera_world;
   const StaticAgreement by_features = static_check_.score(T_features * T_world_reference);
   result->static_agreement = by_features.ratio();
+  // The refinement converges only near the pose it starts from. Moving matches can drag the
+  // feature pose out of that basin a little more on each frame, so it also may start where the
+  // camera was on the last frame or at the reference keyframe: whichever of the three explains
+  // most of the static samples.
+  Eigen::Isometry3d T_start = T_features;
+  double best_start = by_features.ratio();
+  std::vector<Eigen::Isometry3d> T_world_other_starts;
+  if (options_.static_check_other_starts) T_world_other_starts = {T_world_last_, T_world_reference};
+  for (const Eigen::Isometry3d& T_world_candidate : T_world_other_starts) {
+    const Eigen::Isometry3d T_candidate = T_world_candidate.inverse();
+    const double agreement = static_check_.score(T_candidate * T_world_reference).ratio();
+    if (agreement > best_start) {
+      best_start = agreement;
+      T_start = T_candidate;
+    }
+  }
   const Eigen::Isometry3d T_dense =
-      static_check_.refine(T_features * T_world_reference) * T_world_reference.inverse();
+      static_check_.refine(T_start * T_world_reference) * T_world_reference.inverse();
   const StaticAgreement by_dense = static_check_.score(T_dense * T_world_reference);
   // Evidence only when the refined pose explains most of the static samples (sharp images, a
   // static background that is really static) and clearly more than the feature pose does.
