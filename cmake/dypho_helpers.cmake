@@ -6,13 +6,20 @@ function(dypho_set_warnings target)
     $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wno-deprecated-copy>)
 endfunction()
 
-# dypho_add_gtest(<name> SOURCES <files...> LIBS <targets...> [TIMEOUT <s>])
+# dypho_add_gtest(<name> SOURCES <files...> LIBS <targets...> [TIMEOUT <s>] [COST <s>] [WHOLE_SYSTEM]
+#                 [ALL_CORES])
 # A gtest executable linking only core libraries, registered with CTest through
 # scripts/run_gtest.sh: a test that skips itself (GTEST_SKIP) makes ctest report the executable as
 # skipped (SKIP_RETURN_CODE 77), never as passed; a failure is still a failure. With catkin the
 # executable is built by the `tests` target. Tests get DYPHO_SOURCE_DIR and DYPHO_SHARED_DIR.
+# COST: about how long the test runs (seconds, ASan build, 2 cores); `ctest -j` starts the
+# costliest first on a build with no timing history, so the long tests do not end up last.
+# WHOLE_SYSTEM: runs the tools on whole sequences; not part of `unit_tests` (plain CMake builds).
+# ALL_CORES: the test keeps several threads busy; `ctest -j` never runs two such tests at once
+# (under ASan on 2 cores the mapper and pipeline tests took 521 and 439 s side by side; 329 s
+# beside a single-threaded test and 254 s alone).
 function(dypho_add_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE_SYSTEM;ALL_CORES" "TIMEOUT;COST" "SOURCES;LIBS" ${ARGN})
   if(NOT DYPHO_TESTING)
     return()
   endif()
@@ -33,9 +40,18 @@ function(dypho_add_gtest name)
   if(NOT TARGET ${name})
     return()
   endif()
+  if(TARGET unit_tests AND NOT ARG_WHOLE_SYSTEM)
+    add_dependencies(unit_tests ${name})
+  endif()
   add_test(NAME ${name} COMMAND bash ${DYPHO_REAL_SOURCE_DIR}/scripts/run_gtest.sh $<TARGET_FILE:${name}>
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} SKIP_RETURN_CODE 77)
+  if(ARG_COST)
+    set_tests_properties(${name} PROPERTIES COST ${ARG_COST})
+  endif()
+  if(ARG_ALL_CORES)
+    set_tests_properties(${name} PROPERTIES RESOURCE_LOCK dypho_all_cores)
+  endif()
   target_link_libraries(${name} ${ARG_LIBS})
   if(DYPHO_WITH_ROS)  # catkin's gtest target links gtest without main()
     if(TARGET GTest::gtest_main)

@@ -23,14 +23,24 @@ if grep -rlE '#include <(ros|sensor_msgs|cv_bridge|tf2|nodelet)/' "$ROOT"/dypho_
   echo "test_sanitized.sh: a core includes a ROS header (files above)" >&2
   exit 1
 fi
-cmake --build "$BUILD" -j "$JOBS"
 cd "$BUILD"
+# Only the unit tests and what they need (`unit_tests`; the tools, benchmarks and test_datasets
+# are built, optimised, by scripts/build.sh).
+cmake --build "$BUILD" -j "$JOBS" --target unit_tests
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-# Two (JOBS) at a time: the unit tests are mostly single-threaded, and under the sanitizers they
-# took 15 of the suite's 50 minutes one at a time on 2 cores. test_dypho_pipeline runs alone after
-# them: its realtime-runner tests play frames at their stamps.
+# Two (JOBS) at a time, the longest first (COST in the CMakeLists): the unit tests are mostly
+# single-threaded, and under the sanitizers they took 15 of the suite's 50 minutes one at a time
+# on 2 cores. The realtime runs of test_dypho_pipeline (they play frames at their stamps) run
+# alone after the others; GTEST_FILTER names them, and no other test has tests of that name.
+REALTIME='Threads/RealtimeRun.*'
+# Left out here, run only in the optimised build (scripts/test.sh): GaussianMapper's 100-frame
+# ghost check took 158 of the mapper test's 182 s under ASan. What it runs does run here: training
+# on keyframes with people masked in SlamPipeline.* (synthetic sequences with people, flow mask,
+# mapping on), densify and prune in GaussianMapper.TrainingReducesTheLoss...
+OPTIMISED_ONLY='GaussianMapper.SyntheticSequenceHasNoGhosts'
+echo "test_sanitized.sh: not run under the sanitizers (optimised build only): $OPTIMISED_ONLY"
 status=0
-ctest --output-on-failure -j "$JOBS" --timeout 4800 -E "^(test_datasets|test_dypho_pipeline)$" || status=1
-ctest --output-on-failure -j 1 --timeout 4800 -R "^test_dypho_pipeline$" || status=1
+GTEST_FILTER="-$REALTIME:$OPTIMISED_ONLY" ctest --output-on-failure -j "$JOBS" --timeout 4800 -E "^test_datasets$" || status=1
+GTEST_FILTER="$REALTIME" ctest --output-on-failure -j 1 --timeout 4800 -R "^test_dypho_pipeline$" || status=1
 exit "$status"
