@@ -5,10 +5,12 @@
 /// of magnitude (stated at the test).
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -34,6 +36,37 @@ TEST(BoundedHandOver, KeepsOrderDropsTheOldestWhenFullAndDrainsAfterClose) {
   EXPECT_EQ(q.pop(), std::nullopt);
   EXPECT_EQ(q.push(4), std::optional<int>(4));  // after close nothing is taken
   EXPECT_THROW(dypho::BoundedHandOver<int>(0), std::invalid_argument);
+}
+
+/// pushWhenRoom waits for the consumer instead of dropping; close() releases a waiting producer.
+TEST(BoundedHandOver, PushWhenRoomWaitsForTheConsumerAndNeverDrops) {
+  dypho::BoundedHandOver<int> q(1);
+  std::atomic<int> pushed{0};
+  std::thread producer([&] {
+    for (int i = 0; i < 50; ++i) {
+      if (q.pushWhenRoom(int(i))) ++pushed;
+    }
+  });
+  std::vector<int> taken;
+  while (taken.size() < 50u) taken.push_back(*q.pop());
+  producer.join();
+  EXPECT_EQ(pushed.load(), 50);
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(taken[static_cast<std::size_t>(i)], i);  // all, in order
+
+  dypho::BoundedHandOver<int> full(1);
+  ASSERT_TRUE(full.pushWhenRoom(1));
+  std::atomic<bool> second_returned{false}, second_result{true};
+  std::thread blocked([&] {
+    second_result = full.pushWhenRoom(2);  // waits: the queue is full
+    second_returned = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_FALSE(second_returned.load());  // still waiting for room
+  full.close();
+  blocked.join();
+  EXPECT_FALSE(second_result.load());  // released by close(), item not taken
+  EXPECT_EQ(full.pop(), std::optional<int>(1));
+  EXPECT_EQ(full.pop(), std::nullopt);
 }
 
 TEST(RealtimeOptions, RejectsBadValues) {

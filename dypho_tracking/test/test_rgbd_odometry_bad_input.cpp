@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "dypho/tracking/feature_preparer.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "synthetic_scene.h"
@@ -52,6 +53,52 @@ TEST(RgbdOdometry, TracksASyntheticTranslation) {
   EXPECT_NEAR(r.T_world_camera.translation().y(), 0.0, 0.005);
   EXPECT_GT(r.num_inliers, 300);
   EXPECT_TRUE(r.message.empty()) << r.message;
+}
+
+/// Features prepared ahead by another FeaturePreparer (what TrackingNodelet does on its own
+/// thread) give the tracker exactly what it prepares itself: same poses, to the bit, on a shifted
+/// and masked sequence with keyframes. Features prepared for another stamp are not used.
+TEST(RgbdOdometry, FeaturesPreparedAheadGiveTheSameResult) {
+  const TrackingOptions options;
+  RgbdOdometry inline_odo{options}, prepared_odo{options};
+  FeaturePreparer preparer{options};
+  const cv::Mat img = test::texturedImage(24);
+  cv::Mat mask = cv::Mat::zeros(img.size(), CV_8UC1);
+  mask(cv::Rect(200, 120, 120, 200)).setTo(255);
+  int keyframes = 0, used_stale = 0;
+  for (int i = 0; i < 12; ++i) {
+    const RgbdFrame frame = test::planarFrame(test::shifted(img, 4 * i, i), 2.0, (i + 1) * kDt);
+    const TrackingResult a = inline_odo.track(frame, mask);
+    PreparedFeatures prepared = preparer.prepare(frame, mask);
+    ASSERT_TRUE(prepared.valid);
+    EXPECT_EQ(prepared.stamp_ns, frame.stamp_ns);
+    if (i == 5) {  // prepared for another frame: the tracker prepares its own
+      prepared.stamp_ns += 1;
+      prepared.features = FrameFeatures();
+      ++used_stale;
+    }
+    const TrackingResult b = prepared_odo.track(frame, mask, MaskJudgement::kUnknown, &prepared);
+    ASSERT_EQ(a.state, TrackingState::kOk) << a.message;
+    EXPECT_EQ(b.state, a.state);
+    EXPECT_EQ(b.is_keyframe, a.is_keyframe);
+    EXPECT_EQ(b.num_features, a.num_features);
+    EXPECT_EQ(b.num_inliers, a.num_inliers);
+    EXPECT_TRUE(b.T_world_camera.matrix() == a.T_world_camera.matrix()) << "frame " << i;
+    keyframes += a.is_keyframe ? 1 : 0;
+  }
+  EXPECT_GE(keyframes, 2);  // the sequence leaves the first keyframe's view: keyframe paths ran too
+  EXPECT_EQ(used_stale, 1);
+}
+
+TEST(FeaturePreparer, BadInputIsInvalidNeverThrows) {
+  FeaturePreparer preparer{TrackingOptions()};
+  RgbdFrame frame = test::planarFrame(test::texturedImage(25), 2.0, kDt);
+  const cv::Mat wrong_mask(10, 10, CV_8UC1, cv::Scalar(0));
+  EXPECT_FALSE(preparer.prepare(frame, wrong_mask).valid);
+  EXPECT_FALSE(checkTrackingInput(frame, wrong_mask).empty());
+  frame.depth_m = cv::Mat();
+  EXPECT_FALSE(preparer.prepare(frame, {}).valid);
+  EXPECT_TRUE(contains(checkTrackingInput(frame, {}), "depth"));
 }
 
 TEST(RgbdOdometry, BadInputGivesStateAndMessageNeverThrows) {

@@ -30,6 +30,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "dypho/common/atomic_file.h"
+#include "dypho/common/frame_allocator.h"
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
@@ -479,6 +480,7 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  dypho::keepFrameBuffersInProcess();  // as the nodelets do; no effect on results
   try {
     return run(parseArgs(argc, argv));
   } catch (const std::exception& e) {

@@ -47,6 +47,7 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
 }
 
 void MappingWorker::loop() {
+  nameCurrentThread("dypho_mapping");
   lowerCurrentThreadPriority(priority_);  // best effort: a failure only keeps the priority
   bool idle_work_left = true;
   for (;;) {

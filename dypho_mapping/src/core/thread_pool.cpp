@@ -52,6 +52,7 @@ void ThreadPool::runItems(int thread_index) {
 }
 
 void ThreadPool::workerLoop(int thread_index) {
+  nameCurrentThread("dypho_pool_" + std::to_string(thread_index));
   lowerCurrentThreadPriority(priority_);  // best effort: a failure only keeps the priority
   long seen = 0;
   for (;;) {

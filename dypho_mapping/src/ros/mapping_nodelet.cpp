@@ -34,6 +34,7 @@
 
 #include "dypho/common/atomic_file.h"
 #include "dypho/common/output_path.h"
+#include "dypho/common/frame_allocator.h"
 #include "dypho/common/thread_budget.h"
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/mapping_options_fields.h"
@@ -107,6 +108,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   /// with the reason and this nodelet stays idle (nothing advertised or subscribed) until it is
   /// restarted with a fixed configuration.
   void onInit() override {
+    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
+    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
     try {
       start();
     } catch (const std::exception& e) {
@@ -231,6 +234,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
 
   /// Render thread: serves the newest request (older ones are superseded).
   void renderLoop() {
+    nameCurrentThread("dypho_render");
     ros::WallTime last_view = ros::WallTime(0);
     for (;;) {
       RenderRequest r;

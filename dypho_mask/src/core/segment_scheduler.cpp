@@ -88,6 +88,7 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
       YoloSegmenter* seg = segmenter_.get();
       const int nice = options_.async_nice;
       pending_ = std::async(std::launch::async, [seg, bgr, depth, nice] {
+        nameCurrentThread("dypho_network");
         lowerCurrentThreadPriority({nice, /*idle_class=*/false});  // best effort: a failure only keeps the priority
         return seg->segment(bgr, depth);
       });

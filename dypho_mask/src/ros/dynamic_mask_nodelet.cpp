@@ -33,6 +33,7 @@
 
 #include "dypho/common/bounded_hand_over.h"
 #include "dypho/common/rolling_stats.h"
+#include "dypho/common/frame_allocator.h"
 #include "dypho/common/thread_budget.h"
 
 #include "dypho/mask/mask_options_fields.h"
@@ -57,6 +58,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   /// warning, below): it is logged as FATAL with the reason and this nodelet stays idle (nothing
   /// advertised or subscribed) until it is restarted with a fixed configuration.
   void onInit() override {
+    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
+    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
     try {
       start();
     } catch (const std::exception& e) {
@@ -174,6 +177,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   }
 
   void workerLoop() {
+    nameCurrentThread("dypho_mask");
     while (std::optional<FrameMsgs> msgs = waiting_->pop()) {
       if (stopping_) return;
       processFrame(*msgs);

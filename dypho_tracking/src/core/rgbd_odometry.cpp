@@ -38,7 +38,7 @@ StaticSceneCheckSettings staticCheckSettings(const TrackingOptions& o) {
 
 RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
     : options_(options),
-      extractor_(options),
+      preparer_(options),
       aligner_(options),
       selector_(options),
       map_(options),
@@ -72,30 +72,6 @@ void RgbdOdometry::reset() {
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   lost_frames_ = 0;
-}
-
-std::string RgbdOdometry::checkInput(const RgbdFrame& frame, const cv::Mat& mask) const {
-  const cv::Mat& bgr = frame.bgr;
-  if (bgr.empty() || (bgr.type() != CV_8UC3 && bgr.type() != CV_8UC1)) {
-    return "colour image is empty or not CV_8UC3 (BGR) / CV_8UC1; convert it before tracking";
-  }
-  if (bgr.cols < 64 || bgr.rows < 64) return "image smaller than 64x64 px";
-  if (frame.depth_m.empty() || frame.depth_m.type() != CV_32FC1) {
-    return "depth image is empty or not CV_32FC1 metres (16-bit TUM/OpenNI depth: "
-           "convertTo(CV_32F, 1/5000.) or 1/1000.)";
-  }
-  if (frame.depth_m.size() != bgr.size()) {
-    return "depth size differs from the colour size; the depth must be registered to the colour "
-           "image";
-  }
-  if (!frame.camera.valid()) return "camera intrinsics invalid (fx, fy, width, height must be > 0)";
-  if (frame.camera.width != bgr.cols || frame.camera.height != bgr.rows) {
-    return "camera width/height differ from the image size; scale the intrinsics with the image";
-  }
-  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != bgr.size())) {
-    return "mask must be empty or CV_8UC1 with the image size (255 = dynamic)";
-  }
-  return {};
 }
 
 std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
@@ -327,7 +303,8 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
   if (!moving.empty()) views_stale_ = true;
 }
 
-TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement) {
+TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
+                                   const PreparedFeatures* prepared) {
   const auto t_start = Clock::now();
   TrackingResult result;
   result.stamp_ns = frame.stamp_ns;
@@ -346,7 +323,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
     return result;
   };
 
-  const std::string problem = checkInput(frame, mask);
+  const std::string problem = checkTrackingInput(frame, mask);
   if (!problem.empty()) {
     result.message = "bad input: " + problem;
     if (reference_id_ >= 0) {
@@ -376,17 +353,15 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   if (pending_ba_.valid() && --pending_ba_frames_left_ <= 0) finishLocalBa(pinhole, &result);
 
   // Features with depth.
-  auto t0 = Clock::now();
-  cv::Mat gray;
-  if (frame.bgr.channels() == 3) {
-    cv::cvtColor(frame.bgr, gray, cv::COLOR_BGR2GRAY);
-  } else {
-    gray = frame.bgr;
+  // (input checked above, so a valid preparation exists for this frame)
+  PreparedFeatures prepared_here;
+  if (prepared == nullptr || !prepared->valid || prepared->stamp_ns != frame.stamp_ns) {
+    prepared_here = preparer_.prepare(frame, mask);
+    prepared = &prepared_here;
   }
-  const OrbFeatures orb = extractor_.extract(gray, mask);
-  const FrameFeatures features = makeFrameFeatures(orb, frame.depth_m, frame.camera,
-                                                   options_.min_depth_m, options_.max_depth_m);
-  result.times.features = msSince(t0);
+  const OrbFeatures& orb = prepared->orb;
+  const FrameFeatures& features = prepared->features;
+  result.times.features = prepared->ms;
   result.num_features = static_cast<int>(features.size());
   result.masked_fraction = orb.masked_fraction;
   const bool enough_to_start = result.num_features >= options_.min_init_features;

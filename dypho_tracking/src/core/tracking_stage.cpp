@@ -11,7 +11,8 @@ namespace dypho::tracking {
 
 TrackingStage::TrackingStage(const TrackingOptions& options) : odometry_(options) {}
 
-TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement) {
+TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
+                                     const PreparedFeatures* prepared) {
   std::lock_guard<std::mutex> lock(mutex_);
   TrackingOutput out;
   const StampOrder order = stamp_gate_.admit(frame.stamp_ns);
@@ -27,7 +28,7 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
     recorder_.clear();  // the tracker resets itself on this frame (RgbdOdometry::track)
     out.restarted = true;
   }
-  out.result = odometry_.track(frame, mask, judgement);
+  out.result = odometry_.track(frame, mask, judgement, prepared);
   recorder_.add(out.result);
   const TrackingResult& r = out.result;
   out.pose.stamp_ns = r.stamp_ns;

@@ -4,9 +4,11 @@
 /// keyframe correction batches, timing and /diagnostics out. All the tracking and its policy are
 /// in dypho::tracking::TrackingStage (the same stage the in-process pipeline runs).
 ///
-/// Threads: the callbacks only store message pointers; one worker thread pairs each frame with its
-/// mask (MaskPairer: a bounded wait, then a carried mask or none, said in the status), converts
-/// it once and tracks it. Frames beyond ~mask_max_pending_frames are dropped and counted.
+/// Threads: the callbacks only store message pointers; a preparing thread pairs each frame with its
+/// mask (MaskPairer: a bounded wait, then a carried mask or none, said in the status), converts it
+/// once and extracts its features (FeaturePreparer); the tracking thread tracks it meanwhile the
+/// next one is prepared (one prepared frame waits at most). Frames beyond ~mask_max_pending_frames
+/// are dropped and counted.
 
 #include <chrono>
 #include <condition_variable>
@@ -34,8 +36,12 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include "dypho/common/bounded_hand_over.h"
+#include "dypho/common/frame_allocator.h"
 #include "dypho/common/output_path.h"
 #include "dypho/common/rolling_stats.h"
+#include "dypho/common/thread_budget.h"
+#include "dypho/tracking/feature_preparer.h"
 #include "dypho/tracking/mask_pairing.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
@@ -98,6 +104,8 @@ class TrackingNodelet : public nodelet::Nodelet {
   /// with the reason and this nodelet stays idle (nothing advertised or subscribed) until it is
   /// restarted with a fixed configuration.
   void onInit() override {
+    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
+    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
     try {
       start();
     } catch (const std::exception& e) {
@@ -138,6 +146,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 2. Core.
     stage_ = std::make_unique<tracking::TrackingStage>(options);
+    preparer_ = std::make_unique<tracking::FeaturePreparer>(options);
     pairer_ = std::make_unique<Pairer>(params_.mask_pairing, params_.use_mask);
 
     // 3. Outputs.
@@ -162,6 +171,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 4. Worker, then inputs.
     worker_ = std::thread([this] { workerLoop(); });
+    tracker_ = std::thread([this] { trackLoop(); });
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
     const int q = params_.queue_size;
     rgb_sub_.subscribe(*it_, "rgb/image", q);
@@ -184,7 +194,9 @@ class TrackingNodelet : public nodelet::Nodelet {
       stop_ = true;
     }
     queue_cv_.notify_all();
+    prepared_.close();
     if (worker_.joinable()) worker_.join();
+    if (tracker_.joinable()) tracker_.join();
     if (params_.output_dir.empty() || !stage_) return;
     try {
       saveTrajectory(params_.output_dir);
@@ -217,6 +229,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
   // --- worker ---------------------------------------------------------------------------------
   void workerLoop() {
+    nameCurrentThread("dypho_features");
     std::unique_lock<std::mutex> lock(queue_mutex_);
     while (!stop_) {
       std::vector<Pairer::Ready> ready = pairer_->takeReady(steadyClockSeconds());
@@ -230,32 +243,52 @@ class TrackingNodelet : public nodelet::Nodelet {
         continue;
       }
       lock.unlock();
-      for (Pairer::Ready& r : ready) processFrame(r);
+      for (Pairer::Ready& r : ready) prepareFrame(std::move(r));
       lock.lock();
     }
   }
 
-  void processFrame(const Pairer::Ready& ready) {
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      ++frames_processed_;  // taken by the worker (a frame it cannot convert is reported, not dropped silently)
-    }
-    const FrameMsgs& msgs = ready.frame;
+  /// A paired frame, converted, with its features: what the tracking thread takes.
+  struct PreparedFrame {
+    Pairer::Ready ready;
     RgbdFrame frame;
     cv::Mat mask;
+    tracking::PreparedFeatures features;
+  };
+
+  void prepareFrame(Pairer::Ready ready) {
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      ++frames_processed_;  // taken from the pairer (a frame it cannot convert is reported, not dropped silently)
+    }
+    PreparedFrame item;
     try {
-      frame = rc::toRgbdFrame(*msgs.rgb, *msgs.depth, *msgs.info);
-      if (ready.mask) mask = rc::toMask(*ready.mask);
-      if (!mask.empty() && mask.size() != frame.bgr.size()) {
-        throw rc::ConversionError("mask is " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
-                                  " but the image is " + std::to_string(frame.bgr.cols) + "x" +
-                                  std::to_string(frame.bgr.rows));
+      const FrameMsgs& msgs = ready.frame;
+      item.frame = rc::toRgbdFrame(*msgs.rgb, *msgs.depth, *msgs.info);
+      if (ready.mask) item.mask = rc::toMask(*ready.mask);
+      if (!item.mask.empty() && item.mask.size() != item.frame.bgr.size()) {
+        throw rc::ConversionError("mask is " + std::to_string(item.mask.cols) + "x" + std::to_string(item.mask.rows) +
+                                  " but the image is " + std::to_string(item.frame.bgr.cols) + "x" +
+                                  std::to_string(item.frame.bgr.rows));
       }
+      item.features = preparer_->prepare(item.frame, item.mask);
     } catch (const std::exception& e) {
       const std::string message = std::string("dropping frame: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
+    item.ready = std::move(ready);
+    prepared_.pushWhenRoom(std::move(item));  // false only at shutdown
+  }
+
+  void trackLoop() {
+    nameCurrentThread("dypho_tracking");
+    while (std::optional<PreparedFrame> item = prepared_.pop()) trackFrame(*item);
+  }
+
+  void trackFrame(const PreparedFrame& item) {
+    const Pairer::Ready& ready = item.ready;
+    const FrameMsgs& msgs = ready.frame;
     tracking::TrackingOutput out;
     const double t0 = steadyClockSeconds();
     try {
@@ -265,13 +298,14 @@ class TrackingNodelet : public nodelet::Nodelet {
                                                 : ready.source == tracking::MaskSource::kMatched
                                                     ? tracking::MaskJudgement::kJudged
                                                     : tracking::MaskJudgement::kUnjudged;
-      out = stage_->process(frame, mask, judgement);
+      out = stage_->process(item.frame, item.mask, judgement, &item.features);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
       const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
       return;
     }
-    const double tracking_ms = (steadyClockSeconds() - t0) * 1e3;
+    // The frame's work: its features (prepared on the other thread) and the tracker.
+    const double tracking_ms = (steadyClockSeconds() - t0) * 1e3 + item.features.ms;
     if (out.dropped) {  // repeated or late stamp: nothing to publish for it
       if (input_log_.pass(out.result.message)) NODELET_WARN_STREAM(out.result.message);
       return;
@@ -535,7 +569,10 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::uint64_t frames_processed_ = 0;
   dypho_slam::TrackingStatus last_status_;
   std::uint64_t dropped_at_last_diagnosis_ = 0;
-  std::thread worker_;
+  std::thread worker_;   ///< pairs, converts and prepares frames
+  std::thread tracker_;  ///< tracks prepared frames
+  std::unique_ptr<tracking::FeaturePreparer> preparer_;  ///< the worker's
+  BoundedHandOver<PreparedFrame> prepared_{1};           ///< worker -> tracker: one frame waits at most
 
   std::mutex path_mutex_;  ///< guards path_ and path_changed_
   nav_msgs::Path path_;

@@ -1,8 +1,10 @@
 #pragma once
 /// \file bounded_hand_over.h
-/// A bounded queue between two threads that never blocks its producer: when it is full, the
-/// oldest waiting item makes room and is handed back to the producer as dropped (like a ROS
-/// subscriber queue). The consumer takes items in arrival order. Thread-safe.
+/// A bounded queue between two threads. push() never blocks its producer: when the queue is full,
+/// the oldest waiting item makes room and is handed back to the producer as dropped (like a ROS
+/// subscriber queue). pushWhenRoom() instead waits for room (a producer that must not lose items
+/// and may fall behind: its own input queue then does the dropping). The consumer takes items in
+/// arrival order. Thread-safe.
 
 #include <condition_variable>
 #include <cstddef>
@@ -40,13 +42,30 @@ class BoundedHandOver {
     return dropped;
   }
 
+  /// Adds `item` once fewer than `capacity` items wait (waits for the consumer until then).
+  /// Returns false, dropping `item`, when the queue is or gets closed meanwhile.
+  bool pushWhenRoom(T item) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      room_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
+      if (closed_) return false;
+      items_.push_back(std::move(item));
+    }
+    ready_.notify_one();
+    return true;
+  }
+
   /// Waits for the oldest waiting item; nullopt once closed and empty.
   std::optional<T> pop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ready_.wait(lock, [&] { return closed_ || !items_.empty(); });
-    if (items_.empty()) return std::nullopt;
-    std::optional<T> item(std::move(items_.front()));
-    items_.pop_front();
+    std::optional<T> item;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      ready_.wait(lock, [&] { return closed_ || !items_.empty(); });
+      if (items_.empty()) return std::nullopt;
+      item.emplace(std::move(items_.front()));
+      items_.pop_front();
+    }
+    room_.notify_one();
     return item;
   }
 
@@ -57,6 +76,7 @@ class BoundedHandOver {
       closed_ = true;
     }
     ready_.notify_all();
+    room_.notify_all();
   }
 
   std::size_t capacity() const { return capacity_; }
@@ -64,7 +84,8 @@ class BoundedHandOver {
  private:
   const std::size_t capacity_;
   std::mutex mutex_;
-  std::condition_variable ready_;
+  std::condition_variable ready_;  ///< an item or close() for pop()
+  std::condition_variable room_;   ///< room or close() for pushWhenRoom()
   std::deque<T> items_;
   bool closed_ = false;
 };

@@ -5,6 +5,7 @@
 /// the network and the Gaussian training run beside it at a lower priority (a higher nice value),
 /// so on a loaded machine they take the time the camera-rate path leaves and never delay it.
 
+#include <pthread.h>
 #include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -44,6 +45,14 @@ inline ThreadBudget planThreadBudget(int cores) {
   budget.opencv_threads = std::max(1, budget.cores / 2);
   budget.mapping_threads = budget.cores;
   return budget;
+}
+
+/// Names the calling thread (Linux: at most 15 characters, longer names are cut), so that
+/// `top -H`, `ps -L` and profilers tell the graph's threads apart. Best effort.
+inline void nameCurrentThread(const std::string& name) {
+#ifdef __linux__
+  ::pthread_setname_np(::pthread_self(), name.substr(0, 15).c_str());
+#endif
 }
 
 /// Lowers the calling thread's priority (Linux: nice and scheduling class are per thread), which

@@ -15,6 +15,7 @@
 
 #include "dypho/common/motion_prior.h"
 #include "dypho/common/types.h"
+#include "dypho/tracking/feature_preparer.h"
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/keyframe_aligner.h"
 #include "dypho/tracking/keyframe_points.h"
@@ -71,8 +72,12 @@ class RgbdOdometry {
   /// all masked, textureless, wrong types/sizes, stamp not after the previous one -> reset +
   /// message). Never returns a NaN pose. `judgement`: whether `mask` judged this frame (only the
   /// safe start reads it: a first keyframe nothing judged has its points verified).
+  /// `prepared`: this frame's features from a FeaturePreparer with the same options (e.g. made on
+  /// another thread while the previous frame was tracked); null, invalid or prepared for another
+  /// stamp: they are prepared here. The result is the same either way.
   TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask,
-                       MaskJudgement judgement = MaskJudgement::kUnknown);
+                       MaskJudgement judgement = MaskJudgement::kUnknown,
+                       const PreparedFeatures* prepared = nullptr);
 
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).
@@ -85,8 +90,6 @@ class RgbdOdometry {
   const TrackerMap& map() const { return map_; }
 
  private:
-  /// Empty when the inputs are usable, otherwise what is wrong and how to fix it.
-  std::string checkInput(const RgbdFrame& frame, const cv::Mat& mask) const;
   /// Explains why a frame has too few keypoints with depth.
   std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
                                  const FrameFeatures& features) const;
@@ -130,7 +133,7 @@ class RgbdOdometry {
 
   TrackingOptions options_;
   bool views_stale_ = false;  ///< points of local_view_/own_view_ were removed: refresh them
-  OrbExtractor extractor_;
+  FeaturePreparer preparer_;  ///< features of frames that come without prepared ones
   KeyframeAligner aligner_;
   KeyframeSelector selector_;
   TrackerMap map_;

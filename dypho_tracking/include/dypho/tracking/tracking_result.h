@@ -38,7 +38,7 @@ const char* toString(TrackingState state);
 
 /// Wall-clock time spent in each stage of `track` [ms].
 struct TrackingTimesMs {
-  double features = 0;  ///< ORB extraction, undistortion and depth look-up [ms]
+  double features = 0;  ///< ORB extraction, undistortion and depth look-up, on the thread that prepared them [ms]
   double matching = 0;  ///< descriptor matching, guided and brute force [ms]
   double pnp = 0;       ///< PnP RANSAC (0 when the motion prediction was good enough) [ms]
   double refine = 0;    ///< Ceres motion-only refinement, all passes [ms]

@@ -54,9 +54,11 @@ class TrackingStage {
 
   /// Tracks `frame` against the map outside `mask` (CV_8UC1 255 = dynamic, empty = all static).
   /// Never throws on bad data (RgbdOdometry::track).
-  /// `judgement`: see RgbdOdometry::track.
+  /// `judgement`, `prepared`: see RgbdOdometry::track (features prepared ahead on another thread
+  /// by a FeaturePreparer made with options(); the stage's lock is not needed for that).
   TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask,
-                         MaskJudgement judgement = MaskJudgement::kUnknown);
+                         MaskJudgement judgement = MaskJudgement::kUnknown,
+                         const PreparedFeatures* prepared = nullptr);
 
   /// Final trajectory: every recorded frame, following its keyframe's current pose.
   PoseList finalTrajectory() const;
