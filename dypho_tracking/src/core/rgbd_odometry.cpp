@@ -5,7 +5,6 @@
 #include <cmath>
 #include <sstream>
 
-#include <opencv2/imgproc.hpp>
 
 #include "dypho/tracking/pinhole.h"
 
