@@ -349,3 +349,29 @@ TEST_F(GeneratedModels, NetworkJudgesTheFirstFrame) {
   EXPECT_TRUE(first.segment_fresh);
   EXPECT_FALSE(first.unjudged);
 }
+
+// When the flow veto and object permanence treat the camera as still (cameraStill): the numbers
+// are those of the synthetic sequences in docs/benchmarks.md section 8 (a camera circling the
+// scene: median 1-2 px, 0-25 % quiet, 11-15 mm per frame; crowds before a still camera: 31-93 %
+// quiet, a dragged prediction up to 12 mm per frame).
+TEST(CameraStill, NeedsASmallMedianAndAQuietShareOrASmallPredictedMotion) {
+  FlowMaskResult flow;
+  flow.raw_flow_mask = cv::Mat::zeros(8, 8, CV_8UC1);
+  Eigen::Isometry3d circling = Eigen::Isometry3d::Identity();
+  circling.translation() = Eigen::Vector3d(0.012, 0.0, 0.0);
+  Eigen::Isometry3d resting = Eigen::Isometry3d::Identity();
+  resting.translation() = Eigen::Vector3d(0.002, 0.0, 0.0);
+
+  flow.median_flow_px = 1.5;
+  flow.quiet_flow_share = 0.2;
+  EXPECT_FALSE(cameraStill(flow, circling)) << "circling: little flow, but nothing quiet and a moving pose";
+  EXPECT_FALSE(cameraStill(flow, std::nullopt));
+  EXPECT_TRUE(cameraStill(flow, resting)) << "the prediction says still";
+  flow.quiet_flow_share = 0.35;
+  EXPECT_TRUE(cameraStill(flow, circling)) << "a third of the view does not move: a dragged prediction";
+  flow.median_flow_px = 2.5;
+  EXPECT_FALSE(cameraStill(flow, resting)) << "the median says the camera moves";
+  flow.median_flow_px = 0.1;
+  flow.raw_flow_mask.release();
+  EXPECT_FALSE(cameraStill(flow, resting)) << "no flow: nothing known";
+}

@@ -331,7 +331,9 @@ TEST(FlowMotionMasker, ResidualMemoryFindsASlowMover) {
     // With memory, from the 8th residual on (the ideal sum is then within 6 % of 3.3 px): the
     // greater part of the square (>= 60 %; measured 73 %, see above for what is missed), where
     // frame to frame finds nothing.
-    if (k >= 8) EXPECT_GE(covered, 0.6) << "frame " << k;
+    if (k >= 8) {
+      EXPECT_GE(covered, 0.6) << "frame " << k;
+    }
     // Nothing far from the person is masked (< 1 % of the image outside the square + 24 px).
     cv::Mat near = cv::Mat::zeros(kSize, CV_8UC1);
     near(cv::Rect(square.x - 24, square.y - 24, square.width + 48, square.height + 48)).setTo(255);

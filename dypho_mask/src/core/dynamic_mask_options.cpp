@@ -83,6 +83,8 @@ void DynamicMaskOptions::validate() const {
   flow.validate();
   background.validate();
   require(margin_px >= 0, "margin_px must be >= 0, got " + std::to_string(margin_px));
+  require(permanence_frames >= 0 && permanence_frames <= 10000,
+          "permanence_frames must be in [0, 10000], got " + std::to_string(permanence_frames));
   require(depth_layers >= 1, "depth_layers must be >= 1, got " + std::to_string(depth_layers));
   require(min_region_area_px >= 0, "min_region_area_px must be >= 0, got " + std::to_string(min_region_area_px));
 }

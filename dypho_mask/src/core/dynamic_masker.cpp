@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/mask/box_depth_segmenter.h"
+#include "dypho/mask/object_permanence.h"
 #include "dypho/mask/segment_scheduler.h"
 
 namespace dypho {
@@ -57,6 +58,12 @@ DynamicMasker::DynamicMasker(const DynamicMaskOptions& options)
   grow_settings_.min_seed_area_px = cleanerAt(options, options.background.scale).min_region_area_px;
   // The flow's halo on the background: its margin plus about 4 px of flow smoothing (full res).
   halo_small_px_ = std::max(1, static_cast<int>(std::lround((options.flow.dilate_px + 4) * options.background.scale)));
+  if (options.permanence_frames > 0) {
+    PermanenceSettings p;
+    p.max_quiet_frames = options.permanence_frames;
+    p.sigma_m = options.background.sigma_m;
+    permanence_ = std::make_unique<ObjectPermanence>(p);
+  }
   const int margin_small = cleanerAt(options, options.background.scale).dilate_radius_px;
   if (options.margin_depth_aware && margin_small > 0) {
     margin_kernel_small_ =
@@ -70,6 +77,7 @@ void DynamicMasker::reset() {
   background_updates_ = 0;
   flow_frames_ = 0;
   previous_mask_.release();
+  if (permanence_) permanence_->reset();
   flow_.reset();
   segment_->reset();
   background_.reset();
@@ -234,10 +242,14 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     }
     cv::resize(consistency_small_, result.consistency_mask, size, 0, 0, cv::INTER_NEAREST);
     // Flow regions that the established background explains (same depth, no occluder in front)
-    // are flow noise on the static scene; segment-mask pixels are never vetoed.
+    // are flow noise on the static scene; segment-mask pixels are never vetoed. Only while the
+    // camera moves: the veto is for the ego-motion model's errors, which grow with the camera's
+    // motion. With a still camera (cameraStill()) a flow region is motion, and the background
+    // that "explains" it has learnt a person who stood still or stood there from the start.
     cv::resize(flow.mask, flow_small_, small, 0, 0, cv::INTER_NEAREST);
     flow_small_ &= raw_small_;
-    if (background_updates_ >= options_.background.veto_after_updates) {
+    const bool still = cameraStill(flow, prior.T_prev_cur);
+    if (background_updates_ >= options_.background.veto_after_updates && (!still || options_.veto_flow_while_still)) {
       vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
                               0.9, 0.5, flow_small_);
     }
@@ -250,12 +262,32 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
     if (options_.moving_point_seeds && !prior.moving_points_camera_m.empty()) {
       addMovingPointSeeds(prior.moving_points_camera_m, scaled(frame.camera, small, s));
     }
+    // Object permanence (permanence_frames) serves the flow-only mask of a still camera (a
+    // network segments people whatever they do; a moving camera's ego-motion errors would be
+    // kept as well), and starts once the background model is established: before, the depth
+    // growth has no background to stop it and can spill over a wall nobody has seen yet, which
+    // must not last.
+    const bool permanence = permanence_ && !network && still &&
+                            background_updates_ >= options_.background.veto_after_updates;
+    if (permanence) {
+      // What this frame found itself (the evidence that restarts a surface's quiet count), then
+      // the surfaces of the previous frame that are still there.
+      combined_.copyTo(evidence_small_);
+      permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
+      combined_ |= kept_small_;
+    }
     if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
     // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
     background_.update(depth_small_, rendered_small_, combined_);
     ++background_updates_;
     finish(combined_, size, true, result);
+    if (permanence) {
+      permanence_->remember(cleaned_small_, evidence_small_, depth_small_);
+    } else if (permanence_) {
+      permanence_->reset();
+    }
   } else {
+    if (permanence_) permanence_->reset();
     if (options_.background.enabled && !have_depth) note("no usable depth/camera: background model skipped");
     combined_ = flow.mask.clone();
     if (!seg.mask.empty()) combined_ |= seg.mask;
@@ -264,6 +296,23 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   result.background_ms = test_ms + msSince(t_bg);
   result.total_ms = msSince(t0);
   return result;
+}
+
+bool cameraStill(const FlowMaskResult& flow, const std::optional<Eigen::Isometry3d>& T_prev_cur) {
+  // Still: the textured pixels' median flow is under kStillFlowPx per frame, and either at least
+  // kMinQuietShare of them do not move at all (FlowMaskResult::quiet_flow_share) or the
+  // predicted pose moves less than kStillTranslationM. The median alone is not enough: a camera
+  // circling the scene while it looks at its centre has a median of 1-2 px and parallax all the
+  // same (11-15 mm per frame; 0-25 % of its pixels quiet). The pose alone is not enough either:
+  // people the mask misses drag the tracked pose, and so the prediction, by up to a centimetre
+  // per frame, while the wall behind them still does not move (31-93 % quiet in the synthetic
+  // crowds before a still camera).
+  constexpr double kStillFlowPx = 2.0;          // full-res px per frame
+  constexpr double kMinQuietShare = 0.3;
+  constexpr double kStillTranslationM = 0.005;  // per frame (15 cm/s at 30 Hz)
+  if (flow.raw_flow_mask.empty() || !(flow.median_flow_px < kStillFlowPx)) return false;  // no flow, or moving
+  return flow.quiet_flow_share >= kMinQuietShare ||
+         (T_prev_cur && T_prev_cur->translation().norm() < kStillTranslationM);
 }
 
 void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m,
@@ -299,6 +348,7 @@ void DynamicMasker::allDynamic(const cv::Size& size, const std::string& why, Mas
   result.masked_fraction = 1.0;
   result.message += (result.message.empty() ? "" : "; ") + why + ": every pixel dynamic on this frame";
   previous_mask_.release();  // nothing to carry into the next frame
+  if (permanence_) permanence_->reset();
 }
 
 void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {
@@ -309,6 +359,7 @@ void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at
 void DynamicMasker::finishMask(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {
   cv::Mat m = dynamic.clone();
   const int kept = (at_background ? small_cleaner_ : full_cleaner_).apply(m);
+  if (at_background) m.copyTo(cleaned_small_);
   if (at_background && kept > 0 && !margin_kernel_small_.empty() && depth_small_.size() == m.size()) {
     // Depth-aware margin: grow by the margin, then take back the grown pixels whose depth lies
     // more than sigma_m behind the farthest masked depth within the margin.

@@ -223,8 +223,9 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   {
     // Full weight below kStillFlowPx of median flow, none from kMovingFlowPx on (full-res px).
     constexpr double kStillFlowPx = 2.0, kMovingFlowPx = 6.0;
+    flowStatistics(result);
     result.still_camera_weight =
-        std::clamp((kMovingFlowPx - medianFlowPx()) / (kMovingFlowPx - kStillFlowPx), 0.0, 1.0);
+        std::clamp((kMovingFlowPx - result.median_flow_px) / (kMovingFlowPx - kStillFlowPx), 0.0, 1.0);
   }
   accumulateResidual(result.still_camera_weight);
   cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
@@ -357,21 +358,27 @@ void FlowMotionMasker::accumulateResidual(double still_weight) {
   }
 }
 
-double FlowMotionMasker::medianFlowPx() const {
-  // Median flow length over a sparse grid of the textured pixels [full-res px].
-  const double to_full = 1.0 / options_.flow_scale;
+void FlowMotionMasker::flowStatistics(FlowMaskResult& result) const {
+  // Over a sparse grid of the textured pixels: the median flow length [full-res px] and the
+  // share of samples that move less than kQuietFlowPx.
+  constexpr float kQuietFlowPx = 0.5f;
+  const float to_full = static_cast<float>(1.0 / options_.flow_scale);
   std::vector<float> lengths;
   lengths.reserve(static_cast<size_t>(flow_.total() / 16 + 1));
+  int quiet = 0;
   for (int y = 2; y < flow_.rows; y += 4) {
     const cv::Vec2f* f = flow_.ptr<cv::Vec2f>(y);
     const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
     for (int x = 2; x < flow_.cols; x += 4) {
-      if (t == nullptr || t[x] != 0) lengths.push_back(std::hypot(f[x][0], f[x][1]));
+      if (t != nullptr && t[x] == 0) continue;
+      lengths.push_back(std::hypot(f[x][0], f[x][1]) * to_full);
+      quiet += lengths.back() < kQuietFlowPx;
     }
   }
-  if (lengths.empty()) return 0.0;
+  if (lengths.empty()) return;
   std::nth_element(lengths.begin(), lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2), lengths.end());
-  return lengths[lengths.size() / 2] * to_full;
+  result.median_flow_px = lengths[lengths.size() / 2];
+  result.quiet_flow_share = static_cast<double>(quiet) / static_cast<double>(lengths.size());
 }
 
 bool FlowMotionMasker::followsCarried() const {

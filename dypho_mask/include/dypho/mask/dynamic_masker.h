@@ -38,6 +38,7 @@
 namespace dypho {
 namespace mask {
 
+class ObjectPermanence;
 class SegmentScheduler;
 
 /// What other modules know about this frame (all optional).
@@ -84,6 +85,13 @@ struct MaskResult {
   double background_ms = 0.0;
   double total_ms = 0.0;       ///< whole compute(), wall time [ms]
 };
+
+/// True when the camera stands still on the frame of `flow`: the median flow of the textured
+/// pixels is under 2 px (full-res), and either at least 30 % of them move less than 0.5 px
+/// (FlowMaskResult::quiet_flow_share) or the predicted motion `T_prev_cur` translates less than
+/// 5 mm. False without a flow. Decides DynamicMaskOptions::veto_flow_while_still and
+/// permanence_frames.
+bool cameraStill(const FlowMaskResult& flow, const std::optional<Eigen::Isometry3d>& T_prev_cur);
 
 /// Computes the dynamic mask frame by frame. Not thread-safe; one instance per image stream.
 class DynamicMasker {
@@ -143,6 +151,9 @@ class DynamicMasker {
   cv::Mat margin_depth_, margin_grown_;
   cv::Mat seeds_small_;  ///< moving-point seeds at background resolution
   int halo_small_px_ = 6;  ///< width of the flow's halo at background resolution [px]
+  std::unique_ptr<ObjectPermanence> permanence_;  ///< null when permanence_frames is 0
+  cv::Mat evidence_small_, kept_small_;  ///< this frame's own findings; regions kept from the last frame
+  cv::Mat cleaned_small_;  ///< final dynamic pixels at background resolution, before the margin
   cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 

@@ -78,6 +78,12 @@ struct FlowMaskResult {
   /// the camera's motion; evidence that adds up over frames (residual memory) or widens a region
   /// (depth layers) is used only in proportion. 0 when there was no flow.
   double still_camera_weight = 0.0;
+  /// Median flow length of the textured pixels [full-res px] behind still_camera_weight (0 when
+  /// there was no flow).
+  double median_flow_px = 0.0;
+  /// Share of the textured pixels whose flow is under 0.5 px per frame (full-res), in [0, 1]: the
+  /// part of the view that does not move at all (0 when there was no flow).
+  double quiet_flow_share = 0.0;
   double flow_ms = 0.0;   ///< wall time of the optical flow [ms]
   double total_ms = 0.0;  ///< wall time of the whole `compute` call [ms]
 };
@@ -148,9 +154,8 @@ class FlowMotionMasker {
   /// and replaces residual_ by the memory's (aperture-weighted) length. `still_weight`: see
   /// FlowMaskResult::still_camera_weight.
   void accumulateResidual(double still_weight);
-  /// Median length of this frame's flow on textured pixels [full-res px] (the camera's own image
-  /// motion while people cover less than half of the view).
-  double medianFlowPx() const;
+  /// Sets result.median_flow_px and result.quiet_flow_share from this frame's flow.
+  void flowStatistics(FlowMaskResult& result) const;
   /// Degraded result whose mask is the carried previous mask (all static when there is none).
   void useCarried(const cv::Size& input_size, FlowMaskResult& result);
   void computeTexture(const cv::Mat& grey_small);
