@@ -122,8 +122,8 @@ void ObjectPermanence::remember(const cv::Mat& dynamic, const cv::Mat& evidence,
   const cv::Size size = dynamic.size();
   const bool have_kept = !kept_.empty() && kept_.size() == size;
   const int n = labelSurfaces(dynamic, depth_m, labels_, queue_);
-  // Quiet count of each region: 0 where evidence touches it, else the smallest of its kept
-  // pixels' carried count + 1; a region with neither counts as fresh.
+  // Quiet count of each surface: 0 where evidence touches it, else the smallest of its kept
+  // pixels' carried count + 1; a surface with neither counts as fresh.
   constexpr int kNone = std::numeric_limits<int>::max();
   std::vector<int> region_quiet(static_cast<size_t>(std::max(n, 1)), kNone);
   for (int y = 0; y < size.height; ++y) {

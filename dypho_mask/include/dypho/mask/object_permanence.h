@@ -16,8 +16,8 @@
 ///    restarts at 0 on every frame on which fresh evidence (flow, background consistency, the
 ///    network, tracking's moving points) touches it, and otherwise grows by one per frame
 ///    (surface: 4-connected dynamic pixels whose depths differ by at most 0.05 m + 3 % between
-///    neighbours, the depth growth's rule),.
-/// The quiet count bounds how long a wrong region (flow noise on a static surface the background
+///    neighbours, the depth growth's rule).
+/// The quiet count bounds how long a wrong surface (flow noise on a static surface the background
 /// has not seen) can last.
 
 #include <vector>
@@ -29,7 +29,7 @@ namespace mask {
 
 /// Settings of `ObjectPermanence`.
 struct PermanenceSettings {
-  /// Frames a region stays after the last fresh evidence touched it, >= 1.
+  /// Frames a surface stays after the last fresh evidence touched it, >= 1.
   int max_quiet_frames = 30;
   /// Largest depth change of a carried pixel between two frames for it to be the same surface
   /// [m], > 0 (a person walks a few cm per frame; flow errors of a pixel at an outline read the
@@ -40,7 +40,7 @@ struct PermanenceSettings {
   double sigma_m = 0.2;
 };
 
-/// Carries dynamic regions from frame to frame. Not thread-safe; one instance per image stream.
+/// Carries dynamic surfaces from frame to frame. Not thread-safe; one instance per image stream.
 class ObjectPermanence {
  public:
   /// Validates `settings` (std::invalid_argument).
@@ -55,8 +55,8 @@ class ObjectPermanence {
 
   /// Remembers this frame's final dynamic pixels `dynamic` (CV_8UC1, non-zero = dynamic, the size
   /// of the last carry()'s depth) with their depth, and which of them fresh evidence found
-  /// (`evidence`, CV_8UC1, same size, non-zero = found this frame). A region touching evidence
-  /// restarts its quiet count; a region made only of kept pixels (and what grew from them)
+  /// (`evidence`, CV_8UC1, same size, non-zero = found this frame). A surface touching evidence
+  /// restarts its quiet count; a surface made only of kept pixels (and what grew from them)
   /// continues theirs.
   void remember(const cv::Mat& dynamic, const cv::Mat& evidence, const cv::Mat& depth_m);
 
