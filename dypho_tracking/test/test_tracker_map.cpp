@@ -112,6 +112,29 @@ TEST(TrackerMap, CullsMovingPointsButNotStaticOnesTheMaskCovered) {
   EXPECT_TRUE(map.cullMovingPoints({ids[2], ids[2], ids[2]}, 0).empty());
 }
 
+// moving_point_still_only: sightings while the camera moved are counted (num_on_dynamic) but only
+// those while it was still remove a point.
+TEST(TrackerMap, CullsMovingPointsOnSightingsWhileStillOnlyWhenAsked) {
+  TrackerMap map{TrackingOptions()};
+  const auto ids = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(2, -1)));
+  // Both never found; three sightings each while the camera moved.
+  for (int f = 0; f < 3; ++f) {
+    EXPECT_TRUE(map.cullMovingPoints({ids[0], ids[1]}, 2, /*camera_still=*/false, /*still_only=*/true).empty());
+  }
+  EXPECT_EQ(map.point(ids[0])->num_on_dynamic, 3);
+  EXPECT_EQ(map.point(ids[0])->num_on_dynamic_still, 0);
+  // One sighting while still: one of two.
+  EXPECT_TRUE(map.cullMovingPoints({ids[0]}, 2, true, true).empty());
+  // The second while still removes ids[0]; ids[1], seen while moving only, stays.
+  const std::vector<std::int64_t> removed = map.cullMovingPoints({ids[0], ids[1]}, 2, true, true);
+  ASSERT_EQ(removed.size(), 1u);
+  EXPECT_EQ(removed[0], ids[0]);
+  EXPECT_NE(map.point(ids[1]), nullptr);
+  EXPECT_EQ(map.point(ids[1])->num_on_dynamic_still, 1);
+  // Without still_only every sighting counts: ids[1] has 5.
+  EXPECT_EQ(map.cullMovingPoints({ids[1]}, 2, false, false).size(), 1u);
+}
+
 // Safe start: the first keyframe's points are removed after enough sightings on a dynamic
 // surface even when they were pose inliers every frame; other keyframes' points are not.
 TEST(TrackerMap, RemovesUnverifiedPointsOfTheFirstKeyframeOnly) {

@@ -295,6 +295,36 @@ TEST_F(SyntheticTracking, SafeStartVerifiesOnlyAnUnjudgedFirstKeyframe) {
   }
 }
 
+// moving_point_still_only: points the mask covers at their own depth are removed as moving only
+// on frames where the camera is still. The same left half of the view is called dynamic on a
+// moving camera (the halfsphere, over 1 cm per frame) and on a still one (frame 0 repeated).
+TEST_F(SyntheticTracking, MovingPointsStillOnlyCullsBeforeAStillCameraOnly) {
+  const cv::Size size = frames_[0].frame.bgr.size();
+  cv::Mat left_half = cv::Mat::zeros(size, CV_8UC1);
+  left_half(cv::Rect(0, 0, size.width / 2, size.height)).setTo(255);
+  TrackingOptions options;
+  options.moving_point_min_hits = 2;
+  options.first_keyframe_moving_hits = 0;  // the safe start would remove them as well
+  auto run = [&](bool still_camera, bool still_only) {
+    options.moving_point_still_only = still_only;
+    RgbdOdometry odometry{options};
+    const cv::Mat none = cv::Mat::zeros(size, CV_8UC1);
+    EXPECT_EQ(odometry.track(frames_[0].frame, none, MaskJudgement::kJudged).state, TrackingState::kOk);
+    int removed = 0;
+    for (int i = 1; i <= 6; ++i) {
+      RgbdFrame frame = frames_[static_cast<size_t>(still_camera ? 0 : i)].frame;
+      frame.stamp_ns = frames_[0].frame.stamp_ns + i * 33'333'333LL;
+      const TrackingResult r = odometry.track(frame, left_half, MaskJudgement::kJudged);
+      EXPECT_EQ(r.state, TrackingState::kOk) << r.message;
+      removed += r.num_moving_points_removed;
+    }
+    return removed;
+  };
+  EXPECT_EQ(run(/*still_camera=*/false, /*still_only=*/true), 0);
+  EXPECT_GT(run(/*still_camera=*/false, /*still_only=*/false), 20);  // the gate is what kept them
+  EXPECT_GT(run(/*still_camera=*/true, /*still_only=*/true), 20);
+}
+
 }  // namespace
 }  // namespace tracking
 }  // namespace dypho

@@ -18,6 +18,12 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+/// A still camera (RgbdOdometry::cameraStill): the last tracked frame-to-frame motion under these
+/// [m], [deg]. The mask's still test (cameraStill in dynamic_masker.h) allows 5 mm per frame too;
+/// 0.2 deg moves the image by under 2 px at a 525 px focal length, its median-flow bound.
+constexpr double kStillMaxStepM = 0.005;
+constexpr double kStillMaxStepDeg = 0.2;
+
 /// A first keyframe nothing judged has its points verified (first_keyframe_moving_hits). Unsaid,
 /// a mask that calls nothing dynamic counts as unjudged: the flow needs a previous frame, and a
 /// mask that found people judged the frame.
@@ -253,6 +259,13 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
                     " points fused)";
 }
 
+bool RgbdOdometry::cameraStill() const {
+  if (!motion_.hasVelocity()) return false;
+  const Eigen::Isometry3d& step = *motion_.lastStep();
+  return step.translation().norm() < kStillMaxStepM &&
+         Eigen::AngleAxisd(step.rotation()).angle() * 180.0 / M_PI < kStillMaxStepDeg;
+}
+
 void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
                                          const FrameFeatures& features, const RgbdFrame& frame,
                                          const cv::Mat& mask, TrackingResult* result) {
@@ -290,7 +303,8 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
     if (!depthAgrees(z_point, z_measured)) on_dynamic.push_back(ref.map_point_ids[r]);
   }
   map_.updateVisibility(visible, found);
-  std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits);
+  std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits, cameraStill(),
+                                                           options_.moving_point_still_only);
   if (unverified_keyframe_id_ >= 0) {
     const std::vector<std::int64_t> unverified =
         map_.removePointsCreatedBy(unverified_keyframe_id_, on_dynamic, options_.first_keyframe_moving_hits);

@@ -169,14 +169,17 @@ int TrackerMap::cullPoints() {
   return removed;
 }
 
-std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits) {
+std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits,
+                                                      bool camera_still, bool still_only) {
   std::vector<std::int64_t> removed;
   for (std::int64_t id : on_dynamic) {
     auto it = points_.find(id);
     if (it == points_.end()) continue;
     MapPoint& p = it->second;
     ++p.num_on_dynamic;
-    if (min_hits <= 0 || p.num_on_dynamic < min_hits || p.num_on_dynamic < p.num_found) continue;
+    if (camera_still) ++p.num_on_dynamic_still;
+    const int hits = still_only ? p.num_on_dynamic_still : p.num_on_dynamic;
+    if (min_hits <= 0 || hits < min_hits || hits < p.num_found) continue;
     detachObservations(p);
     points_.erase(it);
     removed.push_back(id);

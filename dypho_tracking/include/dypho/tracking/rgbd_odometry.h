@@ -90,6 +90,9 @@ class RgbdOdometry {
   const TrackerMap& map() const { return map_; }
 
  private:
+  /// The camera moved less than 5 mm and 0.2 deg between the last two tracked frames
+  /// (TrackingOptions::moving_point_still_only).
+  bool cameraStill() const;
   /// Explains why a frame has too few keypoints with depth.
   std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
                                  const FrameFeatures& features) const;

@@ -34,6 +34,8 @@ struct MapPoint {
   int num_found = 0;    ///< frames where it was a pose inlier [count]
   /// tracked frames that saw it on a dynamic surface (TrackerMap::cullMovingPoints) [count]
   int num_on_dynamic = 0;
+  /// of those, frames in which the camera was still [count]
+  int num_on_dynamic_still = 0;
 };
 
 /// A keyframe as the map stores it: its features (undistorted, with depth) and their map points.
@@ -105,11 +107,13 @@ class TrackerMap {
   /// Removes bad points (see class comment); returns how many.
   int cullPoints();
 
-  /// Counts one more sighting on a dynamic surface for each id in `on_dynamic`, then removes
-  /// every point seen so at least `min_hits` times and at least as often as it was a pose inlier
-  /// (a moving point, not a static one the mask happened to cover). Returns the removed points'
-  /// ids.
-  std::vector<std::int64_t> cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits);
+  /// Counts one more sighting on a dynamic surface for each id in `on_dynamic` (and, when
+  /// `camera_still`, one more while the camera was still), then removes every point seen so at
+  /// least `min_hits` times and at least as often as it was a pose inlier (a moving point, not a
+  /// static one the mask happened to cover). With `still_only` only the sightings while the
+  /// camera was still count for the removal. Returns the removed points' ids.
+  std::vector<std::int64_t> cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits,
+                                             bool camera_still = true, bool still_only = false);
   /// Removes the points of `ids` that keyframe `keyframe_id` created and that were seen on a
   /// dynamic surface at least `min_hits` times (MapPoint::num_on_dynamic), whatever their pose
   /// inlier count: the unverified points of a first keyframe. Returns the removed ids.

@@ -146,10 +146,15 @@ struct TrackingOptions {
   /// A map point is removed as moving once it was seen on a dynamic surface in at least this
   /// many tracked frames and in at least as many as it was a pose inlier: its projection fell on
   /// the dynamic mask at its own depth, or it was matched but the depth measured there disagreed
-  /// with it [count]; default 0 (off), range [0, 1000]; 0 disables. Off by default: with 2 it did not lower the ATE on the shared Bonn crowd frames (1.80 against 1.62 cm) and raised it on TUM fr1/rpy (4.95 against 2.93 cm), where the flow mask's false positives on the static desk cost static points. Removes points of people who stood
-  /// still when their keyframe was made (the first keyframe, stop-and-go) and of people walking
-  /// towards the camera.
-  int moving_point_min_hits = 0;
+  /// with it [count]; default 2, range [0, 1000]; 0 disables. Removes points of people who stood
+  /// still when their keyframe was made and then walk on. Counted on every frame it raised TUM
+  /// fr1/rpy from 2.93 to 4.95 cm (the flow mask's halo on a fast-turning camera), hence
+  /// `moving_point_still_only`.
+  int moving_point_min_hits = 2;
+  /// Only sightings while the camera is still count for `moving_point_min_hits` (the tracked
+  /// motion of the last frame under 5 mm and 0.2 deg): before a still camera the flow mask has no
+  /// ego-motion error, so what it calls dynamic moves; default true.
+  bool moving_point_still_only = true;
   /// Depth agreement of a map point with the depth measured at its projection, for the
   /// moving-point test: |z_measured - z_point| below max(this, 0.015 z^2) [m] (z in metres; the
   /// quadratic part follows the RGB-D noise); default 0.05, range (0, 1].
