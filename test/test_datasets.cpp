@@ -363,6 +363,9 @@ TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   std::ifstream log2(out + "/log.txt");
   const std::string text2((std::istreambuf_iterator<char>(log2)), std::istreambuf_iterator<char>());
   EXPECT_NE(text2.find("--camera"), std::string::npos);
+  // An option given twice is refused, not silently replaced by the second value.
+  EXPECT_NE(runDataset(empty, out, "--camera tum_fr1 --config a.yaml --config b.yaml"), 0);
+  EXPECT_NE(readText(out + "/log.txt").find("--config given twice"), std::string::npos);
 }
 
 }  // namespace

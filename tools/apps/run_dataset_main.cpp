@@ -23,6 +23,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -112,10 +113,15 @@ double parseNumber(const std::string& key, const std::string& text) {
 
 Args parseArgs(int argc, char** argv) {
   Args a;
+  std::set<std::string> given;  // options with a value: a second one would silently replace the first
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     auto value = [&]() -> std::string {
       if (i + 1 >= argc) throw std::runtime_error(k + " needs a value");
+      if (!given.insert(k).second) {
+        throw std::runtime_error(k + " given twice: it takes one value" +
+                                 std::string(k == "--config" ? " (put all the keys in one YAML)" : ""));
+      }
       return argv[++i];
     };
     if (k == "--dataset") a.dataset = value();
