@@ -119,6 +119,20 @@ TEST(DatasetRun, BonnCrowdFrames200to399FlowMaskOnly) {
   EXPECT_LT(ate, DYPHO_BONN_FLOW_ATE_BOUND_M);
 }
 
+namespace {
+
+/// A still camera's 150 frames with people in view from frame 0 (dypho_synth `args`, `seed`),
+/// generated into DYPHO_TEST_OUT/`name`; returns its folder ("" when generation failed).
+std::string stillCameraCrowd(const std::string& name, const std::string& args, int seed) {
+  const std::string dir = std::string(DYPHO_TEST_OUT) + "/" + name;
+  const std::string cmd = std::string("rm -rf '") + dir + "' && '" + DYPHO_SYNTH + "' --out '" + dir +
+                          "' --frames 150 --motion static --people-in-view " + args + " --seed " +
+                          std::to_string(seed) + " --no-bag > /dev/null";
+  return std::system(cmd.c_str()) == 0 ? dir : std::string();
+}
+
+}  // namespace
+
 /// Synthetic hard cases of a still camera in a crowd, flow mask only: a name and the
 /// dypho_synth arguments.
 struct HardCaseSpec {
@@ -131,11 +145,8 @@ class HardCase : public ::testing::TestWithParam<HardCaseSpec> {};
 
 TEST_P(HardCase, FlowMaskOnlyStaysOnTheStaticRoom) {
   const std::string name = std::string("hard_") + GetParam().name;
-  const std::string data = std::string(DYPHO_TEST_OUT) + "/" + name;
-  const std::string cmd = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data +
-                          "' --frames 150 --motion static --people-in-view --seed " +
-                          std::to_string(GetParam().seed) + " --no-bag " + GetParam().synth_args + " > /dev/null";
-  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::string data = stillCameraCrowd(name, GetParam().synth_args, GetParam().seed);
+  ASSERT_FALSE(data.empty());
   const std::string out = data + "_run";
   ASSERT_EQ(runDataset(data, out, kTrajectoryOnly), 0);
   const double ate = ateOf(out, dypho::readTumTrajectory(data + "/groundtruth.txt"));
@@ -152,16 +163,6 @@ INSTANTIATE_TEST_SUITE_P(StaticCamera, HardCase,
                          [](const ::testing::TestParamInfo<HardCaseSpec>& info) { return std::string(info.param.name); });
 
 namespace {
-
-/// A still camera's 150 frames with people in view from frame 0 (dypho_synth `args`, `seed`),
-/// generated into DYPHO_TEST_OUT/`name`; returns its folder ("" when generation failed).
-std::string stillCameraCrowd(const std::string& name, const std::string& args, int seed) {
-  const std::string dir = std::string(DYPHO_TEST_OUT) + "/" + name;
-  const std::string cmd = std::string("rm -rf '") + dir + "' && '" + DYPHO_SYNTH + "' --out '" + dir +
-                          "' --frames 150 --motion static --people-in-view " + args + " --seed " +
-                          std::to_string(seed) + " --no-bag > /dev/null";
-  return std::system(cmd.c_str()) == 0 ? dir : std::string();
-}
 
 /// 8 people crossing a still camera's view from frame 0, generator seed 2 (docs/benchmarks.md
 /// section 8), generated once.
