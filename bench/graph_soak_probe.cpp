@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
             << (rendered_span_s > 0 ? (rendered - 1) / rendered_span_s : 0.0) << " Hz)\n"
             << "tracking_counters: " << last.frames_in << " in, " << last.frames_processed << " processed, "
             << last.frames_dropped << " dropped, " << last.frames_mask_carried << " with a carried mask, "
-            << last.frames_without_mask << " without a mask; tracking p50 " << last.tracking_p50_ms << " ms, p95 "
+            << last.frames_without_mask << " without a mask, " << last.frames_caught_up << " caught up; tracking p50 " << last.tracking_p50_ms << " ms, p95 "
             << last.tracking_p95_ms << " ms\n"
             << "mask_counters: " << last_mask.frames_in << " in, " << last_mask.frames << " masked, "
             << last_mask.frames_dropped_busy << " skipped; latency p50 " << last_mask.latency_p50_ms << " ms, p95 "

@@ -157,7 +157,7 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     std::cout << "graph test (1x): " << rec.statuses << " statuses, " << rec.poses << " poses of " << frames
               << " frames; tracking saw " << s.frames_in << " in, " << s.frames_processed << " processed, "
               << s.frames_dropped << " dropped, " << s.frames_mask_carried << " with a carried mask, "
-              << s.frames_without_mask << " without; latency p50 " << s.latency_p50_ms << " ms, p95 "
+              << s.frames_without_mask << " without, " << s.frames_caught_up << " caught up; latency p50 " << s.latency_p50_ms << " ms, p95 "
               << s.latency_p95_ms << " ms; mask skipped " << rec.last_mask_status.frames_dropped_busy << "\n";
     EXPECT_EQ(s.frames_processed + s.frames_dropped, s.frames_in) << "every frame is tracked or counted as dropped";
   }

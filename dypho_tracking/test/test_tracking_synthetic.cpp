@@ -176,6 +176,52 @@ TEST_F(SyntheticTracking, LocalBaOnItsOwnThreadIsAppliedAFixedNumberOfFramesLate
   EXPECT_LT(max_error, 0.02);
 }
 
+// Catch-up mode (catch_up_frames_waiting): a live caller that fell behind the camera passes the
+// frames waiting behind each one. From the threshold on, the frame has no static check and a
+// keyframe made on it no local BA, so nothing moves the earlier keyframes (loop closure is off
+// here). Below the threshold, or with the option at 0, the run is the one without a backlog, to
+// the bit.
+TEST_F(SyntheticTracking, CatchUpModeSkipsTheStaticCheckAndLocalBa) {
+  TrackingOptions options;
+  options.loop_closure = false;
+  ASSERT_GT(options.catch_up_frames_waiting, 0) << "on by default";
+  TrackingOptions off = options;
+  off.catch_up_frames_waiting = 0;
+  RgbdOdometry normal(options), below(options), behind(options), disabled(off);
+  int checked = 0, corrections = 0, keyframes_behind = 0;
+  double max_error_behind = 0;
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    const TrackingResult a = normal.track(frames_[i].frame, cv::Mat());
+    const TrackingResult b = below.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
+                                         options.catch_up_frames_waiting - 1);
+    const TrackingResult c = behind.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
+                                          options.catch_up_frames_waiting);
+    const TrackingResult d = disabled.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr, 1000);
+    ASSERT_EQ(a.state, TrackingState::kOk) << "frame " << i;
+    ASSERT_EQ(c.state, TrackingState::kOk) << "frame " << i << ": " << c.message;
+    EXPECT_FALSE(a.caught_up);
+    EXPECT_FALSE(b.caught_up);
+    EXPECT_TRUE(c.caught_up);
+    EXPECT_FALSE(d.caught_up);
+    EXPECT_TRUE(a.T_world_camera.isApprox(b.T_world_camera, 1e-12)) << "frame " << i;
+    EXPECT_TRUE(a.T_world_camera.isApprox(d.T_world_camera, 1e-12)) << "frame " << i;
+    if (a.static_agreement >= 0) ++checked;
+    corrections += static_cast<int>(a.corrected_keyframes.size());
+    EXPECT_LT(c.static_agreement, 0) << "frame " << i << ": no static check while catching up";
+    EXPECT_TRUE(c.corrected_keyframes.empty()) << "frame " << i << ": no local BA while catching up";
+    keyframes_behind += c.is_keyframe ? 1 : 0;
+    max_error_behind = std::max(max_error_behind, positionError(c.T_world_camera, static_cast<int>(i)));
+  }
+  // Without a backlog the same frames run the static check and local BA moves keyframes: what
+  // catch-up mode leaves out is there to leave out.
+  EXPECT_GT(checked, 10);
+  EXPECT_GT(corrections, 0);
+  EXPECT_GE(keyframes_behind, 2);
+  // The frames still track: 2 cm as the synchronous test above (which measures ~0.5 cm); every
+  // frame of this run in catch-up mode is the worst case of a live run.
+  EXPECT_LT(max_error_behind, 0.02);
+}
+
 // A camera that keeps passing over the same place: redundant keyframes are removed, so the map
 // stays near the size of one pass instead of growing with every pass, and accuracy holds.
 TEST_F(SyntheticTracking, RedundantKeyframesAreRemovedOnRepeatedPasses) {

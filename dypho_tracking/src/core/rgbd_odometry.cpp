@@ -132,8 +132,11 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   map_.addKeyframe(std::move(kf));
 
   const auto t0 = Clock::now();
-  LocalBaProblem problem = local_ba_.prepare(map_, id, pinhole);
-  if (options_.local_ba_async_frames > 0 && problem.message.empty()) {
+  if (catching_up_) {
+    // Behind the camera: no local BA for this keyframe (the next keyframe's window covers it).
+    afterLocalBa(id, /*keep_id=*/-1, pinhole, result);
+  } else if (LocalBaProblem problem = local_ba_.prepare(map_, id, pinhole);
+             options_.local_ba_async_frames > 0 && problem.message.empty()) {
     const LocalBundleAdjuster* adjuster = &local_ba_;
     pending_ba_ = std::async(std::launch::async,
                              [adjuster, problem = std::move(problem)] { return adjuster->solve(problem); });
@@ -317,9 +320,11 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
 }
 
 TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
-                                   const PreparedFeatures* prepared) {
+                                   const PreparedFeatures* prepared, int frames_waiting) {
   const auto t_start = Clock::now();
   TrackingResult result;
+  catching_up_ = options_.catch_up_frames_waiting > 0 && frames_waiting >= options_.catch_up_frames_waiting;
+  result.caught_up = catching_up_;
   result.stamp_ns = frame.stamp_ns;
   result.T_world_camera = T_world_last_;
   result.state = reference_id_ >= 0 ? TrackingState::kLost : TrackingState::kNotInitialized;
@@ -405,7 +410,8 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   const bool slow = motion_.hasVelocity() &&
                     Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI <
                         options_.static_check_max_frame_rotation_deg;
-  if (aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
+  if (aligned.success && options_.static_check && slow && !catching_up_ &&
+      static_check_.referenceId() == reference_id_) {
     const auto t_check = Clock::now();
     checkAgainstStaticScene(frame, mask, features, pinhole, &aligned, &result);
     result.times.static_check = msSince(t_check);

@@ -77,6 +77,7 @@ void TrackingOptions::validate() const {
   requireRange("local_ba_depth_baseline_m", local_ba_depth_baseline_m, 0.0, 1.0);
   requireRange("local_ba_max_fixed_keyframes", local_ba_max_fixed_keyframes, 1, 100);
   requireRange("local_ba_async_frames", local_ba_async_frames, 0, 30);
+  requireRange("catch_up_frames_waiting", catch_up_frames_waiting, 0, 1000);
   requireRange("relocalization_max_keyframes", relocalization_max_keyframes, 1, 10000);
   requireRange("relocalization_min_inliers", relocalization_min_inliers, min_inliers, 10000);
   requireRange("loop_min_keyframe_gap", loop_min_keyframe_gap, 2, 100000);

@@ -12,7 +12,7 @@ namespace dypho::tracking {
 TrackingStage::TrackingStage(const TrackingOptions& options) : odometry_(options) {}
 
 TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
-                                     const PreparedFeatures* prepared) {
+                                     const PreparedFeatures* prepared, int frames_waiting) {
   std::lock_guard<std::mutex> lock(mutex_);
   TrackingOutput out;
   const StampOrder order = stamp_gate_.admit(frame.stamp_ns);
@@ -28,7 +28,7 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
     recorder_.clear();  // the tracker resets itself on this frame (RgbdOdometry::track)
     out.restarted = true;
   }
-  out.result = odometry_.track(frame, mask, judgement, prepared);
+  out.result = odometry_.track(frame, mask, judgement, prepared, frames_waiting);
   recorder_.add(out.result);
   const TrackingResult& r = out.result;
   out.pose.stamp_ns = r.stamp_ns;

@@ -291,6 +291,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     const FrameMsgs& msgs = ready.frame;
     tracking::TrackingOutput out;
     const double t0 = steadyClockSeconds();
+    // Frames queued behind this one: waiting for their mask or for the feature thread, or prepared.
+    int frames_waiting = static_cast<int>(prepared_.size());
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      frames_waiting += static_cast<int>(pairer_->pending());
+    }
     try {
       std::lock_guard<std::mutex> lock(stage_mutex_);
       // Only the frame's own mask judged it; a carried one (or none) leaves the safe start on.
@@ -298,7 +304,7 @@ class TrackingNodelet : public nodelet::Nodelet {
                                                 : ready.source == tracking::MaskSource::kMatched
                                                     ? tracking::MaskJudgement::kJudged
                                                     : tracking::MaskJudgement::kUnjudged;
-      out = stage_->process(item.frame, item.mask, judgement, &item.features);
+      out = stage_->process(item.frame, item.mask, judgement, &item.features, frames_waiting);
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
       const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
@@ -319,6 +325,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       if (mask_log_.pass(message)) NODELET_WARN_STREAM(message);
     }
     LiveFigures live;
+    live.caught_up = out.result.caught_up;
     live.source = ready.source;
     live.mask_wait_ms = ready.waited_s * 1e3;
     live.tracking_ms = tracking_ms;
@@ -330,6 +337,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     tracking::MaskSource source = tracking::MaskSource::kNone;
     double mask_wait_ms = 0.0;
     double tracking_ms = 0.0;
+    bool caught_up = false;  ///< tracked in catch-up mode (frames waited behind it)
   };
 
   void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header, const LiveFigures& live) {
@@ -399,6 +407,9 @@ class TrackingNodelet : public nodelet::Nodelet {
     status.frames_dropped = pairing.dropped;
     status.frames_mask_carried = pairing.carried;
     status.frames_without_mask = params_.use_mask ? pairing.without_mask : 0;
+    if (live.caught_up) ++frames_caught_up_;
+    status.caught_up = live.caught_up;
+    status.frames_caught_up = frames_caught_up_;
     last_status_ = status;
   }
 
@@ -423,6 +434,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     stat.add("frames processed", s.frames_processed);
     stat.add("frames dropped", s.frames_dropped);
     stat.add("frames with a carried mask", s.frames_mask_carried);
+    stat.add("frames tracked catching up", s.frames_caught_up);
     stat.add("frames without a mask", s.frames_without_mask);
     stat.add("mask of the last frame", tracking::toString(static_cast<tracking::MaskSource>(s.mask_source)));
     stat.add("latency p50 [ms]", s.latency_p50_ms);
@@ -567,6 +579,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   RollingSamples latency_ms_, tracking_ms_;
   EventRate input_rate_;
   std::uint64_t frames_processed_ = 0;
+  std::uint64_t frames_caught_up_ = 0;  ///< frames tracked in catch-up mode
   dypho_slam::TrackingStatus last_status_;
   std::uint64_t dropped_at_last_diagnosis_ = 0;
   std::thread worker_;   ///< pairs, converts and prepares frames

@@ -80,10 +80,15 @@ class BoundedHandOver {
   }
 
   std::size_t capacity() const { return capacity_; }
+  /// Items waiting now [count].
+  std::size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return items_.size();
+  }
 
  private:
   const std::size_t capacity_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable ready_;  ///< an item or close() for pop()
   std::condition_variable room_;   ///< room or close() for pushWhenRoom()
   std::deque<T> items_;

@@ -75,9 +75,12 @@ class RgbdOdometry {
   /// `prepared`: this frame's features from a FeaturePreparer with the same options (e.g. made on
   /// another thread while the previous frame was tracked); null, invalid or prepared for another
   /// stamp: they are prepared here. The result is the same either way.
+  /// `frames_waiting`: frames queued behind this one (a live caller that fell behind the camera);
+  /// from TrackingOptions::catch_up_frames_waiting on, the frame is tracked in catch-up mode
+  /// (TrackingResult::caught_up). Offline callers pass 0.
   TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask,
                        MaskJudgement judgement = MaskJudgement::kUnknown,
-                       const PreparedFeatures* prepared = nullptr);
+                       const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
 
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).
@@ -135,6 +138,7 @@ class RgbdOdometry {
                                const Pinhole& pinhole, AlignmentResult* aligned, TrackingResult* result);
 
   TrackingOptions options_;
+  bool catching_up_ = false;  ///< the frame in track() is in catch-up mode (TrackingOptions::catch_up_*)
   bool views_stale_ = false;  ///< points of local_view_/own_view_ were removed: refresh them
   FeaturePreparer preparer_;  ///< features of frames that come without prepared ones
   KeyframeAligner aligner_;

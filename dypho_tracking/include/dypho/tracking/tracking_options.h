@@ -218,6 +218,15 @@ struct TrackingOptions {
   /// depends on frame counts only, so runs stay repeatable.
   int local_ba_async_frames = 0;
 
+  // --- catching up with the camera (live graph; the offline runner never waits) ---
+  /// A frame is tracked in catch-up mode when at least this many frames wait behind it (the live
+  /// graph fell behind the camera, e.g. on a loaded machine): no static check, and a keyframe made
+  /// then skips its local BA (ORB-SLAM's local mapping aborts its BA when keyframes queue up; the
+  /// next keyframe's window covers this one). Lighter frames let the tracker catch up instead of
+  /// dropping frames [frames]; default 4 (about 130 ms behind at 30 Hz), range [0, 1000];
+  /// 0 = never.
+  int catch_up_frames_waiting = 4;
+
   // --- relocalisation (Relocalizer) ---
   /// Keyframes tried per lost frame, newest first then spread over the map [count]; default 20,
   /// range [1, 10000].

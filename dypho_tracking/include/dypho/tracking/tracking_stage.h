@@ -56,9 +56,11 @@ class TrackingStage {
   /// Never throws on bad data (RgbdOdometry::track).
   /// `judgement`, `prepared`: see RgbdOdometry::track (features prepared ahead on another thread
   /// by a FeaturePreparer made with options(); the stage's lock is not needed for that).
+  /// `frames_waiting`: frames queued behind this one (live callers; catch-up mode, see
+  /// RgbdOdometry::track).
   TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask,
                          MaskJudgement judgement = MaskJudgement::kUnknown,
-                         const PreparedFeatures* prepared = nullptr);
+                         const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
 
   /// Final trajectory: every recorded frame, following its keyframe's current pose.
   PoseList finalTrajectory() const;
