@@ -177,18 +177,18 @@ TEST_F(SyntheticTracking, LocalBaOnItsOwnThreadIsAppliedAFixedNumberOfFramesLate
 }
 
 // Catch-up mode (catch_up_frames_waiting): a live caller that fell behind the camera passes the
-// frames waiting behind each one. From the threshold on, the frame has no static check and a
-// keyframe made on it no local BA, so nothing moves the earlier keyframes (loop closure is off
-// here). Below the threshold, or with the option at 0, the run is the one without a backlog, to
+// frames waiting behind each one. From the threshold on, a keyframe made on the frame has no
+// local BA, so nothing moves the earlier keyframes (loop closure is off here); the static check
+// still runs. Below the threshold, or with the option at 0, the run is the one without a backlog, to
 // the bit.
-TEST_F(SyntheticTracking, CatchUpModeSkipsTheStaticCheckAndLocalBa) {
+TEST_F(SyntheticTracking, CatchUpModeSkipsLocalBaOnly) {
   TrackingOptions options;
   options.loop_closure = false;
   ASSERT_GT(options.catch_up_frames_waiting, 0) << "on by default";
   TrackingOptions off = options;
   off.catch_up_frames_waiting = 0;
   RgbdOdometry normal(options), below(options), behind(options), disabled(off);
-  int checked = 0, corrections = 0, keyframes_behind = 0;
+  int checked = 0, checked_behind = 0, corrections = 0, keyframes_behind = 0;
   double max_error_behind = 0;
   for (size_t i = 0; i < frames_.size(); ++i) {
     const TrackingResult a = normal.track(frames_[i].frame, cv::Mat());
@@ -207,15 +207,16 @@ TEST_F(SyntheticTracking, CatchUpModeSkipsTheStaticCheckAndLocalBa) {
     EXPECT_TRUE(a.T_world_camera.isApprox(d.T_world_camera, 1e-12)) << "frame " << i;
     if (a.static_agreement >= 0) ++checked;
     corrections += static_cast<int>(a.corrected_keyframes.size());
-    EXPECT_LT(c.static_agreement, 0) << "frame " << i << ": no static check while catching up";
+    if (c.static_agreement >= 0) ++checked_behind;
     EXPECT_TRUE(c.corrected_keyframes.empty()) << "frame " << i << ": no local BA while catching up";
     keyframes_behind += c.is_keyframe ? 1 : 0;
     max_error_behind = std::max(max_error_behind, positionError(c.T_world_camera, static_cast<int>(i)));
   }
-  // Without a backlog the same frames run the static check and local BA moves keyframes: what
-  // catch-up mode leaves out is there to leave out.
-  EXPECT_GT(checked, 10);
+  // Without a backlog local BA moves keyframes: what catch-up mode leaves out is there to leave
+  // out. The static check runs in both (on the frames turning slowly enough).
   EXPECT_GT(corrections, 0);
+  EXPECT_GT(checked, 10);
+  EXPECT_GT(checked_behind, 10);
   EXPECT_GE(keyframes_behind, 2);
   // The frames still track: 2 cm as the synchronous test above (which measures ~0.5 cm); every
   // frame of this run in catch-up mode is the worst case of a live run.

@@ -410,8 +410,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   const bool slow = motion_.hasVelocity() &&
                     Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI <
                         options_.static_check_max_frame_rotation_deg;
-  if (aligned.success && options_.static_check && slow && !catching_up_ &&
-      static_check_.referenceId() == reference_id_) {
+  if (aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
     const auto t_check = Clock::now();
     checkAgainstStaticScene(frame, mask, features, pinhole, &aligned, &result);
     result.times.static_check = msSince(t_check);

@@ -220,11 +220,11 @@ struct TrackingOptions {
 
   // --- catching up with the camera (live graph; the offline runner never waits) ---
   /// A frame is tracked in catch-up mode when at least this many frames wait behind it (the live
-  /// graph fell behind the camera, e.g. on a loaded machine): no static check, and a keyframe made
-  /// then skips its local BA (ORB-SLAM's local mapping aborts its BA when keyframes queue up; the
-  /// next keyframe's window covers this one). Lighter frames let the tracker catch up instead of
-  /// dropping frames [frames]; default 4 (about 130 ms behind at 30 Hz), range [0, 1000];
-  /// 0 = never.
+  /// graph fell behind the camera, e.g. on a loaded machine): a keyframe made then skips its local
+  /// BA, its heaviest work (ORB-SLAM's local mapping aborts its BA when keyframes queue up; the
+  /// next keyframe's window covers this one). The tracker then catches up instead of dropping
+  /// frames. The static check still runs: without it a crowd can carry the pose [frames];
+  /// default 4 (about 130 ms behind at 30 Hz), range [0, 1000]; 0 = never.
   int catch_up_frames_waiting = 4;
 
   // --- relocalisation (Relocalizer) ---

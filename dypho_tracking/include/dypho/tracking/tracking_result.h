@@ -102,7 +102,7 @@ struct TrackingResult {
   /// The static check replaced the feature pose: moving matches had carried it.
   bool static_check_corrected = false;
   /// Tracked in catch-up mode (TrackingOptions::catch_up_frames_waiting): frames were waiting
-  /// behind this one, so it had no static check and a keyframe made on it no local BA.
+  /// behind this one, so a keyframe made on it had no local BA.
   bool caught_up = false;
   /// Matched features seen moving on this frame, at their measured depth in this frame's camera
   /// optical frame [m]: the matches the static check's pose does not explain when it corrected the
