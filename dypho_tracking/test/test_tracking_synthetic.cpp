@@ -180,7 +180,7 @@ TEST_F(SyntheticTracking, LocalBaOnItsOwnThreadIsAppliedAFixedNumberOfFramesLate
 // frames waiting behind each one. From the threshold on, a keyframe made on the frame has no
 // local BA, so nothing moves the earlier keyframes (loop closure is off here); the static check
 // still runs. Below the threshold, or with the option at 0, the run is the one without a backlog, to
-// the bit.
+// the bit (compared over the first 30 frames, at least 2 keyframes: the test also runs under ASan).
 TEST_F(SyntheticTracking, CatchUpModeSkipsLocalBaOnly) {
   TrackingOptions options;
   options.loop_closure = false;
@@ -188,23 +188,26 @@ TEST_F(SyntheticTracking, CatchUpModeSkipsLocalBaOnly) {
   TrackingOptions off = options;
   off.catch_up_frames_waiting = 0;
   RgbdOdometry normal(options), below(options), behind(options), disabled(off);
-  int checked = 0, checked_behind = 0, corrections = 0, keyframes_behind = 0;
+  int checked = 0, checked_behind = 0, corrections = 0, keyframes_behind = 0, compared_keyframes = 0;
   double max_error_behind = 0;
   for (size_t i = 0; i < frames_.size(); ++i) {
     const TrackingResult a = normal.track(frames_[i].frame, cv::Mat());
-    const TrackingResult b = below.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
-                                         options.catch_up_frames_waiting - 1);
     const TrackingResult c = behind.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
                                           options.catch_up_frames_waiting);
-    const TrackingResult d = disabled.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr, 1000);
     ASSERT_EQ(a.state, TrackingState::kOk) << "frame " << i;
     ASSERT_EQ(c.state, TrackingState::kOk) << "frame " << i << ": " << c.message;
     EXPECT_FALSE(a.caught_up);
-    EXPECT_FALSE(b.caught_up);
     EXPECT_TRUE(c.caught_up);
-    EXPECT_FALSE(d.caught_up);
-    EXPECT_TRUE(a.T_world_camera.isApprox(b.T_world_camera, 1e-12)) << "frame " << i;
-    EXPECT_TRUE(a.T_world_camera.isApprox(d.T_world_camera, 1e-12)) << "frame " << i;
+    if (i < 30) {
+      const TrackingResult b = below.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
+                                           options.catch_up_frames_waiting - 1);
+      const TrackingResult d = disabled.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr, 1000);
+      EXPECT_FALSE(b.caught_up);
+      EXPECT_FALSE(d.caught_up);
+      EXPECT_TRUE(a.T_world_camera.isApprox(b.T_world_camera, 1e-12)) << "frame " << i;
+      EXPECT_TRUE(a.T_world_camera.isApprox(d.T_world_camera, 1e-12)) << "frame " << i;
+      compared_keyframes += a.is_keyframe ? 1 : 0;
+    }
     if (a.static_agreement >= 0) ++checked;
     corrections += static_cast<int>(a.corrected_keyframes.size());
     if (c.static_agreement >= 0) ++checked_behind;
@@ -218,6 +221,7 @@ TEST_F(SyntheticTracking, CatchUpModeSkipsLocalBaOnly) {
   EXPECT_GT(checked, 10);
   EXPECT_GT(checked_behind, 10);
   EXPECT_GE(keyframes_behind, 2);
+  EXPECT_GE(compared_keyframes, 2);
   // The frames still track: 2 cm as the synchronous test above (which measures ~0.5 cm); every
   // frame of this run in catch-up mode is the worst case of a live run.
   EXPECT_LT(max_error_behind, 0.02);
