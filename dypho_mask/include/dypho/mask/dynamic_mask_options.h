@@ -132,9 +132,12 @@ struct DynamicMaskOptions {
   /// passed without fresh evidence (flow, background consistency, moving points) touching it; the
   /// background model does not learn it meanwhile. Flow-only mask of a still camera (see
   /// veto_flow_while_still), from the frame the background model is established
-  /// (background_veto_after_updates). 0 = off, else in [1, 10000]. Default 30 (one second at 30
-  /// Hz).
-  int permanence_frames = 30;
+  /// (background_veto_after_updates). 0 = off, else in [1, 10000]. Default 0 (off): with the
+  /// moving-point test and no flow veto while still it helped none of 24 still-camera crowd
+  /// sequences, and a whole person it kept can be released on one frame (with 30, 90 or 300
+  /// alike), whom the next keyframe then takes as static (8 people crossing, seed 1: 0.65 cm
+  /// with 30, 0.44 cm off; docs/benchmarks.md section 8).
+  int permanence_frames = 0;
   /// Flow regions that the established background model explains are dropped as flow noise also
   /// while the camera is still (median flow under 2 px per frame, and 30 % of the textured view
   /// not moving or the predicted pose moving under 5 mm per frame). Off by default: the veto is
