@@ -31,7 +31,6 @@
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
-#include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
@@ -47,6 +46,7 @@
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/param_reader.h"
+#include "dypho_ros/path_publisher.h"
 #include "dypho_ros/sync_watchdog.h"
 #include "dypho_ros/throttled_log.h"
 
@@ -151,7 +151,8 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
-    path_pub_ = nh.advertise<nav_msgs::Path>("path", 2, true);
+    path_ = std::make_unique<rc::ThrottledPathPublisher>(nh, "path", params_.map_frame, params_.max_path_length,
+                                                         params_.path_period_s);
     status_pub_ = nh.advertise<dypho_slam::TrackingStatus>("tracking_status", 10);
     keyframe_pub_ = nh.advertise<dypho_slam::Keyframe>("keyframe", 10);
     corrections_pub_ = nh.advertise<dypho_slam::KeyframeCorrections>("keyframe_corrections", 100);
@@ -159,10 +160,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     moving_points_pub_ = nh.advertise<sensor_msgs::PointCloud2>("moving_points", 5);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
-    path_.header.frame_id = params_.map_frame;
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-    path_timer_ = nh.createWallTimer(ros::WallDuration(params_.path_period_s),
-                                     [this](const ros::WallTimerEvent&) { publishPathIfChanged(); });
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("dypho_slam");
     diagnostics_->add("tracking", this, &TrackingNodelet::diagnose);
@@ -187,7 +185,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   ~TrackingNodelet() override {
-    path_timer_.stop();
+    if (path_) path_->stopPublishing();
     diagnostics_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -447,36 +445,26 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   /// The path of trusted poses (the newest max_path_length); redrawn from the final poses when
-  /// keyframes moved (local BA, loop closure), else extended by `pose`. Published by the path
-  /// timer at most every path_period_s.
+  /// keyframes moved (local BA, loop closure), else extended by `pose`.
   void updatePath(const geometry_msgs::PoseStamped& pose, bool redraw) {
+    if (!redraw) {
+      path_->append(pose);
+      return;
+    }
     std::vector<std::pair<Timestamp, Eigen::Isometry3d>> redrawn;
-    if (redraw) {
+    {
       std::lock_guard<std::mutex> lock(stage_mutex_);
       redrawn = stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length));
     }
-    std::lock_guard<std::mutex> lock(path_mutex_);
-    path_.header.stamp = pose.header.stamp;
-    if (redraw) {
-      path_.poses.clear();
-      for (const auto& [stamp_ns, T_world_camera] : redrawn) {
-        geometry_msgs::PoseStamped p = pose;
-        p.header.stamp = rc::toRosTime(stamp_ns);
-        p.pose = rc::toPoseMsg(T_world_camera);
-        path_.poses.push_back(p);
-      }
-    } else {
-      path_.poses.push_back(pose);
-      if (static_cast<int>(path_.poses.size()) > params_.max_path_length) path_.poses.erase(path_.poses.begin());
+    std::vector<geometry_msgs::PoseStamped> poses;
+    poses.reserve(redrawn.size());
+    for (const auto& [stamp_ns, T_world_camera] : redrawn) {
+      geometry_msgs::PoseStamped p = pose;
+      p.header.stamp = rc::toRosTime(stamp_ns);
+      p.pose = rc::toPoseMsg(T_world_camera);
+      poses.push_back(p);
     }
-    path_changed_ = true;
-  }
-
-  void publishPathIfChanged() {
-    std::lock_guard<std::mutex> lock(path_mutex_);
-    if (!path_changed_) return;
-    path_changed_ = false;
-    path_pub_.publish(path_);
+    path_->replace(std::move(poses), pose.header.stamp);
   }
 
   /// Keyframe poses moved by local BA or loop closure, one batch, for mapping to re-anchor.
@@ -534,9 +522,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       std::lock_guard<std::mutex> lock(queue_mutex_);
       pairer_->clear();
     }
-    std::lock_guard<std::mutex> lock(path_mutex_);
-    path_.poses.clear();
-    path_changed_ = true;
+    path_->clear();
     res.success = true;
     res.message = "tracking reset";
     return true;
@@ -587,15 +573,13 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::unique_ptr<tracking::FeaturePreparer> preparer_;  ///< the worker's
   BoundedHandOver<PreparedFrame> prepared_{1};           ///< worker -> tracker: one frame waits at most
 
-  std::mutex path_mutex_;  ///< guards path_ and path_changed_
-  nav_msgs::Path path_;
-  bool path_changed_ = false;
+  std::unique_ptr<rc::ThrottledPathPublisher> path_;
 
-  ros::Publisher pose_pub_, path_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
+  ros::Publisher pose_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::Publisher moving_points_pub_;  ///< features seen moving (sensor_msgs/PointCloud2, camera optical frame)
   ros::ServiceServer reset_srv_, save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer path_timer_, diagnostics_timer_;  ///< after what their callbacks use: destroyed first
+  ros::WallTimer diagnostics_timer_;  ///< after what its callback uses: destroyed first
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::SubscriberFilter rgb_sub_, depth_sub_;
