@@ -14,7 +14,7 @@ PACKAGES=(
   python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs python3-nav-msgs
   libdiagnostic-updater-dev libdiagnostic-msgs-dev python3-diagnostic-msgs
   libeigen3-dev libopencv-dev libceres-dev libgtest-dev libyaml-cpp-dev
-  librostest-dev python3-rostest ros-core rosbash python3-rosbag
+  librostest-dev python3-rostest ros-core rosbash python3-rosbag libstd-srvs-dev
   rviz xvfb imagemagick
   clang libclang-rt-14-dev
   python3-onnx python3-numpy

@@ -23,6 +23,7 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
+#include "player_start.h"
 
 namespace {
 
@@ -137,6 +138,8 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
+  // The player starts paused and plays once all three nodelets are up (player_start.h).
+  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}));
   // Wait until the bag has played: all frames seen, or no new pose for 8 s after the first.
   const ros::WallTime start = ros::WallTime::now();
   while ((ros::WallTime::now() - start).toSec() < 120.0) {

@@ -20,6 +20,7 @@
 
 #include "dypho/common/trajectory_io.h"
 #include "dypho/tools/evaluation.h"
+#include "player_start.h"
 
 namespace {
 
@@ -89,6 +90,8 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
+  // The player starts paused and plays once the three nodelets are up (player_start.h).
+  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}));
   // Wait for the bag: all frames seen, or no input for 3 s after the first; then for the graph to
   // drain (no status or pose for 3 s). Bounded by the wall time the bag needs plus 25 s.
   const ros::WallTime start = ros::WallTime::now();
@@ -120,7 +123,7 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   const double wall_rate_hz = (seen - 1) / (rec.rgb_wall_s.back() - rec.rgb_wall_s.front());
   std::cout << "live test: " << seen << " of " << frames << " colour frames seen (" << rec.depth_frames
             << " depth), stamps at " << stamp_rate_hz << " Hz, arriving at " << wall_rate_hz << " Hz\n";
-  // The test node subscribes before the player starts (it waits 4 s), so it sees every frame.
+  // The test node subscribed before it resumed the player, so it sees every frame.
   EXPECT_EQ(seen, frames);
   EXPECT_NEAR(stamp_rate_hz, 30.0, 0.1);
   // rosbag play keeps 1x within a few per cent even on a loaded machine; 20 % means it did not.
