@@ -91,12 +91,11 @@ std::size_t KeyframeCloudMap::addKeyframe(const Keyframe& keyframe) {
   const RgbdFrame& f = keyframe.frame;
   const std::shared_ptr<const cv::Mat> rays = rays_.rays(f.camera);
 
-  StoredKeyframe stored;
-  stored.T_world_camera = keyframe.T_world_camera;
+  auto points = std::make_shared<Cloud>();
   const int stride = options_.pixel_stride;
   const float min_d = static_cast<float>(options_.min_depth_m);
   const float max_d = static_cast<float>(options_.max_depth_m);
-  stored.points_camera.reserve(static_cast<std::size_t>((f.bgr.rows / stride + 1) *
+  points->reserve(static_cast<std::size_t>((f.bgr.rows / stride + 1) *
                                                         (f.bgr.cols / stride + 1)));
   for (int v = 0; v < f.bgr.rows; v += stride) {
     const float* depth = f.depth_m.ptr<float>(v);
@@ -114,19 +113,21 @@ std::size_t KeyframeCloudMap::addKeyframe(const Keyframe& keyframe) {
       p.b = bgr[u][0];
       p.g = bgr[u][1];
       p.r = bgr[u][2];
-      stored.points_camera.push_back(p);
+      points->push_back(p);
     }
   }
 
   const auto existing = keyframes_.find(keyframe.id);
-  const std::size_t replaced = existing != keyframes_.end() ? existing->second.points_camera.size() : 0;
-  const std::size_t added = stored.points_camera.size();
+  const std::size_t replaced = existing != keyframes_.end() ? existing->second.points_camera->size() : 0;
+  const std::size_t added = points->size();
   if (num_points_ - replaced + added > options_.max_points) {
     capacity_reached_ = true;
     return 0;
   }
   num_points_ = num_points_ - replaced + added;
-  keyframes_[keyframe.id] = std::move(stored);
+  StoredKeyframe& stored = keyframes_[keyframe.id];
+  stored.T_world_camera = keyframe.T_world_camera;
+  stored.points_camera = std::move(points);
   return added;
 }
 
@@ -138,29 +139,43 @@ bool KeyframeCloudMap::updateKeyframePose(std::int64_t id, const Eigen::Isometry
   return true;
 }
 
+KeyframeCloudSnapshot KeyframeCloudMap::snapshot() const {
+  KeyframeCloudSnapshot s;
+  s.keyframes.reserve(keyframes_.size());
+  for (const auto& entry : keyframes_) s.keyframes.push_back({entry.second.T_world_camera, entry.second.points_camera});
+  s.num_points = num_points_;
+  s.voxel_size_m = options_.voxel_size_m;
+  return s;
+}
+
 KeyframeCloudMap::Cloud::Ptr KeyframeCloudMap::buildCloud(CloudBuildReport* report) const {
+  return mapping::buildCloud(snapshot(), report);
+}
+
+KeyframeCloudSnapshot::Cloud::Ptr buildCloud(const KeyframeCloudSnapshot& snapshot, CloudBuildReport* report) {
+  using Cloud = KeyframeCloudSnapshot::Cloud;
   Cloud::Ptr world(new Cloud);
-  world->reserve(num_points_);
+  world->reserve(snapshot.num_points);
   Cloud transformed;
-  for (const auto& entry : keyframes_) {
-    pcl::transformPointCloud(entry.second.points_camera, transformed,
-                             entry.second.T_world_camera.matrix().cast<float>());
+  for (const KeyframeCloudSnapshot::Entry& entry : snapshot.keyframes) {
+    pcl::transformPointCloud(*entry.points_camera, transformed, entry.T_world_camera.matrix().cast<float>());
     *world += transformed;
   }
+  const double voxel_size_m = snapshot.voxel_size_m;
   CloudBuildReport local;
   CloudBuildReport& r = report != nullptr ? *report : local;
   r = CloudBuildReport();
   r.input_points = world->size();
-  if (options_.voxel_size_m <= 0.0 || world->empty()) {
+  if (voxel_size_m <= 0.0 || world->empty()) {
     r.output_points = world->size();
     return world;
   }
   Eigen::Vector4f min_p, max_p;
   pcl::getMinMax3D(*world, min_p, max_p);
-  r.leaf_size_m = safeLeaf(min_p, max_p, options_.voxel_size_m);
-  if (r.leaf_size_m != options_.voxel_size_m) {
+  r.leaf_size_m = safeLeaf(min_p, max_p, voxel_size_m);
+  if (r.leaf_size_m != voxel_size_m) {
     r.coarser_leaf = true;
-    r.message = "voxel_size_m " + std::to_string(options_.voxel_size_m) +
+    r.message = "voxel_size_m " + std::to_string(voxel_size_m) +
                 " would overflow pcl::VoxelGrid's 32-bit indices for a map extent of " +
                 std::to_string(max_p[0] - min_p[0]) + " x " + std::to_string(max_p[1] - min_p[1]) +
                 " x " + std::to_string(max_p[2] - min_p[2]) + " m; used leaf " +

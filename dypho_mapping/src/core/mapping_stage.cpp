@@ -159,8 +159,12 @@ MappingStageStats MappingStage::stats() const {
 }
 
 KeyframeCloudMap::Cloud::Ptr MappingStage::buildCloud() const {
-  std::lock_guard<std::mutex> lock(cloud_mutex_);
-  return cloud_.buildCloud();
+  KeyframeCloudSnapshot snapshot;
+  {
+    std::lock_guard<std::mutex> lock(cloud_mutex_);
+    snapshot = cloud_.snapshot();  // poses and shared points: no point copied under the lock
+  }
+  return mapping::buildCloud(snapshot);
 }
 
 std::optional<std::vector<GaussianCentre>> MappingStage::latestGaussianCentres() const {

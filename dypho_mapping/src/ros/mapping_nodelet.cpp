@@ -3,7 +3,9 @@
 /// dypho::mapping::MappingStage (kLive: a full queue drops the oldest waiting keyframe, counted;
 /// R_d and views are rendered from map snapshots, outside the map's lock), the same stage the
 /// in-process pipeline runs. Renders run on this nodelet's own render thread, so no ROS callback
-/// waits for the optimiser.
+/// waits for the optimiser. The clouds are built and published on a cloud thread of their own at
+/// the training's nice value: the voxel filter over every keyframe grows with the map and must
+/// neither hold a callback thread of the manager nor take a core from the camera-rate threads.
 ///
 /// Outputs: rendered/color (bgr8) and rendered/depth (32FC1 m) at the latest tracked pose, at
 /// ~rendered_scale of the input resolution;
@@ -13,6 +15,7 @@
 /// Services: ~save_map (final refinement first with ~refine_before_save), ~load_map, ~reset.
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <condition_variable>
 #include <memory>
@@ -50,7 +53,7 @@ namespace rc = dypho::ros_conversions;
 /// Frames, rates and queues of the nodelet (not part of the core options).
 struct MappingRosParams {
   std::string map_frame = "map";     ///< frame of the published clouds (the tracking world frame)
-  double publish_period_s = 1.0;     ///< cloud publication period [s] (only with subscribers)
+  double publish_period_s = 1.0;     ///< cloud publication period [s] (only with subscribers), > 0
   double render_period_s = 0.2;      ///< minimum interval of rendered/color and rendered/depth [s]
   /// rendered/color and rendered/depth at this fraction of the input resolution, (0, 1]; below 1
   /// for a viewer on another host (0.5 = a quarter of the bytes)
@@ -84,14 +87,15 @@ struct RenderRequest {
 class GaussianMappingNodelet : public nodelet::Nodelet {
  public:
   ~GaussianMappingNodelet() override {
-    timer_.stop();
     diagnostics_timer_.stop();
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
       stop_ = true;
     }
     render_cv_.notify_all();
+    cloud_cv_.notify_all();
     if (render_thread_.joinable()) render_thread_.join();
+    if (cloud_thread_.joinable()) cloud_thread_.join();
     if (!stage_ || params_.output_dir.empty()) return;
     try {
       stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
@@ -140,6 +144,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
     reader("cores", params_.cores, "");
     if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
+    if (!(params_.publish_period_s > 0)) throw std::invalid_argument("~publish_period_s must be > 0");
     reader.checkNoUnknownKeys();
     // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
     // created is a startup error, not a silent loss at the end of the run).
@@ -180,8 +185,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     save_srv_ = pnh.advertiseService("save_map", &GaussianMappingNodelet::onSave, this);
     reset_srv_ = pnh.advertiseService("reset", &GaussianMappingNodelet::onReset, this);
     load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
-    timer_ = nh.createWallTimer(ros::WallDuration(params_.publish_period_s),
-                                [this](const ros::WallTimerEvent&) { publishClouds(); });
+    cloud_thread_ = std::thread([this, nice = options.gaussian.training_nice] { cloudLoop(nice); });
     diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
     diagnostics_->setHardwareID("dypho_slam");
     diagnostics_->add("mapping", this, &GaussianMappingNodelet::diagnose);
@@ -275,6 +279,27 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         }
       } catch (const std::exception& e) {
         NODELET_ERROR_STREAM_THROTTLE(5.0, "rendering failed: " << e.what());
+      }
+    }
+  }
+
+  /// Cloud thread: every publish_period_s, the clouds (when they changed and someone listens).
+  /// Niced like training, but not in the idle class: under a load that leaves no idle core the
+  /// map still shows, at about a tenth of a core's share.
+  void cloudLoop(int nice_increment) {
+    nameCurrentThread("dypho_cloud");
+    const std::string failed = lowerCurrentThreadPriority(ThreadPriority{nice_increment, false});
+    if (!failed.empty()) NODELET_WARN_STREAM("cloud thread keeps its priority: " << failed);
+    const auto period = std::chrono::duration<double>(params_.publish_period_s);
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(render_mutex_);
+        if (cloud_cv_.wait_for(lock, period, [&] { return stop_; })) return;
+      }
+      try {
+        publishClouds();
+      } catch (const std::exception& e) {
+        NODELET_ERROR_STREAM_THROTTLE(5.0, "publishing the map clouds failed: " << e.what());
       }
     }
   }
@@ -427,20 +452,22 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   MappingRosParams params_;
   std::unique_ptr<mapping::MappingStage> stage_;
   std::atomic<bool> changed_{false};
-  std::int64_t last_iterations_ = -1;  ///< timer thread only
+  std::int64_t last_iterations_ = -1;  ///< cloud thread only
   // Render thread state (render_mutex_).
   std::mutex render_mutex_;
   std::condition_variable render_cv_;
+  std::condition_variable cloud_cv_;  ///< wakes the cloud thread to stop (with render_mutex_)
   std::optional<RenderRequest> request_;
   CameraIntrinsics camera_;
   std::string frame_id_;
-  bool stop_ = false;
+  bool stop_ = false;  ///< ends the render and cloud threads
   std::thread render_thread_;
+  std::thread cloud_thread_;  ///< builds and publishes map_cloud and gaussian_cloud (cloudLoop)
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer timer_, diagnostics_timer_;  ///< after what their callbacks use: destroyed first
+  ros::WallTimer diagnostics_timer_;  ///< after what its callback uses: destroyed first
   ros::WallTime last_diagnosis_{0.0};           ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;
   std::size_t dropped_at_last_diagnosis_ = 0;

@@ -8,7 +8,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <pcl/point_cloud.h>
@@ -29,6 +31,26 @@ struct CloudBuildReport {
   bool coarser_leaf = false;      ///< true when the configured leaf would overflow PCL's indices
   std::string message;            ///< explanation when `coarser_leaf` is true
 };
+
+/// The keyframes of a KeyframeCloudMap at one moment: their poses and their (immutable, shared)
+/// points. Cheap to take (no point is copied); building the cloud from it needs no lock on the map.
+struct KeyframeCloudSnapshot {
+  using Cloud = pcl::PointCloud<pcl::PointXYZRGB>;
+  struct Entry {
+    Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+    std::shared_ptr<const Cloud> points_camera;  ///< in the keyframe's camera optical frame [m]
+  };
+  std::vector<Entry> keyframes;
+  std::size_t num_points = 0;  ///< sum of the entries' points
+  double voxel_size_m = 0.0;   ///< leaf of the voxel filter (CloudMapOptions::voxel_size_m)
+};
+
+/// World-frame coloured cloud of `snapshot`, voxel-grid filtered with its `voxel_size_m`
+/// (pcl::VoxelGrid averages position and colour per voxel). When the extent of the map with that
+/// leaf would overflow PCL's 32-bit voxel indices, a coarser leaf is used and `report` says so.
+/// Thread-safe: reads only the snapshot.
+KeyframeCloudSnapshot::Cloud::Ptr buildCloud(const KeyframeCloudSnapshot& snapshot,
+                                             CloudBuildReport* report = nullptr);
 
 /// Keyframe point-cloud map. Not thread-safe (the mapping worker owns it).
 ///
@@ -55,9 +77,9 @@ class KeyframeCloudMap {
   /// Throws std::invalid_argument for a non-finite or non-rigid pose.
   bool updateKeyframePose(std::int64_t id, const Eigen::Isometry3d& T_world_camera);
 
-  /// World-frame coloured cloud of all keyframes, voxel-grid filtered with `voxel_size_m`
-  /// (pcl::VoxelGrid averages position and colour per voxel). When the extent of the map with that
-  /// leaf would overflow PCL's 32-bit voxel indices, a coarser leaf is used and `report` says so.
+  /// The keyframes as they are now (poses and shared points); see `buildCloud(snapshot)`.
+  KeyframeCloudSnapshot snapshot() const;
+  /// `dypho::mapping::buildCloud(snapshot())`: all keyframes, world frame, voxel filtered.
   Cloud::Ptr buildCloud(CloudBuildReport* report = nullptr) const;
 
   /// Writes `buildCloud()` as a binary PCD, atomically: a temporary file in the same folder is
@@ -77,7 +99,8 @@ class KeyframeCloudMap {
  private:
   struct StoredKeyframe {
     Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
-    Cloud points_camera;  ///< points in the keyframe's camera optical frame [m]
+    /// points in the keyframe's camera optical frame [m]; never changed once stored (snapshots share it)
+    std::shared_ptr<const Cloud> points_camera;
   };
 
   CloudMapOptions options_;

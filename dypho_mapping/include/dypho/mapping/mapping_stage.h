@@ -100,7 +100,9 @@ class MappingStage {
   void reset();
 
   MappingStageStats stats() const;
-  /// The coloured keyframe cloud (voxel filtered).
+  /// The coloured keyframe cloud (voxel filtered). Built outside the cloud's lock from a snapshot,
+  /// so a slow build (every keyframe's points through the voxel filter) never holds up
+  /// addKeyframe() or correctKeyframes().
   KeyframeCloudMap::Cloud::Ptr buildCloud() const;
   /// Centres of the live map (waits for the running training iteration).
   std::vector<GaussianCentre> gaussianCentres() const { return gaussians_.centres(); }
@@ -119,8 +121,7 @@ class MappingStage {
   MappingStageOptions stage_options_;
   GaussianMapper gaussians_;
 
-  /// Guards cloud_ alone: building the cloud (voxel filter over every keyframe, tens of ms) must
-  /// not hold up the pose updates, which arrive on a ROS callback thread for every frame.
+  /// Guards cloud_ alone (taken only briefly: buildCloud() builds from a snapshot outside it).
   mutable std::mutex cloud_mutex_;
   KeyframeCloudMap cloud_;
   mutable std::mutex mutex_;  ///< guards everything below
