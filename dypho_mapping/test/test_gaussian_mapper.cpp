@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -341,6 +342,34 @@ TEST(GaussianMapper, LivePolicyTrainsWhileIdle) {
   EXPECT_GT(mapper.latestSnapshot().iterations, 3) << "the renders follow the idle training";
   mapper.finish();
   mapper.stop();
+}
+
+// Live policy on the CPU: live_cpu_training_duty d makes the worker rest t (1 - d) / d after an
+// iteration of t seconds. The same idle training for the same wall time, d = 1 against d = 0.25:
+// the second runs a quarter of the iterations in theory; bound: under half (iteration times vary
+// on a loaded machine), and at least one.
+TEST(GaussianMapper, LiveCpuTrainingRestsForItsDuty) {
+  auto idleIterations = [](double duty) {
+    GaussianMapperOptions o = smallOptions();
+    o.device = "cpu";
+    o.iterations_per_keyframe = 1;
+    o.live_cpu_training_duty = duty;
+    GaussianMapper mapper(o);
+    mapper.start(8, /*live=*/true);
+    mapper.enqueueKeyframe(std::make_shared<Keyframe>(planeKeyframe(0, Eigen::Isometry3d::Identity())), false);
+    mapper.waitUntilIdle();
+    const std::int64_t before = mapper.stats().iterations;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    const std::int64_t during = mapper.stats().iterations - before;
+    mapper.stop();
+    return during;
+  };
+  const std::int64_t full = idleIterations(1.0);
+  const std::int64_t quarter = idleIterations(0.25);
+  std::cout << "idle iterations in 1.5 s: " << full << " at duty 1, " << quarter << " at duty 0.25\n";
+  EXPECT_GE(full, 8) << "too few iterations to compare";
+  EXPECT_GE(quarter, 1) << "the worker must still train";
+  EXPECT_LT(2 * quarter, full) << "duty 0.25: " << quarter << " iterations against " << full << " at duty 1";
 }
 
 // The deterministic policy (offline runner) never trains while idle.

@@ -61,6 +61,12 @@ TEST(MappingOptions, DefaultsValidateAndBadValuesNameTheField) {
   b = o;
   b.final_refine_iterations = -1;
   expectBad(b, "final_refine_iterations");
+  b = o;
+  b.live_cpu_training_duty = 0.0;
+  expectBad(b, "live_cpu_training_duty");
+  b = o;
+  b.live_cpu_training_duty = 1.5;
+  expectBad(b, "live_cpu_training_duty");
 }
 
 }  // namespace

@@ -1,8 +1,10 @@
 /// GaussianMapper: the thread-safe composition of trainer, worker, renderer, evaluation and files.
 #include "dypho/mapping/gaussian_mapper.h"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
+#include <thread>
 
 #include "gaussian_trainer.h"
 
@@ -95,10 +97,8 @@ bool GaussianMapper::idleStep() {
   {
     ChangeLock lock(*this);
     if (trainer_->keyframes.empty()) return false;
-    const double l = trainer_->iterate();
-    reportDeviceFallback();
-    if (l < 0) return false;
   }
+  if (liveIteration() < 0) return false;
   // Renders (rviz views, R_d) follow the idle training about once a second.
   const auto now = std::chrono::steady_clock::now();
   if (now - last_idle_snapshot_ > std::chrono::seconds(1)) {
@@ -113,6 +113,24 @@ bool GaussianMapper::idleStep() {
   return true;
 }
 
+double GaussianMapper::liveIteration() {
+  const auto start = std::chrono::steady_clock::now();
+  double loss = -1.0;
+  {
+    ChangeLock lock(*this);
+    loss = trainer_->iterate();
+    reportDeviceFallback();
+  }
+  const double duty = options_.live_cpu_training_duty;
+  if (loss >= 0 && duty < 1.0 && device_ == ComputeDevice::kCpu && !hurry_) {
+    // Capped, so that a stop or a new job never waits long for the rest to end.
+    const auto busy = std::chrono::steady_clock::now() - start;
+    const auto rest = std::chrono::duration_cast<std::chrono::steady_clock::duration>(busy * ((1.0 - duty) / duty));
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(rest, std::chrono::milliseconds(250)));
+  }
+  return loss;
+}
+
 void GaussianMapper::runJob(const MappingJob& job) {
   try {
     if (!job.corrections.empty()) applyCorrections(job.corrections);
@@ -121,7 +139,11 @@ void GaussianMapper::runJob(const MappingJob& job) {
     for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping() && !hurry_; ++i) {
       // Live: the next job waits, so this keyframe gets fewer iterations (idle time adds more).
       if (live_ && i >= options_.live_min_iterations_per_keyframe && worker_->queued() > 0) break;
-      optimize(1);
+      if (live_) {
+        liveIteration();
+      } else {
+        optimize(1);
+      }
     }
   } catch (const std::exception& e) {
     report(std::string("mapping worker: ") + e.what());

@@ -23,6 +23,7 @@ void GaussianMapperOptions::validate() const {
   require(train_downsample == 1 || train_downsample == 2 || train_downsample == 4, "train_downsample", "1, 2 or 4");
   require(iterations_per_keyframe >= 0, "iterations_per_keyframe", ">= 0");
   require(live_min_iterations_per_keyframe >= 0, "live_min_iterations_per_keyframe", ">= 0");
+  require(live_cpu_training_duty > 0.0 && live_cpu_training_duty <= 1.0, "live_cpu_training_duty", "in (0, 1]");
   require(training_nice >= 0 && training_nice <= 19, "training_nice", "in [0, 19]");
   require(final_refine_iterations >= 0, "final_refine_iterations", ">= 0");
   require(window_size >= 1, "window_size", ">= 1");

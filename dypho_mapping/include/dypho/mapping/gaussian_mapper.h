@@ -176,6 +176,9 @@ class GaussianMapper {
   /// Live policy, worker thread: one training iteration while no job waits; false when there is
   /// nothing to train (no keyframe yet, or finish() runs).
   bool idleStep();
+  /// Live policy, worker thread: one training iteration, then the rest that
+  /// live_cpu_training_duty asks for (CPU device only). Returns the iteration's loss (< 0: none).
+  double liveIteration();
 
   GaussianMapperOptions options_;
   std::unique_ptr<GaussianTrainer> trainer_;  ///< guarded by mutex_

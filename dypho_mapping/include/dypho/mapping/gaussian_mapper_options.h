@@ -30,6 +30,12 @@ struct GaussianMapperOptions {
   /// Live policy: with no job waiting the worker keeps training on the stored keyframes (the
   /// idle time of the machine goes into the map). Default true.
   bool live_train_when_idle = true;
+  /// Live policy, CPU device: the share of wall time the worker may spend in training iterations,
+  /// (0, 1]; after an iteration of t seconds it rests t (1 - d) / d. Training in the idle class
+  /// takes no CPU time from the camera-rate threads, but it still slows them through the caches
+  /// and memory it shares with them (docs/benchmarks.md); 1 = train whenever there is work. The
+  /// offline runner (deterministic mode) and the CUDA device never rest. Default 0.5.
+  double live_cpu_training_duty = 0.5;
   /// Nice increment of the mapping worker and its pool threads (thread_budget.h): training takes
   /// the time the camera-rate threads leave, in [0, 19]. Default 10.
   int training_nice = 10;
