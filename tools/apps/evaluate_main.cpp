@@ -128,6 +128,15 @@ int main(int argc, char** argv) {
     if (args.bonn_correction) groundtruth = applyBonnCorrection(groundtruth);
 
     const AteResult ate = computeAte(estimate, groundtruth, args.max_gap_s);
+    // With one scale as well (Sim(3)): not the benchmark's number, but it tells a scale error (a
+    // depth sensor reading long or short) from the shape of the trajectory.
+    std::optional<AteResult> ate_scaled;
+    std::string scaled_error;
+    try {
+      ate_scaled = computeAte(estimate, groundtruth, args.max_gap_s, AteAlignment::kWithScale);
+    } catch (const std::runtime_error& e) {
+      scaled_error = e.what();
+    }
     std::vector<RpeOutcome> rpes;
     for (double d : args.deltas_s) {
       RpeOutcome o{d, std::nullopt, ""};
@@ -145,6 +154,12 @@ int main(int argc, char** argv) {
     std::printf("ATE (rigid alignment, no scale): %zu pairs\n", ate.num_pairs);
     std::printf("  rmse   %8.3f cm\n  mean   %8.3f cm\n  median %8.3f cm\n  max    %8.3f cm\n",
                 ate.rmse_m * 100, ate.mean_m * 100, ate.median_m * 100, ate.max_m * 100);
+    if (ate_scaled) {
+      std::printf("ATE with scale (Sim(3) alignment, for diagnosis): rmse %.3f cm, scale %.4f\n",
+                  ate_scaled->rmse_m * 100, ate_scaled->scale);
+    } else {
+      std::printf("ATE with scale: not available (%s)\n", scaled_error.c_str());
+    }
     for (const auto& o : rpes) {
       if (o.result) {
         std::printf("RPE over %.3f s: %zu pairs, trans rmse %.3f cm, rot rmse %.3f deg\n", o.delta_s,
@@ -177,7 +192,13 @@ int main(int argc, char** argv) {
          << ",\n  \"max_gap_s\": " << args.max_gap_s << ",\n  \"ate\": {\"num_pairs\": " << ate.num_pairs
          << ", \"rmse_m\": " << ate.rmse_m << ", \"mean_m\": " << ate.mean_m
          << ", \"median_m\": " << ate.median_m << ", \"max_m\": " << ate.max_m
-         << ", \"std_m\": " << ate.std_m << "},\n  \"rpe\": [";
+         << ", \"std_m\": " << ate.std_m << "},\n  \"ate_with_scale\": ";
+      if (ate_scaled) {
+        js << "{\"rmse_m\": " << ate_scaled->rmse_m << ", \"scale\": " << ate_scaled->scale << "}";
+      } else {
+        js << "{\"error\": " << jsonString(scaled_error) << "}";
+      }
+      js << ",\n  \"rpe\": [";
       for (std::size_t i = 0; i < rpes.size(); ++i) {
         const auto& o = rpes[i];
         js << (i ? ",\n" : "\n") << "    {\"delta_s\": " << o.delta_s;

@@ -111,7 +111,7 @@ Eigen::Isometry3d umeyamaAlignNoScale(const std::vector<Eigen::Vector3d>& src,
 }
 
 AteResult computeAte(const std::vector<StampedPose>& estimate,
-                     const std::vector<StampedPose>& groundtruth, double max_gap_s) {
+                     const std::vector<StampedPose>& groundtruth, double max_gap_s, AteAlignment alignment) {
   const auto pairs = pairWithGroundTruth(estimate, groundtruth, max_gap_s);
   if (pairs.size() < 3) {
     throw std::runtime_error("ATE needs at least 3 estimate poses with ground truth within " +
@@ -127,10 +127,30 @@ AteResult computeAte(const std::vector<StampedPose>& estimate,
     r.stamps_s.push_back(p.stamp_s);
   }
   r.T_gt_est = umeyamaAlignNoScale(est_xyz, r.gt_xyz);
+  if (alignment == AteAlignment::kWithScale) {
+    // Umeyama (1991): with the optimal rotation R, s = trace(R^T C) / sum |p_est - mean|^2, C =
+    // sum (p_gt - mean_gt)(p_est - mean_est)^T; then t = mean_gt - s R mean_est.
+    Eigen::Vector3d mean_est = Eigen::Vector3d::Zero(), mean_gt = Eigen::Vector3d::Zero();
+    for (std::size_t i = 0; i < est_xyz.size(); ++i) {
+      mean_est += est_xyz[i];
+      mean_gt += r.gt_xyz[i];
+    }
+    mean_est /= static_cast<double>(est_xyz.size());
+    mean_gt /= static_cast<double>(est_xyz.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    double spread = 0.0;
+    for (std::size_t i = 0; i < est_xyz.size(); ++i) {
+      cov += (r.gt_xyz[i] - mean_gt) * (est_xyz[i] - mean_est).transpose();
+      spread += (est_xyz[i] - mean_est).squaredNorm();
+    }
+    if (!(spread > 0.0)) throw std::runtime_error("ATE with scale: the estimate does not move (all positions equal)");
+    r.scale = (r.T_gt_est.linear().transpose() * cov).trace() / spread;
+    r.T_gt_est.translation() = mean_gt - r.scale * (r.T_gt_est.linear() * mean_est);
+  }
   std::vector<double> err;
   double sum = 0, sum_sq = 0;
   for (std::size_t i = 0; i < pairs.size(); ++i) {
-    r.est_aligned_xyz.push_back(r.T_gt_est * est_xyz[i]);
+    r.est_aligned_xyz.push_back(r.T_gt_est * (r.scale * est_xyz[i]));
     const double e = (r.est_aligned_xyz.back() - r.gt_xyz[i]).norm();
     err.push_back(e);
     sum += e;

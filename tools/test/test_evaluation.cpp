@@ -113,6 +113,27 @@ TEST(Ate, ZeroForRigidlyTransformedCopy) {
   EXPECT_EQ(r.stamps_s.size(), r.num_pairs);
 }
 
+// A copy shrunk by 0.9 about an arbitrary point and moved rigidly: the rigid ATE sees the
+// scale error, the alignment with scale removes it exactly and returns 1 / 0.9.
+TEST(Ate, WithScaleRemovesAScaleErrorAndReportsIt) {
+  std::mt19937 rng(17);
+  const auto gt = curvyTrajectory(30.0, 10.0);
+  std::vector<StampedPose> shrunk = gt;
+  const Eigen::Vector3d centre(1.0, -2.0, 0.5);
+  for (StampedPose& p : shrunk) p.T_world_camera.translation() = centre + 0.9 * (p.T_world_camera.translation() - centre);
+  const auto est = transformed(randomRigid(rng), shrunk);
+  const AteResult rigid = computeAte(est, gt);
+  const AteResult scaled = computeAte(est, gt, 0.1, AteAlignment::kWithScale);
+  EXPECT_EQ(rigid.scale, 1.0);
+  EXPECT_GT(rigid.rmse_m, 0.05) << "a 10 % scale error over a ~10 m path";
+  // Exact data: floating-point error only.
+  EXPECT_LT(scaled.rmse_m, 1e-9);
+  EXPECT_NEAR(scaled.scale, 1.0 / 0.9, 1e-9);
+  std::vector<StampedPose> still = gt;
+  for (StampedPose& p : still) p.T_world_camera.translation().setZero();
+  EXPECT_THROW(computeAte(still, gt, 0.1, AteAlignment::kWithScale), std::runtime_error);
+}
+
 TEST(Ate, KnownErrorsThatCannotBeAlignedAway) {
   // Ground truth holds still for two samples at a time. The estimate is shifted by +a_k along a fixed
   // unit direction at the first sample of pair k and by -a_k at the second. The offsets sum to zero

@@ -14,7 +14,14 @@
 
 namespace dypho::tools {
 
-/// Absolute trajectory error of an estimate after rigid alignment onto the ground truth.
+/// How the estimate is aligned onto the ground truth before the ATE is taken.
+enum class AteAlignment {
+  kRigid,       ///< rotation + translation (SE(3)): the ATE of the TUM benchmark, the default
+  kWithScale,   ///< rotation + translation + one scale (Sim(3)): separates a scale error (e.g. of
+                ///< the depth sensor) from the shape of the trajectory
+};
+
+/// Absolute trajectory error of an estimate after alignment onto the ground truth.
 struct AteResult {
   double rmse_m = 0;    ///< root mean square of the position errors [m]
   double mean_m = 0;    ///< mean position error [m]
@@ -22,8 +29,11 @@ struct AteResult {
   double max_m = 0;     ///< largest position error [m]
   double std_m = 0;     ///< population standard deviation of the position errors [m]
   std::size_t num_pairs = 0;  ///< number of (estimate, interpolated ground truth) pairs
-  /// Rigid transform applied to the estimate: p_gt ~ T_gt_est * p_est
+  /// Rigid transform applied to the estimate: p_gt ~ T_gt_est * (scale * p_est)
   Eigen::Isometry3d T_gt_est = Eigen::Isometry3d::Identity();
+  /// Scale applied to the estimate (1 with AteAlignment::kRigid); above 1: the estimated
+  /// trajectory is shorter than the ground truth
+  double scale = 1.0;
   std::vector<Eigen::Vector3d> est_aligned_xyz;  ///< aligned estimate positions [m], per pair
   std::vector<Eigen::Vector3d> gt_xyz;           ///< ground-truth positions [m], per pair
   std::vector<double> stamps_s;                  ///< estimate stamps [s], per pair
@@ -47,11 +57,13 @@ std::optional<Eigen::Isometry3d> interpolatePose(const std::vector<StampedPose>&
                                                  double t_s, double max_gap_s);
 
 /// Pairs every estimate with the ground truth interpolated at its stamp (interpolatePose), aligns
-/// the estimate positions onto the ground truth with a rigid transform (rotation + translation,
-/// NO scale; umeyamaAlignNoScale) and reports the position errors. Inputs need not be sorted.
-/// Throws std::runtime_error when fewer than 3 pairs exist (names the stamp ranges).
+/// the estimate positions onto the ground truth (default: rigid, rotation + translation, NO
+/// scale; umeyamaAlignNoScale; kWithScale adds Umeyama's least-squares scale) and reports the
+/// position errors. Inputs need not be sorted. Throws std::runtime_error when fewer than 3 pairs
+/// exist (names the stamp ranges).
 AteResult computeAte(const std::vector<StampedPose>& estimate,
-                     const std::vector<StampedPose>& groundtruth, double max_gap_s = 0.1);
+                     const std::vector<StampedPose>& groundtruth, double max_gap_s = 0.1,
+                     AteAlignment alignment = AteAlignment::kRigid);
 
 /// RPE over `delta_s` [s]: every estimate pose i with interpolated ground truth is paired with the
 /// pose j whose stamp is closest to t_i + delta_s (accepted when within max_gap_s of it);
