@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
@@ -77,6 +79,26 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
 
+  // The residuals, the loss and the manifold are built once and shared by the rounds' problems,
+  // which do not own them: a round only chooses which residuals take part. (Allocating them again
+  // each round cost more than the solve on a small problem.)
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
+  for (size_t i = 0; i < n; ++i) {
+    const PoseObservation& o = observations[i];
+    if (has_depth(o)) {
+      costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m,
+                                                         options_.depth_baseline_m, sigma(o.level), pinhole);
+    } else {
+      costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
+    }
+  }
+  ceres::HuberLoss loss(options_.huber_px);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+
   // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
   int active = classify(true);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
@@ -87,19 +109,12 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
       result.num_inliers = 0;
       return result;
     }
-    ceres::Problem problem;
-    problem.AddParameterBlock(q_cw.coeffs().data(), 4, new ceres::EigenQuaternionManifold());
+    ceres::Problem problem(problem_options);
+    problem.AddParameterBlock(q_cw.coeffs().data(), 4, &quaternion_manifold);
     problem.AddParameterBlock(t_cw.data(), 3);
-    ceres::LossFunction* loss = new ceres::HuberLoss(options_.huber_px);  // owned by problem
     for (size_t i = 0; i < n; ++i) {
       if (!result.inliers[i]) continue;
-      const PoseObservation& o = observations[i];
-      ceres::CostFunction* cost =
-          has_depth(o) ? static_cast<ceres::CostFunction*>(new RgbdReprojectionError(
-                             o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
-                             sigma(o.level), pinhole))
-                       : new ReprojectionError(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
-      problem.AddResidualBlock(cost, loss, q_cw.coeffs().data(), t_cw.data());
+      problem.AddResidualBlock(costs[i].get(), &loss, q_cw.coeffs().data(), t_cw.data());
     }
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
