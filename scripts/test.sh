@@ -32,6 +32,22 @@ export ROS_HOME="$BUILD/ros_home"
 status=0
 ctest --output-on-failure -j 1 --timeout 1200 || status=$?
 phase_done "ctest"
+# What failed, and the failures' own lines (gtest assertions, the rostest nodes' summaries from
+# their logs under ROS_HOME): printed again at the very end, where a shortened log still shows it.
+failure_summary="$BUILD/failure_summary.txt"
+: > "$failure_summary"
+if [ -s Testing/Temporary/LastTestsFailed.log ]; then
+  {
+    echo "test.sh: ctest tests that failed:"
+    sed 's/^/  /' Testing/Temporary/LastTestsFailed.log
+    echo "test.sh: their failures (gtest assertions, and the rostest nodes' logs that hold one):"
+    grep -hE -A2 ": Failure$" Testing/Temporary/LastTest.log | cut -c1-300 | head -40 | sed 's/^/  /'
+    for log in $(grep -l ": Failure$" "$ROS_HOME"/log/*/*-stdout.log 2>/dev/null); do
+      echo "  -- $(basename "$log")"
+      grep -hE -A2 ": Failure$|^(live test|graph test|in process|graph vs)" "$log" | cut -c1-300 | head -40 | sed 's/^/    /'
+    done
+  } > "$failure_summary"
+fi
 # Skipped tests (ctest lists them as "Not Run"/"Skipped"): show why, from the test output.
 if grep -q ": Skipped$" Testing/Temporary/LastTest.log 2>/dev/null; then
   echo "test.sh: tests that skipped themselves, and why:"
@@ -50,5 +66,6 @@ bash "$ROOT/scripts/test_sanitized.sh" "$BUILD-sanitized" || status=1
 phase_done "sanitized build and tests"
 bash "$ROOT/scripts/fuzz.sh" "${DYPHO_FUZZ_SECONDS:-20}" "$BUILD-fuzz" || status=1
 phase_done "fuzzing"
+[ ! -s "$failure_summary" ] || cat "$failure_summary"
 echo "test.sh: all parts took $SECONDS s"
 exit "$status"
