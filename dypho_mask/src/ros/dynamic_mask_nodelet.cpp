@@ -76,7 +76,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     mask::DynamicMaskOptions options;
     mask::visitOptions(options, reader);
     mask::MaskStageOptions stage_options;
-    int queue_size = 10;
+    int queue_size = 30;  // 1 s at 30 Hz: a burst after a held-up moment is not dropped here
     bool approx_sync = true;
     double watchdog_s = 5.0;
     int cores = 0;

@@ -63,7 +63,9 @@ struct TrackingRosParams {
   std::string camera_frame;         ///< tracked camera optical frame; empty = the rgb header's frame_id
   bool publish_tf = true;           ///< broadcast map -> odom -> camera_frame
   bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
-  int queue_size = 10;              ///< synchroniser and mask subscriber queues [messages]
+  /// Synchroniser and subscriber queues [messages]: 1 s at 30 Hz, so that frames that arrive in
+  /// a burst after the manager's threads were held up are not dropped before the pairer.
+  int queue_size = 30;
   double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
   /// where trajectory.txt is written on shutdown (empty = not on shutdown); ~save_trajectory
   /// writes only inside it (empty: inside $ROS_HOME/dypho, default ~/.ros/dypho)

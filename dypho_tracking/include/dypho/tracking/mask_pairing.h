@@ -49,10 +49,12 @@ struct MaskPairingOptions {
   /// mask takes 15-40 ms per frame on 2 cores; a longer wait only adds latency).
   double max_wait_s = 0.1;
   /// Frames waiting at once (for their masks or for tracking), >= 1; a newer frame beyond it
-  /// drops the oldest. Default 16 (0.53 s at 30 Hz): in a crowd the tracker can make a keyframe
-  /// every 2-3 frames for half a second, each with a 60-80 ms local BA on 2 cores; at 20 ms per
-  /// ordinary frame it then catches up. A longer backlog is dropped rather than tracked late.
-  int max_pending_frames = 16;
+  /// drops the oldest. Default 30 (1 s at 30 Hz): a machine that is slower than the camera for
+  /// up to about a second (a loaded moment of a small CPU, a burst of keyframes in a crowd, each
+  /// with a 60-80 ms local BA on 2 cores) costs latency, not frames, and catch-up mode drains the
+  /// backlog afterwards. A longer backlog is dropped rather than tracked later still. With 16, a
+  /// 2-core VM with a busy loop beside the graph dropped frames in 2 of 6 runs (docs/benchmarks.md).
+  int max_pending_frames = 30;
   /// A mask further than this from the frame's stamp is not carried to it [s], >= 0. Default 0.2
   /// (six frames at 30 Hz; people move a few centimetres, within the mask's safety margin).
   double max_carry_age_s = 0.2;
