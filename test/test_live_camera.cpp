@@ -153,6 +153,17 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   // Where frames went, from the last statuses: the synchroniser's output (frames_in) against the
   // bag tells the frames lost in transport or in the subscriber queues; the tracking and mask
   // counters tell the frames their queues dropped; latency and tracking time tell how far behind.
+  // Which frames went unanswered (indices in the bag), as ranges: a start-up stall and a slow
+  // spell in the middle look different.
+  std::string missing;
+  for (std::size_t i = 0; i < rec.rgb_stamps_s.size(); ++i) {
+    if (rec.status_stamps_s.count(rec.rgb_stamps_s[i]) > 0) continue;
+    std::size_t j = i;
+    while (j + 1 < rec.rgb_stamps_s.size() && rec.status_stamps_s.count(rec.rgb_stamps_s[j + 1]) == 0) ++j;
+    missing += (missing.empty() ? "" : ", ") + std::to_string(i) + (j > i ? "-" + std::to_string(j) : "");
+    i = j;
+  }
+  if (!missing.empty()) std::cout << "live test: frames not answered: " << missing << "\n";
   const auto& st = rec.last_status;
   const auto& ms = rec.last_mask;
   std::cout << "live test: tracking counters: " << st.frames_in << " in, " << st.frames_processed << " processed, "
