@@ -76,10 +76,10 @@ std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::stri
     } else if (word == "element") {
       std::string name;
       long long n = -1;
-      ls >> name >> n;
+      ls >> name;
+      if (!(ls >> n) || n < 0) throw fail("bad " + name + " count in '" + line + "'");
       in_vertex = name == "vertex";
       if (in_vertex) {
-        if (n < 0) throw fail("bad vertex count");
         count = static_cast<std::size_t>(n);
         have_vertex = true;
       } else if (n != 0) {
@@ -94,8 +94,10 @@ std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::stri
   }
   if (!binary_le) throw fail("only 'format binary_little_endian 1.0' is supported (convert ASCII PLYs first)");
   if (!have_vertex) throw fail("no 'element vertex'");
-  std::map<std::string, int> index;
-  for (std::size_t i = 0; i < props.size(); ++i) index[props[i]] = static_cast<int>(i);
+  // Every value is found by its property's name: files from other tools may order them differently.
+  std::map<std::string, std::size_t> index;
+  for (std::size_t i = 0; i < props.size(); ++i)
+    if (!index.emplace(props[i], i).second) throw fail("property '" + props[i] + "' is declared twice");
   int rest = 0;
   while (index.count("f_rest_" + std::to_string(rest))) ++rest;
   if (rest % 3 != 0) throw fail("number of f_rest_* properties (" + std::to_string(rest) + ") is not a multiple of 3");
@@ -103,31 +105,41 @@ std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::stri
   if (file_K != 1 && file_K != 4 && file_K != 9 && file_K != 16) {
     throw fail(std::to_string(rest) + " f_rest_* properties do not match an SH degree 0-3 (0, 9, 24, 45)");
   }
-  std::vector<std::string> needed = {"x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
-                                     "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"};
-  for (const auto& n : needed)
-    if (!index.count(n)) throw fail("missing property '" + n + "'");
-  const std::size_t stride = props.size();
-  // Size check before touching the map: the payload must be complete.
+  auto column = [&](const std::string& n) {
+    const auto it = index.find(n);
+    if (it == index.end()) throw fail("missing property '" + n + "'");
+    return it->second;
+  };
+  const std::size_t col_x[3] = {column("x"), column("y"), column("z")};
+  const std::size_t col_dc[3] = {column("f_dc_0"), column("f_dc_1"), column("f_dc_2")};
+  const std::size_t col_opacity = column("opacity");
+  const std::size_t col_scale[3] = {column("scale_0"), column("scale_1"), column("scale_2")};
+  const std::size_t col_rot[4] = {column("rot_0"), column("rot_1"), column("rot_2"), column("rot_3")};
+  const int K = map.shCoeffs();
+  const int kept_K = std::min(K, file_K);
+  // col_rest[3 * k + ch]: the file's column of coefficient k (>= 1) of channel ch (channel-major).
+  std::vector<std::size_t> col_rest(static_cast<std::size_t>(3 * kept_K), 0);
+  for (int ch = 0; ch < 3; ++ch)
+    for (int k = 1; k < kept_K; ++k) col_rest[3 * k + ch] = column("f_rest_" + std::to_string(ch * (file_K - 1) + k - 1));
+  const std::size_t row_bytes = props.size() * sizeof(float);
+  // Size check before touching the map or allocating: the payload must be complete. Division, not
+  // multiplication, so that a hostile vertex count cannot overflow past the check.
   const std::streampos data_start = in.tellg();
   in.seekg(0, std::ios::end);
   const std::streamoff available = in.tellg() - data_start;
   in.seekg(data_start);
-  const std::streamoff expected = static_cast<std::streamoff>(count * stride * sizeof(float));
-  if (available < expected) {
-    throw fail("truncated: " + std::to_string(count) + " Gaussians need " + std::to_string(expected) +
-               " bytes of data, the file has " + std::to_string(available));
+  if (available < 0 || count > static_cast<std::size_t>(available) / row_bytes) {
+    throw fail("truncated: " + std::to_string(count) + " Gaussians of " + std::to_string(row_bytes) +
+               " bytes each need more data than the " + std::to_string(available) + " bytes the file has");
   }
+  const std::size_t stride = props.size();
   std::vector<float> data(count * stride);
-  in.read(reinterpret_cast<char*>(data.data()), expected);
+  in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(count * row_bytes));
   if (!in) throw fail("read error");
-  const int K = map.shCoeffs();
   map.clear();
   std::size_t loaded = 0, non_finite = 0;
   GaussianInit g;
   g.sh.assign(3 * K, 0.f);
-  auto at = [&](const float* row, const std::string& n) { return row[index[n]]; };
-  const int ix = index["x"], iop = index["opacity"], is0 = index["scale_0"], ir0 = index["rot_0"], idc = index["f_dc_0"];
   for (std::size_t i = 0; i < count; ++i) {
     const float* row = data.data() + i * stride;
     bool finite = true;
@@ -136,14 +148,14 @@ std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::stri
       ++non_finite;
       continue;
     }
-    g.position_w = {row[ix], row[ix + 1], row[ix + 2]};
-    g.opacity_logit = row[iop];
-    g.log_scale = {row[is0], row[is0 + 1], row[is0 + 2]};
-    g.rotation_wxyz = {row[ir0], row[ir0 + 1], row[ir0 + 2], row[ir0 + 3]};
+    g.position_w = {row[col_x[0]], row[col_x[1]], row[col_x[2]]};
+    g.opacity_logit = row[col_opacity];
+    g.log_scale = {row[col_scale[0]], row[col_scale[1]], row[col_scale[2]]};
+    g.rotation_wxyz = {row[col_rot[0]], row[col_rot[1]], row[col_rot[2]], row[col_rot[3]]};
     std::fill(g.sh.begin(), g.sh.end(), 0.f);
-    for (int ch = 0; ch < 3; ++ch) g.sh[ch] = row[idc + ch];
+    for (int ch = 0; ch < 3; ++ch) g.sh[ch] = row[col_dc[ch]];
     for (int ch = 0; ch < 3; ++ch)
-      for (int k = 1; k < std::min(K, file_K); ++k) g.sh[3 * k + ch] = at(row, "f_rest_" + std::to_string(ch * (file_K - 1) + k - 1));
+      for (int k = 1; k < kept_K; ++k) g.sh[3 * k + ch] = row[col_rest[3 * k + ch]];
     g.anchor_keyframe_id = -1;
     if (map.add(g) < 0) break;
     ++loaded;

@@ -16,11 +16,13 @@ namespace dypho::mapping {
 /// Writes `map` to `out` (normals are written as 0).
 void writeGaussianPly(std::ostream& out, const GaussianMap& map);
 
-/// Reads a 3DGS PLY into `map` (cleared first; Gaussians get new ids and no anchor). SH degrees
-/// that differ from the map's are truncated or zero-padded. Gaussians beyond the map's capacity
-/// are dropped; returns how many were read and `note` (optional) says what was adapted.
+/// Reads a 3DGS PLY into `map` (cleared first; Gaussians get new ids and no anchor). Properties
+/// are found by name, in whatever order the file declares them; extra float properties are
+/// ignored. SH degrees that differ from the map's are truncated or zero-padded. Gaussians beyond
+/// the map's capacity are dropped; returns how many were read and `note` (optional) says what was adapted.
 /// Throws std::runtime_error naming `path` and the problem (cannot open, not a PLY, not
-/// binary_little_endian, a missing or non-float property, truncated data); `map` is then unchanged.
+/// binary_little_endian, a missing, repeated or non-float property, truncated data); `map` is then
+/// unchanged. Nothing is allocated for the payload before the file is known to hold it.
 std::size_t readGaussianPly(const std::string& path, GaussianMap& map, std::string* note = nullptr);
 
 }  // namespace dypho::mapping
