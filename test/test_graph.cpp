@@ -14,6 +14,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/transform_listener.h>
@@ -23,6 +24,7 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
+#include "input_timing.h"
 #include "player_start.h"
 
 namespace {
@@ -133,6 +135,10 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     std::lock_guard<std::mutex> lock(rec.mutex);
     rec.last_mask_status = *m;
   });
+  dypho::test::InputTiming input_timing;  // camera_info is small: its arrival times cost nothing
+  auto info_sub = nh.subscribe<sensor_msgs::CameraInfo>("/camera/rgb/camera_info", 200, [&](const sensor_msgs::CameraInfoConstPtr& i) {
+    input_timing.add(i->header.stamp.toSec(), ros::WallTime::now().toSec());
+  });
   tf2_ros::Buffer tf_buffer;
   tf2_ros::TransformListener tf_listener(tf_buffer);
 
@@ -161,7 +167,8 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
               << " frames; tracking saw " << s.frames_in << " in, " << s.frames_processed << " processed, "
               << s.frames_dropped << " dropped, " << s.frames_mask_carried << " with a carried mask, "
               << s.frames_without_mask << " without, " << s.frames_caught_up << " caught up; latency p50 " << s.latency_p50_ms << " ms, p95 "
-              << s.latency_p95_ms << " ms; mask skipped " << rec.last_mask_status.frames_dropped_busy << "\n";
+              << s.latency_p95_ms << " ms; mask skipped " << rec.last_mask_status.frames_dropped_busy << "\n"
+              << "graph test " << input_timing.describe() << "\n";
     EXPECT_EQ(s.frames_processed + s.frames_dropped, s.frames_in) << "every frame is tracked or counted as dropped";
   }
   EXPECT_GE(static_cast<std::size_t>(rec.statuses), at_least);
