@@ -86,6 +86,41 @@ TEST(KeyframeSelector, FastRotationPostponesSoftButNotHardTriggers) {
   EXPECT_TRUE(s.decide(q).is_keyframe);
 }
 
+// A still camera's periodic keyframe waits while the static check disputes the pose (its refined
+// pose explains more of the reference keyframe's static samples): a keyframe would anchor the
+// next frames to a pose moving people may be carrying. The other triggers do not wait, and the
+// periodic one waits at most keyframe_max_frames frames more.
+TEST(KeyframeSelector, StaticDoubtPostponesOnlyThePeriodicKeyframe) {
+  const KeyframeSelector s{TrackingOptions()};  // keyframe_static_doubt 0.02, 20 frames
+  KeyframeQuery q = calmQuery();
+  q.frames_since_keyframe = 20;
+  q.static_doubt = 0.044;  // the stop-and-go case: 0.885 of the samples by features, 0.93 refined
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.static_doubt = 0.019;  // within the noise of an undisputed pose
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+  q.static_doubt = 0.044;
+  q.frames_since_keyframe = 39;
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.frames_since_keyframe = 40;  // 2 * keyframe_max_frames: made anyway
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+
+  q = calmQuery();
+  q.static_doubt = 0.3;
+  q.T_world_camera = q.T_world_keyframe * pose(0.11, 0.0);  // translation
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+  q = calmQuery();
+  q.static_doubt = 0.3;
+  q.num_inliers = 250;  // tracked ratio
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+
+  TrackingOptions off;
+  off.keyframe_static_doubt = 0.0;  // never postponed
+  q = calmQuery();
+  q.frames_since_keyframe = 20;
+  q.static_doubt = 0.3;
+  EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
+}
+
 }  // namespace
 }  // namespace tracking
 }  // namespace dypho

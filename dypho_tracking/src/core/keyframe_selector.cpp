@@ -37,7 +37,9 @@ KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
              << " deg";
     } else if (tracked_ratio < options_.keyframe_min_tracked_ratio) {
       reason << "tracked ratio " << tracked_ratio << " < " << options_.keyframe_min_tracked_ratio;
-    } else if (q.frames_since_keyframe >= options_.keyframe_max_frames) {
+    } else if (q.frames_since_keyframe >= options_.keyframe_max_frames &&
+               (options_.keyframe_static_doubt <= 0.0 || q.static_doubt <= options_.keyframe_static_doubt ||
+                q.frames_since_keyframe >= 2 * options_.keyframe_max_frames)) {
       reason << q.frames_since_keyframe << " frames since the keyframe >= "
              << options_.keyframe_max_frames;
     } else {

@@ -434,6 +434,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
     query.num_inliers = aligned.num_inliers;
     query.num_reference_inliers = reference_inliers_;
     query.frames_since_keyframe = frames_since_keyframe_;
+    query.static_doubt = result.static_check_doubt;
     // Inter-frame rotation; unknown (0) right after lost frames.
     query.frame_rotation_deg =
         motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI : 0.0;

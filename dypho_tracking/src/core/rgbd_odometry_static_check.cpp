@@ -57,10 +57,10 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   const StaticAgreement by_dense = static_check_.score(T_dense * T_world_reference);
   // Evidence only when the refined pose explains most of the static samples (sharp images, a
   // static background that is really static) and clearly more than the feature pose does.
-  if (!T_dense.matrix().allFinite() || by_dense.ratio() < kMinDenseAgreement ||
-      by_dense.ratio() < by_features.ratio() + options_.static_check_min_gain) {
-    return;
-  }
+  if (!T_dense.matrix().allFinite() || by_dense.ratio() < kMinDenseAgreement) return;
+  // Doubt until corrected: the keyframe policy does not anchor a periodic keyframe on this pose.
+  result->static_check_doubt = std::max(0.0, by_dense.ratio() - by_features.ratio());
+  if (by_dense.ratio() < by_features.ratio() + options_.static_check_min_gain) return;
 
   // Moving matches carried the feature pose. Re-estimate from the matches that the static scene's
   // pose explains (within the refining search radius), starting from that pose.
@@ -90,6 +90,7 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
                            static_check_.score(refined.T_camera_world * T_world_reference).ratio() >=
                                by_dense.ratio() - 0.5 * options_.static_check_min_gain;
   aligned->T_camera_world = use_refined ? refined.T_camera_world : T_dense;
+  result->static_check_doubt = 0.0;
   // The matches the static scene's pose does not explain moved: the mask is told where they are.
   std::vector<bool> explained(aligned->matches.size(), false);
   for (const std::size_t m : match_of) explained[m] = true;

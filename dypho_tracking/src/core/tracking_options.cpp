@@ -60,6 +60,7 @@ void TrackingOptions::validate() const {
   requireRange("keyframe_max_frame_rotation_deg", keyframe_max_frame_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_hard_tracked_ratio", keyframe_hard_tracked_ratio, 0.0,
                keyframe_min_tracked_ratio);
+  requireRange("keyframe_static_doubt", keyframe_static_doubt, 0.0, 1.0);
   requireRange("min_init_features", min_init_features, min_inliers, 20000);
   requireRange("max_lost_frames", max_lost_frames, 1, 100000);
   requireRange("local_map_keyframes", local_map_keyframes, 0, 100);

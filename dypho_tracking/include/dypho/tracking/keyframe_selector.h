@@ -21,6 +21,9 @@ struct KeyframeQuery {
   int num_reference_inliers = 0;
   int frames_since_keyframe = 0;  ///< 1 for the frame right after the keyframe [frames]
   double frame_rotation_deg = 0;  ///< rotation between the previous and this frame [deg]
+  /// Share of the reference keyframe's static samples the static check's refined pose explains
+  /// beyond the tracked pose, when it did not replace it (TrackingResult::static_check_doubt) [-].
+  double static_doubt = 0;
 };
 
 /// Outcome of KeyframeSelector::decide.
@@ -41,7 +44,9 @@ struct KeyframeDecision {
 ///  3. tracked ratio < keyframe_min_tracked_ratio (the reference is the first tracked frame, like
 ///     ORB-SLAM compares with the keyframe's tracked map points, because typically only 30-50 % of
 ///     a frame's ORB keypoints are re-detected and matched in the next one);
-///  4. frames_since_keyframe >= keyframe_max_frames.
+///  4. frames_since_keyframe >= keyframe_max_frames; postponed while static_doubt >
+///     keyframe_static_doubt, up to 2 * keyframe_max_frames (a still camera's periodic keyframe
+///     waits for a pose the static scene does not dispute).
 class KeyframeSelector {
  public:
   /// Uses the keyframe_* fields and min_inliers.

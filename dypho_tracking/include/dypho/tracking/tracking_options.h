@@ -126,6 +126,12 @@ struct TrackingOptions {
   /// A keyframe is made regardless of the rotation speed when the tracked ratio falls below this
   /// or fewer than 3 * min_inliers inliers remain [-]; default 0.3, range [0, keyframe_min_tracked_ratio].
   double keyframe_hard_tracked_ratio = 0.3;
+  /// The periodic keyframe (keyframe_max_frames) is postponed while the static check's refined
+  /// pose explains more than this share of the reference keyframe's static samples beyond the
+  /// tracked pose without having replaced it: the pose is in doubt (moving matches may be
+  /// carrying it, and a keyframe would anchor the next frames and their static checks to it).
+  /// At most keyframe_max_frames frames more [-]; default 0.02, range [0, 1]; 0 = never postponed.
+  double keyframe_static_doubt = 0.02;
   /// Fewest keypoints with valid depth needed to start (or restart) on a frame [count];
   /// default 100, range [min_inliers, 20000].
   int min_init_features = 100;

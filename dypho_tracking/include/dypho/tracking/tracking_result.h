@@ -101,6 +101,10 @@ struct TrackingResult {
   double static_agreement = -1.0;
   /// The static check replaced the feature pose: moving matches had carried it.
   bool static_check_corrected = false;
+  /// Share of the reference keyframe's static samples the static check's refined pose explains
+  /// beyond the feature pose when it did not replace it (too little gain, or the features
+  /// contradicted it); 0 when not checked, not better, or corrected [-].
+  double static_check_doubt = 0.0;
   /// Tracked in catch-up mode (TrackingOptions::catch_up_frames_waiting): frames were waiting
   /// behind this one, so a keyframe made on it had no local BA.
   bool caught_up = false;
