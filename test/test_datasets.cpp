@@ -245,6 +245,26 @@ TEST(DatasetRun, PointsSeenMovingBeforeAStillCameraAreCulled) {
   EXPECT_LT(ate_on, ate_off - 0.001);
 }
 
+// A still camera's periodic keyframe waits while the static check disputes the pose (tracking
+// option keyframe_static_doubt) on 5 people walking stop-and-go, seed 5: a person the background
+// had learnt walks on and drags the pose over frames 76-80 (static agreement 0.99 -> 0.885, the
+// refined pose 0.93: 0.044 more, under static_check_min_gain), and the periodic keyframe of frame
+// 80 anchored the next frames to the dragged pose. Waiting one frame, the check corrects it first.
+// Measured 0.31 cm with the defaults, 0.66 cm never postponing (keyframe_static_doubt: 0); the
+// test asks for at least 1.5 mm less (under half the measured gain; single runs repeat to the
+// last digit on one machine).
+TEST(DatasetRun, PeriodicKeyframeWaitsForAnUndisputedPose) {
+  const std::string data = stillCameraCrowd("stop_and_go_seed5", "--people 5 --walk stop-and-go --people-distance 0.9", 5);
+  ASSERT_FALSE(data.empty());
+  const double ate_on = ateWithConfig(data, data + "_run_defaults", "");
+  const double ate_off = ateWithConfig(data, data + "_run_never_postponed", "tracking:\n  keyframe_static_doubt: 0\n");
+  ASSERT_GE(ate_on, 0.0);
+  ASSERT_GE(ate_off, 0.0);
+  std::cout << "stop-and-go, seed 5: ATE RMSE " << ate_on * 100 << " cm with the defaults, " << ate_off * 100
+            << " cm never postponing the periodic keyframe\n";
+  EXPECT_LT(ate_on, ate_off - 0.0015);
+}
+
 TEST(DatasetRun, SyntheticDefaultInput) {
   const std::string data = std::string(DYPHO_TEST_OUT) + "/synth";
   const std::string cmd = std::string("'") + DYPHO_SYNTH + "' --out '" + data +
