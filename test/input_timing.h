@@ -16,6 +16,9 @@ namespace dypho::test {
 
 class InputTiming {
  public:
+  /// `rate`: the player's rate (rosbag play -r); the schedule is the stamps' spacing / rate.
+  explicit InputTiming(double rate = 1.0) : rate_(rate > 0.0 ? rate : 1.0) {}
+
   /// One frame: its stamp and the wall time it arrived [s]. Thread safe.
   void add(double stamp_s, double wall_s) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -23,9 +26,9 @@ class InputTiming {
       first_stamp_s_ = stamp_s;
       first_wall_s_ = wall_s;
     } else {
-      // Lag behind the schedule the stamps set from the first frame on (0 at 1x, any rate: the
-      // stamps' spacing is the camera's).
-      const double lag_s = (wall_s - first_wall_s_) - (stamp_s - first_stamp_s_);
+      // Lag behind the schedule the stamps set from the first frame on (0 when the frames arrive
+      // at the player's rate).
+      const double lag_s = (wall_s - first_wall_s_) - (stamp_s - first_stamp_s_) / rate_;
       max_lag_s_ = std::max(max_lag_s_, lag_s);
       if (lag_s > kLateS) ++late_frames_;
       max_gap_s_ = std::max(max_gap_s_, wall_s - last_wall_s_);
@@ -39,7 +42,8 @@ class InputTiming {
   std::string describe() const {
     std::lock_guard<std::mutex> lock(mutex_);
     std::ostringstream os;
-    os << "input: " << frames_ << " frames reached the test node; max lag behind their stamps' schedule "
+    os << "input: " << frames_ << " frames reached the test node; max lag behind their stamps' schedule at "
+       << rate_ << "x "
        << max_lag_s_ * 1e3 << " ms, " << late_frames_ << " frames more than " << kLateS * 1e3
        << " ms late, longest gap between frames " << max_gap_s_ * 1e3 << " ms";
     return os.str();
@@ -47,6 +51,7 @@ class InputTiming {
 
  private:
   static constexpr double kLateS = 0.1;
+  double rate_ = 1.0;
   mutable std::mutex mutex_;
   std::size_t frames_ = 0, late_frames_ = 0;
   double first_stamp_s_ = 0.0, first_wall_s_ = 0.0, last_wall_s_ = 0.0;

@@ -97,6 +97,10 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   double background_tau = 0.0, min_posed_fraction = 0.99;
   pnh.getParam("background_tau", background_tau);
   pnh.getParam("min_posed_fraction", min_posed_fraction);
+  std::string bag;
+  double rate = 1.0;
+  ASSERT_TRUE(pnh.getParam("bag", bag));
+  pnh.getParam("rate", rate);  // the player's -r
   Recorder rec;
 
   auto mask_sub = nh.subscribe<sensor_msgs::Image>("/dypho/mask", 50, [&](const sensor_msgs::ImageConstPtr& m) {
@@ -135,7 +139,7 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     std::lock_guard<std::mutex> lock(rec.mutex);
     rec.last_mask_status = *m;
   });
-  dypho::test::InputTiming input_timing;  // camera_info is small: its arrival times cost nothing
+  dypho::test::InputTiming input_timing(rate);  // camera_info is small: its arrival times cost nothing
   auto info_sub = nh.subscribe<sensor_msgs::CameraInfo>("/camera/rgb/camera_info", 200, [&](const sensor_msgs::CameraInfoConstPtr& i) {
     input_timing.add(i->header.stamp.toSec(), ros::WallTime::now().toSec());
   });
@@ -145,7 +149,7 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
   // The player starts paused and plays once all three nodelets are up (player_start.h).
-  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}));
+  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
   // Wait until the bag has played: all frames seen, or no new pose for 8 s after the first.
   const ros::WallTime start = ros::WallTime::now();
   while ((ros::WallTime::now() - start).toSec() < 120.0) {

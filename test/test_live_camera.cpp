@@ -21,6 +21,7 @@
 
 #include "dypho/common/trajectory_io.h"
 #include "dypho/tools/evaluation.h"
+#include "input_timing.h"
 #include "player_start.h"
 
 namespace {
@@ -58,6 +59,9 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   ASSERT_TRUE(pnh.getParam("depth_encoding", depth_encoding));
   ASSERT_TRUE(pnh.getParam("min_posed_fraction", min_posed_fraction));
   ASSERT_TRUE(pnh.getParam("max_ate_m", max_ate_m));
+  std::string bag;
+  ASSERT_TRUE(pnh.getParam("bag", bag));
+  dypho::test::InputTiming input_timing;  // played at 1x
   ASSERT_GT(frames, 30);
   Recorder rec;
 
@@ -65,6 +69,7 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
     std::lock_guard<std::mutex> lock(rec.mutex);
     rec.rgb_stamps_s.push_back(m->header.stamp.toSec());
     rec.rgb_wall_s.push_back(ros::WallTime::now().toSec());
+    input_timing.add(m->header.stamp.toSec(), rec.rgb_wall_s.back());
     rec.rgb_encodings.insert(m->encoding);
     rec.last_input = ros::WallTime::now();
   });
@@ -99,7 +104,7 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   ros::AsyncSpinner spinner(2);
   spinner.start();
   // The player starts paused and plays once the three nodelets are up (player_start.h).
-  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}));
+  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
   // Wait for the bag: all frames seen, or no input for 3 s after the first; then for the graph to
   // drain (no status or pose for 3 s). Bounded by the wall time the bag needs plus 25 s.
   const ros::WallTime start = ros::WallTime::now();
@@ -173,7 +178,8 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
             << " ms; tracking p50 " << st.tracking_p50_ms << " ms, p95 " << st.tracking_p95_ms << " ms\n"
             << "live test: mask counters: " << ms.frames_in << " in, " << ms.frames << " masked, "
             << ms.frames_dropped_busy << " skipped (newer frames waiting); latency p50 " << ms.latency_p50_ms
-            << " ms, p95 " << ms.latency_p95_ms << " ms\n";
+            << " ms, p95 " << ms.latency_p95_ms << " ms\n"
+            << "live test " << input_timing.describe() << "\n";
   // Bound 99 % (min_posed_fraction in live_camera.test), the live path's goal: tracking pairs each
   // frame with its mask within a bounded wait and keeps up to 16 waiting frames, so at 1x on 2
   // cores every frame is answered (150 of 150 for both layouts on the 2-core VM). Frames missing
