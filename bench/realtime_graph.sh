@@ -49,7 +49,7 @@ print(next((t["messages"] for t in topics if t["topic"] == "/camera/rgb/image_co
 [[ "$frames_in" -gt 0 ]] || { echo "realtime_graph.sh: no /camera/rgb/image_color in $bag" >&2; exit 2; }
 
 # The bag is read once first, as the rostests do (test/player_start.h): a machine that paged the
-# file out (this project's VMs page out files idle for about a minute) would otherwise make the
+# file out (the project's development VM pages out files idle for a minute) would otherwise make the
 # player read it from disk while the graph pages its own code in, and the frames come late and in
 # bursts; the benchmark measures the graph, not the disk.
 cat "$bag" > /dev/null

@@ -7,9 +7,9 @@
 ///
 /// The bag itself is read once before the player resumes: the test is about the graph at the
 /// camera's rate, and a camera does not read a disk. A machine that paged the file out since it
-/// was written (this project's CI VMs page out files idle for about a minute) made the player read
-/// it from disk while the nodelets paged their own code in: measured after five minutes of other
-/// work, frames reached the graph up to 0.5 s late and in a burst.
+/// was written (the project's development VM pages out files idle for a minute) made the player
+/// read it from disk while the nodelets paged their own code in: measured after five minutes of
+/// other work, frames reached the graph up to 0.5 s late and in a burst.
 
 #include <fstream>
 #include <string>
