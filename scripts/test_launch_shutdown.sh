@@ -19,10 +19,12 @@ out="$(realpath -m "$out")"
 rm -rf "$out"
 mkdir -p "$out"
 failures=0
+# Read once, as the rostests do (test/player_start.h): the player then reads it from memory.
+cat "$bag" > /dev/null
 
 start_delay=3.0  # tum_bag.launch start_delay: the player waits this long before it plays
 
-run_case() {  # NAME PLAYED_S (Ctrl-C after the bag has played this long; 0 = let the bag end)
+run_case() {  # NAME PLAYED_S (Ctrl-C this long after the first tracked frame; 0 = let the bag end)
   local name="$1" interrupt_after="$2"
   # The output folder does not exist yet: the nodelets create it.
   local dir="$out/$name/run" log="$out/$name.log"
@@ -32,15 +34,17 @@ run_case() {  # NAME PLAYED_S (Ctrl-C after the bag has played this long; 0 = le
     start_delay:="$start_delay" > "$log" 2>&1 &
   local pid=$!
   if [[ "$interrupt_after" != 0 ]]; then
-    # Counted from the player's start, not roslaunch's: starting the master and loading the
-    # nodelets takes 1-4 s on a loaded 2-core machine, and a fixed delay from roslaunch's start
-    # left as little as half a second of play (17 frames).
-    local waited_for_player=0
-    while ! pgrep -P "$pid" -f "rosbag/play" > /dev/null && ((waited_for_player < 600)); do
-      sleep 0.1
-      waited_for_player=$((waited_for_player + 1))
+    # Counted from the first tracked frame, not from roslaunch's or the player's start: starting
+    # the master and loading the nodelets takes 1-4 s on a loaded 2-core machine, and a player
+    # whose libraries the machine had paged out was still in its start delay 4.5 s after its
+    # process started (no frame played: trajectory.txt empty).
+    local waited_for_frame=0
+    until ROS_MASTER_URI="http://localhost:$port" timeout 5 rostopic echo -n 1 --noarr /dypho/tracking_status \
+        > /dev/null 2>&1 || ((waited_for_frame >= 60)) || ! kill -0 "$pid" 2>/dev/null; do
+      sleep 1
+      waited_for_frame=$((waited_for_frame + 1))
     done
-    sleep "$(python3 -c "print($start_delay + $interrupt_after)")"
+    sleep "$interrupt_after"
     kill -INT "$pid" 2>/dev/null
   fi
   local waited=0
@@ -78,6 +82,6 @@ run_case() {  # NAME PLAYED_S (Ctrl-C after the bag has played this long; 0 = le
   fi
 }
 
-run_case ctrl_c_while_playing 1.5  # the synthetic bag plays 4 s: Ctrl-C in its middle
+run_case ctrl_c_while_playing 1.5  # the synthetic bag plays 4 s: Ctrl-C in its middle (1.5 s after its first tracked frame)
 run_case bag_ended 0
 exit $((failures > 0 ? 1 : 0))
