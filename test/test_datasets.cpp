@@ -158,6 +158,9 @@ TEST_P(HardCase, FlowMaskOnlyStaysOnTheStaticRoom) {
 INSTANTIATE_TEST_SUITE_P(StaticCamera, HardCase,
                          ::testing::Values(HardCaseSpec{"stop_and_go", "--people 5 --walk stop-and-go --people-distance 0.9"},  // 34 / 54 %
                                            HardCaseSpec{"group", "--people 4 --walk group"},                  // 6 / 36 %
+                                           // 22 / 39 %; 0.56 cm (frame 1 6.7 cm off) while the static check
+                                           // judged the frame after the start by the dragged pose's own turn
+                                           HardCaseSpec{"group_seed9", "--people 4 --walk group", 9},
                                            HardCaseSpec{"towards", "--people 4 --walk towards"},              // 39 / 55 %
                                            HardCaseSpec{"crossing6_seed2", "--people 6 --people-distance 0.9", 2},   // 31 / 55 %
                                            // 41 / 65 %; 0.65 cm with object permanence (permanence_frames: 30)

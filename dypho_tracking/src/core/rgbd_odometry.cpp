@@ -32,6 +32,27 @@ bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
   return mask.empty() || cv::countNonZero(mask) == 0;
 }
 
+/// How far the camera turned between the reference keyframe and this frame, judged by the image
+/// alone [deg]: the median displacement of the matches from where the reference keyframe saw
+/// their points, as an angle. Independent of the tracked pose, which moving matches may carry;
+/// -1 without matches.
+double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoints& reference_points,
+                    const FrameFeatures& features, const Pinhole& pinhole,
+                    const Eigen::Isometry3d& T_world_reference) {
+  const Eigen::Isometry3d T_reference_world = T_world_reference.inverse();
+  std::vector<double> displacement_px;
+  displacement_px.reserve(matches.size());
+  for (const FeatureMatch& m : matches) {
+    const Eigen::Vector3d p_reference = T_reference_world * reference_points.p_world_m[static_cast<std::size_t>(m.reference_index)];
+    if (p_reference.z() < 1e-3) continue;
+    displacement_px.push_back((pinhole.project(p_reference) - features.uv_undistorted_px[static_cast<std::size_t>(m.frame_index)]).norm());
+  }
+  if (displacement_px.empty()) return -1.0;
+  auto median = displacement_px.begin() + static_cast<std::ptrdiff_t>(displacement_px.size() / 2);
+  std::nth_element(displacement_px.begin(), median, displacement_px.end());
+  return std::atan(*median / pinhole.fx) * 180.0 / M_PI;
+}
+
 StaticSceneCheckSettings staticCheckSettings(const TrackingOptions& o) {
   StaticSceneCheckSettings s;
   s.scale = o.static_check_scale;
@@ -406,10 +427,18 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   } else {
     aligned.message = explainFewFeatures(frame, orb, features);
   }
-  // The photometric comparison needs sharp images: no motion blur or rolling-shutter skew.
-  const bool slow = motion_.hasVelocity() &&
-                    Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI <
-                        options_.static_check_max_frame_rotation_deg;
+  // The photometric comparison needs sharp images: no motion blur or rolling-shutter skew. The
+  // camera's turn per frame is the motion model's last step. Without one (the frame after a start
+  // or a relocalisation) it is judged by the image: the tracked pose's own turn would let moving
+  // matches that carry the pose also switch the check off.
+  double turn_deg = -1.0;
+  if (motion_.hasVelocity()) {
+    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI;
+  } else if (aligned.success && map_.keyframe(reference_id_) != nullptr) {
+    turn_deg = imageTurnDeg(aligned.matches, aligned.matches_refer_to_fallback ? own_view_ : local_view_, features,
+                            pinhole, map_.keyframe(reference_id_)->T_world_camera);
+  }
+  const bool slow = turn_deg >= 0.0 && turn_deg < options_.static_check_max_frame_rotation_deg;
   if (aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
     const auto t_check = Clock::now();
     checkAgainstStaticScene(frame, mask, features, pinhole, &aligned, &result);
