@@ -192,6 +192,24 @@ double ateWithConfig(const std::string& data, const std::string& out, const std:
 /// The mask before object permanence and without the flow veto's still-camera exception.
 constexpr const char* kMaskBeforePermanence = "mask:\n  permanence_frames: 0\n  veto_flow_while_still: true\n";
 
+/// One option's effect on `data`: runs it with `with.config` and with `without.config` (config
+/// YAML, "" = the defaults), each into the run folder data + "_run_" + its name, prints both ATE
+/// RMSEs after `label`, and expects the first at least `min_gain_m` lower.
+struct RunVariant {
+  const char* name;         ///< run folder suffix and what the printed line calls it
+  std::string config;       ///< config YAML ("" = the defaults)
+};
+void expectLowerAte(const std::string& data, const std::string& label, const RunVariant& with,
+                    const RunVariant& without, double min_gain_m) {
+  const double ate_with = ateWithConfig(data, data + "_run_" + with.name, with.config);
+  const double ate_without = ateWithConfig(data, data + "_run_" + without.name, without.config);
+  ASSERT_GE(ate_with, 0.0) << with.name;
+  ASSERT_GE(ate_without, 0.0) << without.name;
+  std::cout << label << ": ATE RMSE " << ate_with * 100 << " cm (" << with.name << "), " << ate_without * 100
+            << " cm (" << without.name << ")\n";
+  EXPECT_LT(ate_with, ate_without - min_gain_m);
+}
+
 }  // namespace
 
 // The static check's other starts (tracking option static_check_other_starts) on the case where
@@ -203,14 +221,9 @@ constexpr const char* kMaskBeforePermanence = "mask:\n  permanence_frames: 0\n  
 TEST(DatasetRun, StaticCheckStartingFromTheLastPoseHelpsInACrowd) {
   const std::string data = crossing8Seed2();
   ASSERT_FALSE(data.empty());
-  const double ate_on = ateWithConfig(data, data + "_run_other_starts", kMaskBeforePermanence);
-  const double ate_off = ateWithConfig(data, data + "_run_feature_start_only",
-                                       std::string(kMaskBeforePermanence) + "tracking:\n  static_check_other_starts: false\n");
-  ASSERT_GE(ate_on, 0.0);
-  ASSERT_GE(ate_off, 0.0);
-  std::cout << "8 crossing, seed 2: ATE RMSE " << ate_on * 100 << " cm with the other starts, " << ate_off * 100
-            << " cm from the feature pose only\n";
-  EXPECT_LT(ate_on, ate_off - 0.001);
+  expectLowerAte(data, "8 crossing, seed 2", {"other_starts", kMaskBeforePermanence},
+                 {"feature_start_only", std::string(kMaskBeforePermanence) + "tracking:\n  static_check_other_starts: false\n"},
+                 0.001);
 }
 
 // No flow veto while the camera is still (mask option veto_flow_while_still) on 8 people
@@ -222,13 +235,7 @@ TEST(DatasetRun, StaticCheckStartingFromTheLastPoseHelpsInACrowd) {
 TEST(DatasetRun, StillCameraMaskKeepsThePeopleTheBackgroundLearnt) {
   const std::string data = crossing8Seed2();
   ASSERT_FALSE(data.empty());
-  const double ate_on = ateWithConfig(data, data + "_run_defaults", "");
-  const double ate_off = ateWithConfig(data, data + "_run_mask_before", kMaskBeforePermanence);
-  ASSERT_GE(ate_on, 0.0);
-  ASSERT_GE(ate_off, 0.0);
-  std::cout << "8 crossing, seed 2: ATE RMSE " << ate_on * 100 << " cm with the defaults, " << ate_off * 100
-            << " cm with the flow veto while still\n";
-  EXPECT_LT(ate_on, ate_off - 0.003);
+  expectLowerAte(data, "8 crossing, seed 2", {"defaults", ""}, {"mask_before", kMaskBeforePermanence}, 0.003);
 }
 
 // Map points seen moving while the camera is still (tracking options moving_point_min_hits: 2,
@@ -239,13 +246,8 @@ TEST(DatasetRun, StillCameraMaskKeepsThePeopleTheBackgroundLearnt) {
 TEST(DatasetRun, PointsSeenMovingBeforeAStillCameraAreCulled) {
   const std::string data = stillCameraCrowd("stop_and_go_seed2", "--people 5 --walk stop-and-go --people-distance 0.9", 2);
   ASSERT_FALSE(data.empty());
-  const double ate_on = ateWithConfig(data, data + "_run_defaults", "");
-  const double ate_off = ateWithConfig(data, data + "_run_no_moving_points", "tracking:\n  moving_point_min_hits: 0\n");
-  ASSERT_GE(ate_on, 0.0);
-  ASSERT_GE(ate_off, 0.0);
-  std::cout << "stop-and-go, seed 2: ATE RMSE " << ate_on * 100 << " cm with the defaults, " << ate_off * 100
-            << " cm without the moving-point test\n";
-  EXPECT_LT(ate_on, ate_off - 0.001);
+  expectLowerAte(data, "stop-and-go, seed 2", {"defaults", ""},
+                 {"no_moving_points", "tracking:\n  moving_point_min_hits: 0\n"}, 0.001);
 }
 
 // A still camera's periodic keyframe waits while the static check disputes the pose (tracking
@@ -259,13 +261,8 @@ TEST(DatasetRun, PointsSeenMovingBeforeAStillCameraAreCulled) {
 TEST(DatasetRun, PeriodicKeyframeWaitsForAnUndisputedPose) {
   const std::string data = stillCameraCrowd("stop_and_go_seed5", "--people 5 --walk stop-and-go --people-distance 0.9", 5);
   ASSERT_FALSE(data.empty());
-  const double ate_on = ateWithConfig(data, data + "_run_defaults", "");
-  const double ate_off = ateWithConfig(data, data + "_run_never_postponed", "tracking:\n  keyframe_static_doubt: 0\n");
-  ASSERT_GE(ate_on, 0.0);
-  ASSERT_GE(ate_off, 0.0);
-  std::cout << "stop-and-go, seed 5: ATE RMSE " << ate_on * 100 << " cm with the defaults, " << ate_off * 100
-            << " cm never postponing the periodic keyframe\n";
-  EXPECT_LT(ate_on, ate_off - 0.0015);
+  expectLowerAte(data, "stop-and-go, seed 5", {"defaults", ""},
+                 {"never_postponed", "tracking:\n  keyframe_static_doubt: 0\n"}, 0.0015);
 }
 
 TEST(DatasetRun, SyntheticDefaultInput) {
