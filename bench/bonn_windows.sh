@@ -6,7 +6,7 @@
 # Offline runner, --no-map. Prints the ATE RMSE of every run and the mean and max per setting.
 #
 # Usage: bench/bonn_windows.sh [--config YAML] [--features "900 1000 1100"] [--jobs N]
-#                              [--shifts "0 0.033 0.066 0.1"] DATASET OUT
+#                              [--shifts "0 0.033 0.066 0.1"] [--reversed] DATASET OUT
 #   DATASET   a Bonn folder in TUM layout (its name must contain "bonn": the marker-to-camera
 #             correction of the ground truth is chosen by the name)
 #   --config  YAML passed to dypho_run_dataset (e.g. `mask: {yolo_model_path: ...}`); the
@@ -15,11 +15,14 @@
 #             "0:120 20:140 40:160 60:180 80:200" plus the whole sequence
 #   --shifts  also evaluate every run with its stamps shifted by these seconds (the ground
 #             truth's timing: see docs/benchmarks.md section 8)
+#   --reversed  also the whole sequence played backwards (every stamp t of rgb.txt, depth.txt
+#             and groundtruth.txt becomes first + last - t; the images are the same): real frames
+#             that start with the people already in view and end in the empty room
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BIN="${BUILD:-$ROOT/build}/devel/lib/dypho_slam"
-CONFIG=""; FEATURES="900 1000 1100"; JOBS=2; SHIFTS=""
+CONFIG=""; FEATURES="900 1000 1100"; JOBS=2; SHIFTS=""; REVERSED=0
 WINDOWS="0:120 20:140 40:160 60:180 80:200"
 while [ $# -gt 2 ]; do
   case "$1" in
@@ -28,10 +31,11 @@ while [ $# -gt 2 ]; do
     --jobs) JOBS="$2"; shift 2;;
     --windows) WINDOWS="$2"; shift 2;;
     --shifts) SHIFTS="$2"; shift 2;;
+    --reversed) REVERSED=1; shift;;
     *) echo "bonn_windows: unknown option $1" >&2; exit 2;;
   esac
 done
-if [ $# -ne 2 ]; then sed -n 2,19p "$0" >&2; exit 2; fi
+if [ $# -ne 2 ]; then sed -n 2,22p "$0" >&2; exit 2; fi
 DATA="$(cd "$1" && pwd)"; OUT="$2"
 for tool in dypho_run_dataset dypho_evaluate; do
   if [ ! -x "$BIN/$tool" ]; then echo "bonn_windows: $BIN/$tool missing: build first (scripts/build.sh)" >&2; exit 1; fi
@@ -57,6 +61,19 @@ for w in $WINDOWS; do
   { grep '^#' "$DATA/rgb.txt"; grep -v '^#' "$DATA/rgb.txt" | sed -n "$((first + 1)),${last}p"; } > "$d/rgb.txt"
   datasets+=("$d")
 done
+if [ "$REVERSED" = 1 ]; then
+  d="$OUT/data/rgbd_bonn_reversed"
+  mkdir -p "$d"
+  ln -sfn "$DATA/rgb" "$d/rgb"; ln -sfn "$DATA/depth" "$d/depth"
+  first=$(grep -v '^#' "$DATA/rgb.txt" | head -1 | awk '{print $1}')
+  last=$(grep -v '^#' "$DATA/rgb.txt" | tail -1 | awk '{print $1}')
+  for f in rgb.txt depth.txt groundtruth.txt; do
+    { grep '^#' "$DATA/$f"
+      grep -v '^#' "$DATA/$f" | awk -v s="$first" -v e="$last" '{$1 = sprintf("%.6f", s + e - $1); print}' | sort -n
+    } > "$d/$f"
+  done
+  datasets+=("$d")
+fi
 
 # One config per feature count: the given config with tracking.num_features set.
 for n in $FEATURES; do
@@ -71,11 +88,11 @@ done
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 echo "config: ${CONFIG:-defaults}; feature counts: $FEATURES; windows: $WINDOWS + whole"
-runs=()
+runs=(); run_data=()
 for n in $FEATURES; do
   for d in "${datasets[@]}"; do
     out="$OUT/run/f${n}_$(basename "$d")"
-    runs+=("$out")
+    runs+=("$out"); run_data+=("$d")
     rm -rf "$out"
     "$BIN/dypho_run_dataset" --dataset "$d" --out "$out" --quiet --no-map \
       --config "$OUT/config/features_$n.yaml" > "$out.log" 2>&1 &
@@ -84,18 +101,19 @@ for n in $FEATURES; do
 done
 wait
 
-ate() {  # ATE RMSE [cm] of trajectory $1 with its stamps shifted by $2 s
+ate() {  # ATE RMSE [cm] of trajectory $1 with its stamps shifted by $2 s, against ground truth $3
   local shifted="$1.shift"
   awk -v d="$2" '/^#/ {next} {$1 = sprintf("%.6f", $1 + d); print}' "$1" > "$shifted"
-  "$BIN/dypho_evaluate" --estimate "$shifted" --groundtruth "$DATA/groundtruth.txt" --bonn-correction |
-    grep -A1 '^ATE' | tail -1 | awk '{print $2}'
+  "$BIN/dypho_evaluate" --estimate "$shifted" --groundtruth "$3" --bonn-correction |
+    grep -A1 '^ATE (rigid' | tail -1 | awk '{print $2}'
   rm -f "$shifted"
 }
 printf "%-44s %s\n" "run" "ATE RMSE [cm] at stamp shift 0${SHIFTS:+ / $SHIFTS s}"
-for out in "${runs[@]}"; do
+for i in "${!runs[@]}"; do
+  out="${runs[$i]}"
   if [ ! -f "$out/trajectory.txt" ]; then printf "%-44s failed (see %s.log)\n" "$(basename "$out")" "$out"; continue; fi
   line=""
-  for s in 0 $SHIFTS; do line="$line $(ate "$out/trajectory.txt" "$s")"; done
+  for s in 0 $SHIFTS; do line="$line $(ate "$out/trajectory.txt" "$s" "${run_data[$i]}/groundtruth.txt")"; done
   printf "%-44s%s\n" "$(basename "$out")" "$line"
 done | tee "$OUT/ate.txt"
 # Mean (and max) over the runs, per stamp shift.
