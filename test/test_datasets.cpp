@@ -191,6 +191,10 @@ double ateWithConfig(const std::string& data, const std::string& out, const std:
 
 /// The mask before object permanence and without the flow veto's still-camera exception.
 constexpr const char* kMaskBeforePermanence = "mask:\n  permanence_frames: 0\n  veto_flow_while_still: true\n";
+/// Probation of new map points off (tracking option point_probation_frames): the comparisons of
+/// the mechanisms that came before it run without it, because on their case probation alone
+/// keeps the moving group from carrying the pose (both variants of each then give 0.53 cm).
+constexpr const char* kNoProbation = "  point_probation_frames: 0\n";
 
 /// One option's effect on `data`: runs it with `with.config` and with `without.config` (config
 /// YAML, "" = the defaults), each into the run folder data + "_run_" + its name, prints both ATE
@@ -221,8 +225,9 @@ void expectLowerAte(const std::string& data, const std::string& label, const Run
 TEST(DatasetRun, StaticCheckStartingFromTheLastPoseHelpsInACrowd) {
   const std::string data = crossing8Seed2();
   ASSERT_FALSE(data.empty());
-  expectLowerAte(data, "8 crossing, seed 2", {"other_starts", kMaskBeforePermanence},
-                 {"feature_start_only", std::string(kMaskBeforePermanence) + "tracking:\n  static_check_other_starts: false\n"},
+  const std::string mask_before = kMaskBeforePermanence;
+  expectLowerAte(data, "8 crossing, seed 2, no probation", {"other_starts", mask_before + "tracking:\n" + kNoProbation},
+                 {"feature_start_only", mask_before + "tracking:\n  static_check_other_starts: false\n" + kNoProbation},
                  0.001);
 }
 
@@ -235,7 +240,23 @@ TEST(DatasetRun, StaticCheckStartingFromTheLastPoseHelpsInACrowd) {
 TEST(DatasetRun, StillCameraMaskKeepsThePeopleTheBackgroundLearnt) {
   const std::string data = crossing8Seed2();
   ASSERT_FALSE(data.empty());
-  expectLowerAte(data, "8 crossing, seed 2", {"defaults", ""}, {"mask_before", kMaskBeforePermanence}, 0.003);
+  const std::string no_probation = std::string("tracking:\n") + kNoProbation;
+  expectLowerAte(data, "8 crossing, seed 2, no probation", {"no_probation", no_probation},
+                 {"mask_before_no_probation", kMaskBeforePermanence + no_probation}, 0.003);
+}
+
+// Probation of new map points (tracking option point_probation_frames) on the same case with the
+// mask before the still-camera changes (kMaskBeforePermanence), which misses two people on frames
+// 37-52: while they drag the pose the camera seems to move, the points their keyframes gave them
+// are still unverified, and the verified points' pose refutes them. Measured 0.53 cm with
+// probation, 1.10 cm without; the test asks for at least 3 mm less (about half the gain; single
+// runs repeat to the last digit on one machine).
+TEST(DatasetRun, ProbationKeepsFreshPointsOfMissedPeopleFromCarryingThePose) {
+  const std::string data = crossing8Seed2();
+  ASSERT_FALSE(data.empty());
+  const std::string mask_before = kMaskBeforePermanence;
+  expectLowerAte(data, "8 crossing, seed 2, mask before", {"mask_before_probation", mask_before},
+                 {"mask_before_no_probation", mask_before + "tracking:\n" + kNoProbation}, 0.003);
 }
 
 // Map points seen moving while the camera is still (tracking options moving_point_min_hits: 2,

@@ -158,6 +158,49 @@ TEST(TrackerMap, RemovesUnverifiedPointsOfTheFirstKeyframeOnly) {
   EXPECT_NE(map.point(first[0]), nullptr);     // never seen on a dynamic surface
 }
 
+TEST(TrackerMap, ProbationVerifiesAgreeingPointsAndRemovesRefutedOnes) {
+  TrackingOptions o;
+  o.point_probation_frames = 3;
+  o.point_probation_max_refuted = 2;
+  TrackerMap map(o);
+  const auto ids = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(4, -1)));
+  // New points are on probation, and the local view says so.
+  KeyframePoints view = map.localPoints(0);
+  ASSERT_EQ(view.verified.size(), 4u);
+  for (std::uint8_t v : view.verified) EXPECT_EQ(v, 0);
+  EXPECT_FALSE(map.isVerified(ids[0]));
+  // ids[0] agrees on three frames: verified. ids[1] agrees twice: not yet.
+  for (int frame = 0; frame < 3; ++frame) {
+    std::vector<std::int64_t> confirmed{ids[0]};
+    if (frame < 2) confirmed.push_back(ids[1]);
+    EXPECT_TRUE(map.updateProbation(confirmed, {}).empty());
+  }
+  EXPECT_TRUE(map.isVerified(ids[0]));
+  EXPECT_FALSE(map.isVerified(ids[1]));
+  view = map.localPoints(0);
+  for (size_t i = 0; i < view.size(); ++i) {
+    EXPECT_EQ(view.verified[i], view.map_point_ids[i] == ids[0] ? 1 : 0) << "point " << view.map_point_ids[i];
+  }
+  // One disagreement removes nothing; the second removes the unverified points, never a verified one.
+  EXPECT_TRUE(map.updateProbation({}, {ids[0], ids[1], ids[2]}).empty());
+  const auto removed = map.updateProbation({}, {ids[0], ids[1], ids[2]});
+  EXPECT_EQ(std::set<std::int64_t>(removed.begin(), removed.end()), (std::set<std::int64_t>{ids[1], ids[2]}));
+  EXPECT_NE(map.point(ids[0]), nullptr);
+  EXPECT_EQ(map.point(ids[1]), nullptr);
+  EXPECT_NE(map.point(ids[3]), nullptr);
+  EXPECT_EQ(map.keyframe(0)->map_point_ids[1], -1);  // the keyframe no longer observes it
+}
+
+TEST(TrackerMap, ProbationOffEveryPointCarriesThePose) {
+  TrackingOptions o;
+  o.point_probation_frames = 0;
+  TrackerMap map(o);
+  const auto ids = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));
+  EXPECT_TRUE(map.localPoints(0).verified.empty());
+  EXPECT_TRUE(map.isVerified(ids[0]));
+  EXPECT_TRUE(map.updateProbation({}, {ids[0], ids[0], ids[0]}).empty());
+}
+
 TEST(TrackerMap, MergeAndPoseCorrection) {
   TrackerMap map{TrackingOptions()};
   const auto a = map.addKeyframe(makeKf(0, std::vector<std::int64_t>(3, -1)));

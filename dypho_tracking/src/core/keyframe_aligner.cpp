@@ -65,7 +65,8 @@ KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
 
 bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame,
                              const Pinhole& pinhole, const std::vector<FeatureMatch>& matches,
-                             const Eigen::Isometry3d& T_init, AlignmentResult* result) const {
+                             const Eigen::Isometry3d& T_init, bool use_verified_first,
+                             AlignmentResult* result) const {
   std::vector<PoseObservation> observations;
   observations.reserve(matches.size());
   for (const FeatureMatch& m : matches) {
@@ -76,7 +77,52 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
     o.depth_m = frame.depth_m[static_cast<size_t>(m.frame_index)];
     observations.push_back(o);
   }
-  const PoseOptimizerResult opt = optimizer_.optimize(observations, pinhole, T_init);
+  // Probation: the verified points estimate the pose first; an unverified match that disagrees
+  // with it takes no part (a verdict against its point), the others join the final estimate.
+  const bool probation = !reference.verified.empty();
+  std::vector<std::int8_t> verdict(probation ? matches.size() : 0, 0);
+  std::vector<std::size_t> taking_part;  // indices into matches / observations
+  bool verified_first = false;
+  Eigen::Isometry3d T_start = T_init;
+  if (probation) {
+    std::vector<PoseObservation> verified;
+    for (std::size_t m = 0; m < matches.size(); ++m) {
+      if (reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0) verified.push_back(observations[m]);
+    }
+    if (use_verified_first && static_cast<int>(verified.size()) >= options_.point_probation_min_verified) {
+      const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init);
+      if (first.success && first.num_inliers >= options_.min_inliers) {
+        verified_first = true;
+        T_start = first.T_camera_world;
+        for (std::size_t m = 0; m < matches.size(); ++m) {
+          const bool is_verified = reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0;
+          if (is_verified || optimizer_.agrees(observations[m], pinhole, first.T_camera_world)) {
+            taking_part.push_back(m);
+          } else {
+            verdict[m] = -1;
+          }
+        }
+      }
+    }
+  }
+  std::vector<PoseObservation> used;
+  if (verified_first) {
+    used.reserve(taking_part.size());
+    for (std::size_t m : taking_part) used.push_back(observations[m]);
+  }
+  PoseOptimizerResult opt = optimizer_.optimize(verified_first ? used : observations, pinhole, T_start);
+  if (verified_first && opt.success) {
+    // Back to one entry per match: the matches that took no part are outliers.
+    std::vector<bool> inliers(matches.size(), false);
+    for (std::size_t k = 0; k < taking_part.size(); ++k) inliers[taking_part[k]] = opt.inliers[k];
+    opt.inliers = std::move(inliers);
+  }
+  if (probation && opt.success) {
+    for (std::size_t m = 0; m < matches.size(); ++m) {
+      const bool is_verified = reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0;
+      if (!is_verified && opt.inliers[m]) verdict[m] = 1;
+    }
+  }
   if (!opt.success || opt.num_inliers < options_.min_inliers) {
     result->message = "pose refinement kept " + std::to_string(opt.num_inliers) + " of " +
                       std::to_string(matches.size()) + " matches (need " +
@@ -88,6 +134,8 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   result->matches = matches;
   result->inliers = opt.inliers;
   result->num_inliers = opt.num_inliers;
+  result->probation = std::move(verdict);
+  result->verified_first = verified_first;
   result->success = true;
   result->message.clear();
   return true;
@@ -97,7 +145,8 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
                                        const Pinhole& pinhole,
                                        const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times,
-                                       const KeyframePoints* brute_force_reference) const {
+                                       const KeyframePoints* brute_force_reference,
+                                       bool use_verified_first) const {
   const KeyframePoints& global_ref =
       brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
@@ -113,7 +162,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   bool ok = false;
   if (static_cast<int>(guided.size()) >= options_.min_inliers) {
     t0 = Clock::now();
-    ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, &result);
+    ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, &result);
     t.refine += msSince(t0);
   }
 
@@ -143,7 +192,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     result.used_pnp = true;
     result.matches_refer_to_fallback = brute_force_reference != nullptr;
     t0 = Clock::now();
-    ok = refine(global_ref, frame, pinhole, global, T_pnp, &result);
+    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, &result);
     t.refine += msSince(t0);
     if (!ok) return result;
   }
@@ -156,7 +205,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   if (static_cast<int>(tight.size()) >= options_.min_inliers) {
     AlignmentResult second = result;
     t0 = Clock::now();
-    if (refine(reference, frame, pinhole, tight, result.T_camera_world, &second) &&
+    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, &second) &&
         second.num_inliers >= result.num_inliers / 2) {
       second.used_pnp = result.used_pnp;
       second.matches_refer_to_fallback = false;

@@ -24,6 +24,30 @@ PoseOptimizer::PoseOptimizer(const TrackingOptions& options) : options_(options)
   }
 }
 
+double PoseOptimizer::sigma(int level) const {
+  if (level >= 0 && level < static_cast<int>(level_sigma_.size())) return level_sigma_[static_cast<size_t>(level)];
+  return std::pow(options_.scale_factor, std::max(0, level));
+}
+
+bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole,
+                           const Eigen::Isometry3d& T_camera_world) const {
+  return agreesInCamera(o, T_camera_world * o.p_world_m, pinhole);
+}
+
+bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole) const {
+  if (!(p_c.z() > 1e-6)) return false;
+  const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
+  double chi2 = e.squaredNorm();
+  const double bf = options_.depth_baseline_m * pinhole.fx;
+  const bool with_depth = bf > 0.0 && o.depth_m > 0.0;
+  if (with_depth) {
+    const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
+    chi2 += e_right * e_right;
+  }
+  chi2 /= sigma(o.level) * sigma(o.level);
+  return chi2 < (with_depth ? options_.chi2_threshold_depth : options_.chi2_threshold);
+}
+
 PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations,
                                             const Pinhole& pinhole,
                                             const Eigen::Isometry3d& T_camera_world_init) const {
@@ -39,36 +63,19 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
     result.message = "initial pose is not finite";
     return result;
   }
-  const auto sigma = [&](int level) {
-    if (level >= 0 && level < static_cast<int>(level_sigma_.size())) {
-      return level_sigma_[static_cast<size_t>(level)];
-    }
-    return std::pow(options_.scale_factor, std::max(0, level));
-  };
-  const double bf = options_.depth_baseline_m * pinhole.fx;
-  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
   // Classifies every observation at the current pose; returns the number of inliers.
   const auto classify = [&](bool accept_all_in_front) {
     int count = 0;
     for (size_t i = 0; i < n; ++i) {
-      const PoseObservation& o = observations[i];
-      const Eigen::Vector3d p_c = q_cw * o.p_world_m + t_cw;
-      bool inlier = p_c.z() > 1e-6;
-      if (inlier && !accept_all_in_front) {
-        const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
-        double chi2 = e.squaredNorm();
-        if (has_depth(o)) {
-          const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
-          chi2 += e_right * e_right;
-        }
-        chi2 /= sigma(o.level) * sigma(o.level);
-        inlier = chi2 < (has_depth(o) ? options_.chi2_threshold_depth : options_.chi2_threshold);
-      }
+      const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+      const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
       result.inliers[i] = inlier;
       count += inlier ? 1 : 0;
     }
     return count;
   };
+  const double bf = options_.depth_baseline_m * pinhole.fx;
+  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
 
   ceres::Solver::Options solver_options;
   solver_options.minimizer_type = ceres::TRUST_REGION;

@@ -1,5 +1,6 @@
 #include "dypho/tracking/rgbd_odometry.h"
 
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -326,6 +327,12 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
     const double z_measured = features.depth_m[static_cast<size_t>(aligned.matches[m].frame_index)];
     if (!depthAgrees(z_point, z_measured)) on_dynamic.push_back(ref.map_point_ids[r]);
   }
+  std::vector<std::int64_t> confirmed, refuted;
+  for (size_t m = 0; m < aligned.probation.size(); ++m) {
+    const std::int64_t id = ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
+    if (aligned.probation[m] > 0) confirmed.push_back(id);
+    if (aligned.probation[m] < 0) refuted.push_back(id);
+  }
   map_.updateVisibility(visible, found);
   std::vector<std::int64_t> moving = map_.cullMovingPoints(on_dynamic, options_.moving_point_min_hits, cameraStill(),
                                                            options_.moving_point_still_only);
@@ -334,6 +341,8 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
         map_.removePointsCreatedBy(unverified_keyframe_id_, on_dynamic, options_.first_keyframe_moving_hits);
     moving.insert(moving.end(), unverified.begin(), unverified.end());
   }
+  const std::vector<std::int64_t> refuted_removed = map_.updateProbation(confirmed, refuted);
+  moving.insert(moving.end(), refuted_removed.begin(), refuted_removed.end());
   result->num_moving_points_removed = static_cast<int>(moving.size());
   // The views must not offer removed points to the next frame; this frame's matches still index
   // the current views (keyframe creation below), so they are refreshed before the next frame.
@@ -423,7 +432,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   if (result.num_features >= options_.min_inliers) {
     const Eigen::Isometry3d T_world_predicted = motion_.predict(frame.stamp_ns).value_or(T_world_last_);
     aligned = aligner_.align(local_view_, features, pinhole, T_world_predicted.inverse(),
-                             &result.times, &own_view_);
+                             &result.times, &own_view_, !cameraStill());
   } else {
     aligned.message = explainFewFeatures(frame, orb, features);
   }

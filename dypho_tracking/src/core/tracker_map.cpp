@@ -120,6 +120,7 @@ KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
   out.map_point_ids.reserve(selected.size());
   out.reference_distance_m.reserve(selected.size());
   out.descriptors.create(static_cast<int>(selected.size()), 32, CV_8UC1);
+  if (options_.point_probation_frames > 0) out.verified.reserve(selected.size());
   for (size_t i = 0; i < selected.size(); ++i) {
     const MapPoint& p = *selected[i];
     out.p_world_m.push_back(p.p_world_m);
@@ -127,6 +128,9 @@ KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
     out.map_point_ids.push_back(p.id);
     out.reference_distance_m.push_back(p.reference_distance_m);
     p.descriptor.copyTo(out.descriptors.row(static_cast<int>(i)));
+    if (options_.point_probation_frames > 0) {
+      out.verified.push_back(p.num_confirmed >= options_.point_probation_frames ? 1 : 0);
+    }
   }
   return out;
 }
@@ -185,6 +189,31 @@ std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::in
     removed.push_back(id);
   }
   return removed;
+}
+
+std::vector<std::int64_t> TrackerMap::updateProbation(const std::vector<std::int64_t>& confirmed,
+                                                      const std::vector<std::int64_t>& refuted) {
+  for (std::int64_t id : confirmed) {
+    auto it = points_.find(id);
+    if (it != points_.end()) ++it->second.num_confirmed;
+  }
+  std::vector<std::int64_t> removed;
+  for (std::int64_t id : refuted) {
+    auto it = points_.find(id);
+    if (it == points_.end()) continue;
+    MapPoint& p = it->second;
+    ++p.num_refuted;
+    if (p.num_confirmed >= options_.point_probation_frames || p.num_refuted < options_.point_probation_max_refuted) continue;
+    detachObservations(p);
+    points_.erase(it);
+    removed.push_back(id);
+  }
+  return removed;
+}
+
+bool TrackerMap::isVerified(std::int64_t point_id) const {
+  const MapPoint* p = point(point_id);
+  return p != nullptr && p->num_confirmed >= options_.point_probation_frames;
 }
 
 std::vector<std::int64_t> TrackerMap::removePointsCreatedBy(std::int64_t keyframe_id,

@@ -69,6 +69,9 @@ void TrackingOptions::validate() const {
   requireRange("moving_point_min_hits", moving_point_min_hits, 0, 1000);
   requireRange("moving_point_depth_tolerance_m", moving_point_depth_tolerance_m, 0.0, 1.0, true);
   requireRange("first_keyframe_moving_hits", first_keyframe_moving_hits, 0, 1000);
+  requireRange("point_probation_frames", point_probation_frames, 0, 100);
+  requireRange("point_probation_max_refuted", point_probation_max_refuted, 1, 100);
+  requireRange("point_probation_min_verified", point_probation_min_verified, min_inliers, 10000);
   requireRange("static_check_min_gain", static_check_min_gain, 0.0, 1.0, true);
   requireRange("static_check_scale", static_check_scale, 0.1, 1.0);
   requireRange("static_check_max_frame_rotation_deg", static_check_max_frame_rotation_deg, 0.0, 180.0, true);

@@ -29,6 +29,12 @@ struct AlignmentResult {
   /// `matches[].reference_index` index the `brute_force_reference` passed to align (the tight
   /// pass over the main reference did not replace the PnP result); else the main reference.
   bool matches_refer_to_fallback = false;
+  /// Per match, for points on probation (KeyframePoints::verified): +1 it agreed with the pose
+  /// (an inlier), -1 it disagreed with the pose of the verified points (verified_first), 0 a
+  /// verified point or no verdict. Empty without probation.
+  std::vector<std::int8_t> probation;
+  /// The pose was estimated from the verified points first (enough of them matched).
+  bool verified_first = false;
   std::string message;                ///< why it failed; empty on success
 };
 
@@ -48,17 +54,21 @@ class KeyframeAligner {
   /// T_camera_world_predicted: prediction (constant velocity or last pose). Adds stage times to
   /// `times` (matching, pnp, refine) when not null. `brute_force_reference` (may be null = use
   /// `reference`): the smaller point set used for the global search + PnP of step 2 (e.g. the
-  /// last keyframe's own points while `reference` is the whole local map). Never throws on data.
+  /// last keyframe's own points while `reference` is the whole local map). `verified_first`:
+  /// with points on probation (KeyframePoints::verified), estimate the pose from the verified
+  /// points first (false: every match carries the pose; the verdicts of the inliers are still
+  /// given). Never throws on data.
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame,
                         const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                         TrackingTimesMs* times,
-                        const KeyframePoints* brute_force_reference = nullptr) const;
+                        const KeyframePoints* brute_force_reference = nullptr,
+                        bool verified_first = true) const;
 
  private:
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
               const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
-              AlignmentResult* result) const;
+              bool verified_first, AlignmentResult* result) const;
 
   TrackingOptions options_;
   FeatureMatcher matcher_;

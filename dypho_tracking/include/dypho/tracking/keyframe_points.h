@@ -29,6 +29,9 @@ struct KeyframePoints {
   /// Distance camera -> point when the keypoint was detected [m]; empty = unknown. When filled,
   /// projection matching predicts the pyramid level from the current distance (scale invariance).
   std::vector<double> reference_distance_m;
+  /// Per point: 1 = it carries the pose, 0 = on probation (TrackingOptions::point_probation_frames);
+  /// empty = every point carries the pose.
+  std::vector<std::uint8_t> verified;
 
   /// Number of points.
   std::size_t size() const { return p_world_m.size(); }

@@ -54,7 +54,18 @@ class PoseOptimizer {
                                const Pinhole& pinhole,
                                const Eigen::Isometry3d& T_camera_world_init) const;
 
+  /// True when `observation` is an inlier at `T_camera_world`: in front of the camera and its
+  /// whitened chi2 under chi2_threshold (chi2_threshold_depth with the depth residual), the test
+  /// optimize() classifies with.
+  bool agrees(const PoseObservation& observation, const Pinhole& pinhole,
+              const Eigen::Isometry3d& T_camera_world) const;
+
  private:
+  double sigma(int level) const;
+  /// agrees() with the point already in the camera frame.
+  bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m,
+                      const Pinhole& pinhole) const;
+
   TrackingOptions options_;
   std::vector<double> level_sigma_;
 };

@@ -36,6 +36,11 @@ struct MapPoint {
   int num_on_dynamic = 0;
   /// of those, frames in which the camera was still [count]
   int num_on_dynamic_still = 0;
+  /// Probation (TrackingOptions::point_probation_frames): tracked frames on which the point, not
+  /// yet verified, agreed with the pose [count]; verified from point_probation_frames on.
+  int num_confirmed = 0;
+  /// Tracked frames on which the unverified point disagreed with the verified points' pose [count].
+  int num_refuted = 0;
 };
 
 /// A keyframe as the map stores it: its features (undistorted, with depth) and their map points.
@@ -119,6 +124,13 @@ class TrackerMap {
   /// inlier count: the unverified points of a first keyframe. Returns the removed ids.
   std::vector<std::int64_t> removePointsCreatedBy(std::int64_t keyframe_id, const std::vector<std::int64_t>& ids,
                                                   int min_hits);
+  /// Probation bookkeeping after a tracked frame: one more agreement for each id in `confirmed`,
+  /// one more disagreement for each in `refuted`; removes the points with
+  /// point_probation_max_refuted disagreements that are not verified yet. Returns the removed ids.
+  std::vector<std::int64_t> updateProbation(const std::vector<std::int64_t>& confirmed,
+                                            const std::vector<std::int64_t>& refuted);
+  /// True when the point carries the pose (probation passed or off); false when unknown.
+  bool isVerified(std::int64_t point_id) const;
 
   /// True when the keyframe is redundant (see class comment, ratio in (0, 1]); false when
   /// unknown or it has no map points.

@@ -173,6 +173,26 @@ struct TrackingOptions {
   /// One or two sightings also remove static points in the flow's halo next to people
   /// (static camera, 8 people from frame 0: 1.97 / 1.43 cm against 0.66 cm with 3).
   int first_keyframe_moving_hits = 3;
+  /// Probation of new map points: a point a keyframe created carries the pose only after it
+  /// agreed (chi2) with the pose on this many tracked frames; until then, while the camera moves
+  /// (the last tracked step above 5 mm or 0.2 deg), each frame's pose is estimated from the
+  /// verified points first, and an unverified match that disagrees with that pose is an outlier.
+  /// A person the mask missed keeps giving the tracker fresh points while keyframes come every
+  /// few frames in a crowd; on a moving camera the moving-point test (moving_point_still_only)
+  /// does not look, this catches them once they moved about 2.5 px from where their keyframe saw
+  /// them. A still camera has the moving-point test, and there the verified points can include
+  /// people the background learnt. Bonn crowd played backwards (people in view from frame 0),
+  /// flow mask: 1.63-1.97 cm against 1.98-3.97 cm off (docs/benchmarks.md section 8) [frames];
+  /// default 3, range [0, 100]; 0 = off (every point carries the pose at once).
+  int point_probation_frames = 3;
+  /// An unverified point that disagreed with the verified points' pose on this many frames is
+  /// removed as moving (and handed to the mask like the moving-point test's) [count]; default 2,
+  /// range [1, 100].
+  int point_probation_max_refuted = 2;
+  /// Fewest verified matches for the verified-first estimate; with fewer (a start, a new view)
+  /// every match carries the pose as without probation [count]; default 40, range
+  /// [min_inliers, 10000].
+  int point_probation_min_verified = 40;
   /// Dense check of each tracked pose against the reference keyframe's static pixels
   /// (StaticSceneCheck): the feature pose is refined photometrically over the keyframe's
   /// unmasked, textured pixels; when the refined pose explains `static_check_min_gain` more of
