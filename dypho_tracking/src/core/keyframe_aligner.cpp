@@ -58,6 +58,18 @@ bool solvePnp(const KeyframePoints& reference, const FrameFeatures& frame, const
   return true;
 }
 
+/// Per match: its reference point carries the pose (KeyframePoints::verified); empty when the
+/// reference has no probation.
+std::vector<bool> verifiedMatches(const KeyframePoints& reference, const std::vector<FeatureMatch>& matches) {
+  std::vector<bool> verified;
+  if (reference.verified.empty()) return verified;
+  verified.reserve(matches.size());
+  for (const FeatureMatch& m : matches) {
+    verified.push_back(reference.verified[static_cast<std::size_t>(m.reference_index)] != 0);
+  }
+  return verified;
+}
+
 }  // namespace
 
 KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
@@ -79,7 +91,8 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   }
   // Probation: the verified points estimate the pose first; an unverified match that disagrees
   // with it takes no part (a verdict against its point), the others join the final estimate.
-  const bool probation = !reference.verified.empty();
+  const std::vector<bool> is_verified = verifiedMatches(reference, matches);
+  const bool probation = !is_verified.empty();
   std::vector<std::int8_t> verdict(probation ? matches.size() : 0, 0);
   std::vector<std::size_t> taking_part;  // indices into matches / observations
   bool verified_first = false;
@@ -87,7 +100,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   if (probation) {
     std::vector<PoseObservation> verified;
     for (std::size_t m = 0; m < matches.size(); ++m) {
-      if (reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0) verified.push_back(observations[m]);
+      if (is_verified[m]) verified.push_back(observations[m]);
     }
     if (use_verified_first && static_cast<int>(verified.size()) >= options_.point_probation_min_verified) {
       const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init);
@@ -95,8 +108,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
         verified_first = true;
         T_start = first.T_camera_world;
         for (std::size_t m = 0; m < matches.size(); ++m) {
-          const bool is_verified = reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0;
-          if (is_verified || optimizer_.agrees(observations[m], pinhole, first.T_camera_world)) {
+          if (is_verified[m] || optimizer_.agrees(observations[m], pinhole, first.T_camera_world)) {
             taking_part.push_back(m);
           } else {
             verdict[m] = -1;
@@ -119,8 +131,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   }
   if (probation && opt.success) {
     for (std::size_t m = 0; m < matches.size(); ++m) {
-      const bool is_verified = reference.verified[static_cast<std::size_t>(matches[m].reference_index)] != 0;
-      if (!is_verified && opt.inliers[m]) verdict[m] = 1;
+      if (!is_verified[m] && opt.inliers[m]) verdict[m] = 1;
     }
   }
   if (!opt.success || opt.num_inliers < options_.min_inliers) {
