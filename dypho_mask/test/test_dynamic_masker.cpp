@@ -191,6 +191,22 @@ TEST(DynamicMasker, UnknownCameraMotionAtTheStartIsAllDynamic) {
   EXPECT_LT(lostAfter(no_background, start + 1), 1.0);
 }
 
+TEST(DynamicMaskOptions, RejectsANetworkMaskAgeOutsideItsRange) {
+  for (const int bad : {-1, 1001}) {
+    DynamicMaskOptions o;
+    o.yolo.max_age_frames = bad;
+    try {
+      o.validate();
+      ADD_FAILURE() << "validate() accepted yolo_max_age_frames = " << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("yolo_max_age_frames"), std::string::npos) << e.what();
+    }
+  }
+  DynamicMaskOptions ok;
+  ok.yolo.max_age_frames = 0;
+  EXPECT_NO_THROW(ok.validate());
+}
+
 TEST(DynamicMaskOptions, RejectsANegativeVetoWarmUp) {
   DynamicMaskOptions o;
   o.background.veto_after_updates = -1;
@@ -348,6 +364,35 @@ TEST_F(GeneratedModels, NetworkJudgesTheFirstFrame) {
   const MaskResult first = masker.compute(scene.render(0).frame);
   EXPECT_TRUE(first.segment_fresh);
   EXPECT_FALSE(first.unjudged);
+}
+
+// A network mask is used while it is at most yolo_max_age_frames old; an older one is dropped and
+// the flow-only mask judges the frames until the next result. Network every 4th frame: ages
+// 0, 1, 2 used, age 3 dropped (and said so), the next result used again; with the limit at 1000
+// every carried mask is used.
+TEST_F(GeneratedModels, NetworkMaskOlderThanTheLimitIsNotUsed) {
+  tools::SynthOptions so;
+  so.frames = 6;
+  so.people = 0;
+  so.motion = tools::SynthMotion::kHalfsphere;
+  const tools::SyntheticScene scene(so);
+  for (const int max_age : {2, 1000}) {
+    DynamicMaskOptions o;
+    o.yolo = opts("yolov8_det.onnx");
+    o.yolo.every_n_frames = 4;
+    o.yolo.max_age_frames = max_age;
+    DynamicMasker masker(o);
+    ASSERT_TRUE(masker.segmentReady()) << masker.segmentStatus();
+    for (int i = 0; i < so.frames; ++i) {
+      const MaskResult r = masker.compute(scene.render(i).frame);
+      EXPECT_EQ(r.segment_age_frames, i % 4) << "frame " << i;
+      const bool used = max_age == 1000 || i % 4 <= max_age;
+      EXPECT_EQ(!r.raw_segment_mask.empty(), used) << "frame " << i << ", limit " << max_age;
+      EXPECT_EQ(r.detection_boxes.empty(), !used) << "frame " << i << ", limit " << max_age;
+      const bool said = r.message.find("older than 2 frames, not used") != std::string::npos;
+      EXPECT_EQ(said, max_age == 2 && i == 3) << "frame " << i << ": " << r.message;
+    }
+  }
 }
 
 // When the flow veto and object permanence treat the camera as still (cameraStill): the numbers

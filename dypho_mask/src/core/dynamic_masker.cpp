@@ -77,6 +77,7 @@ void DynamicMasker::reset() {
   background_updates_ = 0;
   flow_frames_ = 0;
   previous_mask_.release();
+  network_mask_in_use_ = true;
   if (permanence_) permanence_->reset();
   flow_.reset();
   segment_->reset();
@@ -129,8 +130,9 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   std::exception_ptr failure[2];
   // The crowd aids of the flow mask (residual memory, depth layers) serve the flow-only mask; a
   // running network segments people whatever their speed and depth, and with it they only cost
-  // accuracy (Bonn crowd with YOLOX-nano: 1.45 cm without, 1.7-2.7 cm with them).
-  const bool network = segment_->ready();
+  // accuracy (Bonn crowd with YOLOX-nano: 1.45 cm without, 1.7-2.7 cm with them). A network
+  // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
+  const bool network = segment_->ready() && network_mask_in_use_;
   cv::parallel_for_(
       cv::Range(0, 2),
       [&](const cv::Range& range) {
@@ -175,6 +177,10 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   // 2. Segment mask (network every N-th frame / async, carried by the flow in between).
   const auto t_seg = Clock::now();
   const SegmentStep seg = segment_->step(frame, flow_.lastFlow());
+  // Decides the crowd aids of the next frame's flow (this frame's flow already ran): on while no
+  // network mask is in use (none yet, or the newest was too old: YoloOptions::max_age_frames).
+  network_mask_in_use_ = !seg.mask.empty();
+  if (seg.too_old) note("segment: newest network mask older than " + std::to_string(options_.yolo.max_age_frames) + " frames, not used");
   result.segment_ms = msSince(t_seg);
   result.segment_fresh = seg.fresh;
   result.segment_age_frames = seg.age_frames;

@@ -105,6 +105,13 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
       }
     }
   }
+  // A mask carried too far is dropped (YoloOptions::max_age_frames): the flow-only mask judges the
+  // frames until the next result.
+  if (!current_.empty() && current_age_ > options_.max_age_frames) {
+    current_.release();
+    current_boxes_.clear();
+    out.too_old = true;
+  }
   out.mask = current_;
   out.age_frames = current_age_;
   out.boxes_image = current_boxes_;

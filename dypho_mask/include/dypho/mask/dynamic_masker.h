@@ -140,6 +140,9 @@ class DynamicMasker {
   MaskCleaner full_cleaner_;
   MaskCleaner small_cleaner_;
   bool warned_ = false;
+  /// The last frame used a network mask (its crowd aids off); true before the first frame, as a
+  /// network that runs on every frame gives one from the first frame on.
+  bool network_mask_in_use_ = true;
   int background_updates_ = 0;  ///< updates of B since construction / reset()
   int flow_frames_ = 0;         ///< frames with a flow since construction / reset() (the start: unknown_motion_is_dynamic)
   BoxDepthSettings box_settings_;

@@ -45,6 +45,7 @@ void visitOptions(YoloOptions& options, Visitor&& visitor) {
   visitor("every_n_frames", options.every_n_frames, "Run the network on every N-th frame, >= 1; in between its mask is carried along with the optical flow. Default 1.");
   visitor("async", options.async, "Run the network on a worker thread; its newest result is carried to the current frame with the optical flow. Default false.");
   visitor("async_nice", options.async_nice, "Nice increment of the asynchronous network's thread: the network takes the time the camera-rate threads leave, in [0, 19]. Default 5.");
+  visitor("max_age_frames", options.max_age_frames, "A network mask carried over more than this many frames since the network's input is not used: the flow-only mask with its crowd aids judges the frame until a fresher result comes, in [0, 1000]. Older carried masks drift off the people (Bonn crowd, network every 10th frame: 6.06 cm with every carried mask, 1.45 cm with 2; the live graph at 1x on 2 cores, where results are 3-6 frames old: see docs/benchmarks.md section 8). Default 2.");
   visitor("box_depth_range_m", options.box_depth_range_m, "Detector boxes are segmented with depth: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.");
 }
 

@@ -22,6 +22,9 @@ struct SegmentStep {
   cv::Mat mask;            ///< CV_8UC1 image size, 255 = dynamic class; empty = no segment mask yet
   bool fresh = false;      ///< a network result for THIS frame (not carried)
   int age_frames = 0;      ///< frames between the network's input and this frame
+  /// The newest mask became older than YoloOptions::max_age_frames on this frame and was dropped
+  /// (`mask` is empty from here until the next result).
+  bool too_old = false;
   int num_detections = 0;  ///< detections of the result in use
   std::vector<cv::Rect> boxes_image;  ///< their boxes (image px, of the frame they were found in)
   double network_ms = 0.0; ///< network time spent inside this call (0 when async or not run) [ms]
