@@ -79,3 +79,29 @@ function(dypho_add_nodelet module)
   dypho_set_warnings(dypho_${module}_nodelet)
   install(TARGETS dypho_${module}_nodelet LIBRARY DESTINATION ${DYPHO_LIB_DEST})
 endfunction()
+
+# dypho_add_rostest(<name> FILE <file.test> [ARGS <arg:=value>...] [DEPENDENCIES <targets>...])
+# A rostest registered under a name we choose (ctest: _ctest_dypho_slam_rostest_<name>; catkin:
+# run_tests_dypho_slam_rostest_<name>). catkin's add_rostest() builds the target name from the
+# file and every argument, so an absolute path in ARGS puts the build folder's path into file
+# names three times and a clone under a home folder exceeds the 255-character file name limit.
+# The command is a list, so paths with spaces stay one argument each.
+function(dypho_add_rostest name)
+  cmake_parse_arguments(ARG "" "FILE" "ARGS;DEPENDENCIES" ${ARGN})
+  if(NOT DYPHO_TESTING OR NOT DYPHO_WITH_ROS)
+    return()
+  endif()
+  get_filename_component(_file "${ARG_FILE}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+  if(NOT EXISTS "${_file}")
+    message(FATAL_ERROR "dypho_add_rostest(${name}): no rostest file ${_file}")
+  endif()
+  find_program(DYPHO_ROSTEST_EXE rostest PATHS /usr/bin /opt/ros/noetic/bin NO_CMAKE_PATH)
+  if(NOT DYPHO_ROSTEST_EXE)
+    message(FATAL_ERROR "dypho_add_rostest: rostest not found (Debian: python3-rostest)")
+  endif()
+  catkin_run_tests_target("rostest" ${name} "rostest-${name}.xml"
+    COMMAND ${PYTHON_EXECUTABLE} ${DYPHO_ROSTEST_EXE} --pkgdir=${PROJECT_SOURCE_DIR}
+            --package=${PROJECT_NAME} --results-filename ${name}.xml
+            --results-base-dir ${CATKIN_TEST_RESULTS_DIR} ${_file} ${ARG_ARGS}
+    DEPENDENCIES ${ARG_DEPENDENCIES})
+endfunction()
