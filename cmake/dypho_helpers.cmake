@@ -85,7 +85,7 @@ endfunction()
 # run_tests_dypho_slam_rostest_<name>). catkin's add_rostest() builds the target name from the
 # file and every argument, so an absolute path in ARGS puts the build folder's path into file
 # names three times and a clone under a home folder exceeds the 255-character file name limit.
-# The command is a list, so paths with spaces stay one argument each.
+# Each word of the command is shell-quoted, so paths with spaces stay one argument each.
 function(dypho_add_rostest name)
   cmake_parse_arguments(ARG "" "FILE" "ARGS;DEPENDENCIES" ${ARGN})
   if(NOT DYPHO_TESTING OR NOT DYPHO_WITH_ROS)
@@ -99,9 +99,15 @@ function(dypho_add_rostest name)
   if(NOT DYPHO_ROSTEST_EXE)
     message(FATAL_ERROR "dypho_add_rostest: rostest not found (Debian: python3-rostest)")
   endif()
-  catkin_run_tests_target("rostest" ${name} "rostest-${name}.xml"
-    COMMAND ${PYTHON_EXECUTABLE} ${DYPHO_ROSTEST_EXE} --pkgdir=${PROJECT_SOURCE_DIR}
-            --package=${PROJECT_NAME} --results-filename ${name}.xml
-            --results-base-dir ${CATKIN_TEST_RESULTS_DIR} ${_file} ${ARG_ARGS}
+  # catkin's run_tests.py runs its command through a shell: one string, each word quoted.
+  set(_command "")
+  foreach(_word ${PYTHON_EXECUTABLE} ${DYPHO_ROSTEST_EXE} --pkgdir=${PROJECT_SOURCE_DIR}
+                --package=${PROJECT_NAME} --results-filename ${name}.xml
+                --results-base-dir ${CATKIN_TEST_RESULTS_DIR} ${_file} ${ARG_ARGS})
+    string(REPLACE "'" "'\\''" _word "${_word}")
+    string(APPEND _command " '${_word}'")
+  endforeach()
+  string(STRIP "${_command}" _command)
+  catkin_run_tests_target("rostest" ${name} "rostest-${name}.xml" COMMAND "${_command}"
     DEPENDENCIES ${ARG_DEPENDENCIES})
 endfunction()
