@@ -20,7 +20,7 @@ namespace {
 // ATE bounds [m] (RMSE after rigid alignment of trajectory.txt, the final trajectory), default
 // settings (flow mask). Runs are deterministic for a build; fr1's bound is the measured value plus
 // about 30 % for differences in floating point between machines (fr1/rpy is sensitive to which
-// frames become keyframes). Measured (docs/benchmarks.md): fr1 3.12 cm (the 2 cm target is not
+// frames become keyframes). Measured (docs/journal/benchmarks-2026.md): fr1 3.12 cm (the 2 cm target is not
 // reached; 4.09 cm before the stages shared one motion model), synthetic 0.46 cm (bag: 0.45 cm).
 constexpr double DYPHO_FR1_ATE_BOUND_M = 0.04;
 // Bonn crowd with the YOLOX-nano detector from ../shared/models added to the flow mask: the
@@ -170,7 +170,7 @@ INSTANTIATE_TEST_SUITE_P(StaticCamera, HardCase,
 
 namespace {
 
-/// 8 people crossing a still camera's view from frame 0, generator seed 2 (docs/benchmarks.md
+/// 8 people crossing a still camera's view from frame 0, generator seed 2 (docs/journal/benchmarks-2026.md
 /// section 8), generated once.
 std::string crossing8Seed2() {
   static const std::string data = stillCameraCrowd("crossing8_seed2", "--people 8 --people-distance 0.8", 2);

@@ -66,7 +66,7 @@ TEST(DynamicMasker, PureCameraMotionGivesANearEmptyMask) {
 
 // The depth-aware margin leaves out the wall behind a person's outline: on a synthetic sequence
 // with ground-truth masks the false-dynamic pixels (nearly all in the margin ring, see
-// docs/benchmarks.md section 3) must drop clearly against the plain margin, without losing
+// docs/journal/benchmarks-2026.md section 3) must drop clearly against the plain margin, without losing
 // person pixels. Measured (halfsphere, seed 1, ground-truth pose, frames 5..14): false-dynamic
 // 67024 px plain, 42456 px depth-aware (ratio 0.63); missed 17787 / 19103 px. Bounds: ratio
 // <= 0.8 (fails if the margin goes back onto the wall; leaves room for texture/noise changes of
@@ -396,7 +396,7 @@ TEST_F(GeneratedModels, NetworkMaskOlderThanTheLimitIsNotUsed) {
 }
 
 // When the flow veto and object permanence treat the camera as still (cameraStill): the numbers
-// are those of the synthetic sequences in docs/benchmarks.md section 8 (a camera circling the
+// are those of the synthetic sequences in docs/journal/benchmarks-2026.md section 8 (a camera circling the
 // scene: median 1-2 px, 0-25 % quiet, 11-15 mm per frame; crowds before a still camera: 31-93 %
 // quiet, a dragged prediction up to 12 mm per frame).
 TEST(CameraStill, NeedsASmallMedianAndAQuietShareOrASmallPredictedMotion) {

@@ -5,7 +5,7 @@
 /// handed back to the kernel when it is freed (above the mmap threshold, or at the top of a
 /// thread's heap beyond the trim threshold) and faulted in again page by page on the next frame.
 /// On the 2-core CI VM those page faults were 18 % of the feature thread's time in the live graph
-/// (docs/benchmarks.md, section 6). The cost: the process keeps up to 256 MB per heap it
+/// (docs/journal/benchmarks-2026.md, section 6). The cost: the process keeps up to 256 MB per heap it
 /// freed, instead of returning them.
 
 #if defined(__GLIBC__)

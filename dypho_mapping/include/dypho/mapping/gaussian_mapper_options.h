@@ -33,7 +33,7 @@ struct GaussianMapperOptions {
   /// Live policy, CPU device: the share of wall time the worker may spend in training iterations,
   /// (0, 1]; after an iteration of t seconds it rests t (1 - d) / d. Training in the idle class
   /// takes no CPU time from the camera-rate threads, but it still slows them through the caches
-  /// and memory it shares with them (docs/benchmarks.md); 1 = train whenever there is work. The
+  /// and memory it shares with them (docs/journal/benchmarks-2026.md); 1 = train whenever there is work. The
   /// offline runner (deterministic mode) and the CUDA device never rest. Default 0.5.
   double live_cpu_training_duty = 0.5;
   /// Nice increment of the mapping worker and its pool threads (thread_budget.h): training takes
@@ -62,7 +62,7 @@ struct GaussianMapperOptions {
   /// Weight of the structural term w (1 - SSIM(Mc; Cr, C)) added to the loss: SSIM of the colour
   /// over static pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0.
   /// Default 0: on TUM fr1/rpy 0.1-0.2 gained 0.13 dB PSNR but cost 0.1-0.25 cm depth L1 and about
-  /// a quarter more mapping time (docs/benchmarks.md section 4).
+  /// a quarter more mapping time (docs/journal/benchmarks-2026.md section 4).
   double ssim_weight = 0.0;
   /// Per-keyframe affine exposure (gain exp(k_c), offset b_c per RGB channel) optimised with the
   /// map, as 3DGS SLAM systems do: the loss and the keyframe evaluation compare the keyframe's
@@ -85,7 +85,7 @@ struct GaussianMapperOptions {
   double feature_sample_radius_px = 6.0;
   /// Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.
   int coverage_stride_px = 8;
-  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where people later pass: docs/benchmarks.md section 4).
+  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where people later pass: docs/journal/benchmarks-2026.md section 4).
   double coverage_alpha_threshold = 0.9;
   /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.05.
   double coverage_depth_error_ratio = 0.05;

@@ -64,7 +64,7 @@ struct BackgroundOptions {
   /// tau: weight of R_d, the depth rendered from the Gaussian map at the predicted pose, in
   /// [0, 1); 0 = R_d off (nothing is rendered for the mask). Default 0 until R_d helps on real
   /// data: with 0.1 (the paper's term on) the Bonn crowd frames give 2.1 cm ATE against 1.4 cm
-  /// without (docs/benchmarks.md, "Prior-image ablation").
+  /// without (docs/journal/benchmarks-2026.md, "Prior-image ablation").
   double tau = 0.0;
   /// rho: weight of the current depth on pixels the raw masks call static, in (0, 1). Default 0.3.
   double rho = 0.3;
@@ -103,7 +103,7 @@ struct DynamicMaskOptions {
   /// With depth and the background model: the margin does not grow onto pixels whose depth lies
   /// more than background_sigma_m behind the farthest masked depth within margin_px (the wall
   /// behind a person's outline); it still grows where depth is missing or close. Halves the
-  /// false-dynamic border on the synthetic sequences (docs/benchmarks.md section 3). Default true.
+  /// false-dynamic border on the synthetic sequences (docs/journal/benchmarks-2026.md section 3). Default true.
   bool margin_depth_aware = true;
   /// Connected final regions smaller than this [full-res px^2] are dropped, >= 0. Default 400.
   int min_region_area_px = 400;
@@ -143,7 +143,7 @@ struct DynamicMaskOptions {
   /// moving-point test and no flow veto while still it helped none of 24 still-camera crowd
   /// sequences, and a whole person it kept can be released on one frame (with 30, 90 or 300
   /// alike), whom the next keyframe then takes as static (8 people crossing, seed 1: 0.65 cm
-  /// with 30, 0.44 cm off; docs/benchmarks.md section 8).
+  /// with 30, 0.44 cm off; docs/journal/benchmarks-2026.md section 8).
   int permanence_frames = 0;
   /// Flow regions that the established background model explains are dropped as flow noise also
   /// while the camera is still (median flow under 2 px per frame, and 30 % of the textured view

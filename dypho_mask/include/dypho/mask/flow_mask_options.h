@@ -65,7 +65,7 @@ struct FlowMaskOptions {
   /// Variational refinement iterations of DIS on every pyramid level, >= 0; replaces the
   /// preset's count (FAST 5, ULTRAFAST 0). Each iteration costs about as much as a fifth of the
   /// whole FAST flow at 160x120; beyond 2 the mask does not change measurably
-  /// (bench/mask_synth_bench, docs/benchmarks.md section 3). Default 2.
+  /// (bench/mask_synth_bench, docs/journal/benchmarks-2026.md section 3). Default 2.
   int dis_refinement_iterations = 2;
 
   /// Throws std::invalid_argument naming the first field that is out of range and its range.

@@ -45,7 +45,7 @@ void visitOptions(YoloOptions& options, Visitor&& visitor) {
   visitor("every_n_frames", options.every_n_frames, "Run the network on every N-th frame, >= 1; in between its mask is carried along with the optical flow. Default 1.");
   visitor("async", options.async, "Run the network on a worker thread; its newest result is carried to the current frame with the optical flow. Default false.");
   visitor("async_nice", options.async_nice, "Nice increment of the asynchronous network's thread: the network takes the time the camera-rate threads leave, in [0, 19]. Default 5.");
-  visitor("max_age_frames", options.max_age_frames, "A network mask carried over more than this many frames since the network's input is not used: the flow-only mask with its crowd aids judges the frame until a fresher result comes, in [0, 1000]. Older carried masks drift off the people (Bonn crowd, network every 10th frame: 6.06 cm with every carried mask, 1.45 cm with 2; the live graph at 1x on 2 cores, where results are 3-6 frames old: see docs/benchmarks.md section 8). Default 2.");
+  visitor("max_age_frames", options.max_age_frames, "A network mask carried over more than this many frames since the network's input is not used: the flow-only mask with its crowd aids judges the frame until a fresher result comes, in [0, 1000]. Older carried masks drift off the people (Bonn crowd, network every 10th frame: 6.06 cm with every carried mask, 1.45 cm with 2; the live graph at 1x on 2 cores, where results are 3-6 frames old: see docs/journal/benchmarks-2026.md section 8). Default 2.");
   visitor("box_depth_range_m", options.box_depth_range_m, "Detector boxes are segmented with depth: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.");
 }
 
@@ -54,7 +54,7 @@ template <typename Visitor>
 void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
   visitor("enabled", options.enabled, "Use the prior static-background depth model and the depth-consistency filter. Default true.");
   visitor("scale", options.scale, "Resolution of the background model as a fraction of the input, in (0, 1]. Default 0.5.");
-  visitor("tau", options.tau, "tau: weight of R_d, the depth rendered from the Gaussian map at the predicted pose (the paper's prior-image term), in [0, 1); 0 = off, nothing is rendered for the mask. Default 0 (on the Bonn crowd frames 0.1 gives 2.1 cm ATE against 1.4 cm; docs/benchmarks.md).");
+  visitor("tau", options.tau, "tau: weight of R_d, the depth rendered from the Gaussian map at the predicted pose (the paper's prior-image term), in [0, 1); 0 = off, nothing is rendered for the mask. Default 0 (on the Bonn crowd frames 0.1 gives 2.1 cm ATE against 1.4 cm; docs/journal/benchmarks-2026.md).");
   visitor("rho", options.rho, "rho: weight of the current depth on pixels the raw masks call static, in (0, 1). Default 0.3.");
   visitor("sigma_m", options.sigma_m, "sigma_m: a neighbour's depth agrees with the background when it is not nearer than this [m], > 0. Default 0.2 (paper).");
   visitor("min_agreeing", options.min_agreeing, "n_m: a pixel is static when more than this many neighbours agree, >= 0. Default 9 (paper).");

@@ -53,7 +53,7 @@ struct MaskPairingOptions {
   /// up to about a second (a loaded moment of a small CPU, a burst of keyframes in a crowd, each
   /// with a 60-80 ms local BA on 2 cores) costs latency, not frames, and catch-up mode drains the
   /// backlog afterwards. A longer backlog is dropped rather than tracked later still. With 16, a
-  /// 2-core VM with a busy loop beside the graph dropped frames in 2 of 6 runs (docs/benchmarks.md).
+  /// 2-core VM with a busy loop beside the graph dropped frames in 2 of 6 runs (docs/journal/benchmarks-2026.md).
   int max_pending_frames = 30;
   /// A mask further than this from the frame's stamp is not carried to it [s], >= 0. Default 0.2
   /// (six frames at 30 Hz; people move a few centimetres, within the mask's safety margin).

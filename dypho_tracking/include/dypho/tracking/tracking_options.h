@@ -40,7 +40,7 @@ struct TrackingOptions {
   /// `fast_threshold`) and sigma_dy = relaxed_sigma0 (1 - relaxed_k * masked_fraction). Unlike
   /// FAST the differing pixels need not form one arc of one sign. Default true: on the Bonn crowd
   /// frames it lowered the ATE from 1.47 to 1.34 cm (detector + flow mask) and from 13.4 to
-  /// 6.6 cm (flow mask only; bench/tracking_ablation.sh, docs/benchmarks.md); frames without a
+  /// 6.6 cm (flow mask only; bench/tracking_ablation.sh, docs/journal/benchmarks-2026.md); frames without a
   /// mask are not affected.
   bool relaxed_features = true;
   /// Initial threshold sigma_0 of the relaxed test [fraction of the local grey range];
@@ -182,7 +182,7 @@ struct TrackingOptions {
   /// does not look, this catches them once they moved about 2.5 px from where their keyframe saw
   /// them. A still camera has the moving-point test, and there the verified points can include
   /// people the background learnt. Bonn crowd played backwards (people in view from frame 0),
-  /// flow mask: 1.63-1.97 cm against 1.98-3.97 cm off (docs/benchmarks.md section 8) [frames];
+  /// flow mask: 1.63-1.97 cm against 1.98-3.97 cm off (docs/journal/benchmarks-2026.md section 8) [frames];
   /// default 3, range [0, 100]; 0 = off (every point carries the pose at once).
   int point_probation_frames = 3;
   /// An unverified point that disagreed with the verified points' pose on this many frames is
