@@ -2,13 +2,18 @@
 """Resolves the launch files with roslaunch's own loader (no master, no nodes started) and checks
 what they would start: live_camera.launch's topic layouts (realsense, openni, an unknown one is an
 error), dypho_slam.launch standalone:=true (no manager, each nodelet its own node) and
-distributed.launch (which host runs what, ssh users, env-loader). Exit code 0 only when every
-check passed; each failure is printed."""
+distributed.launch (which host runs what, ssh users, env-loader); and that every argument a user
+can set (one with a default) in every file of launch/ has a doc string, so that
+`roslaunch dypho_slam FILE --ros-args` explains it. Exit code 0 only when every check passed; each
+failure is printed."""
 
+import glob
 import os
 import sys
+import xml.etree.ElementTree as ET
 
 import rospkg
+import roslaunch.arg_dump
 import roslaunch.config
 from roslaunch.core import RLException
 
@@ -21,9 +26,13 @@ def check(condition, what):
         FAILURES.append(what)
 
 
+def launch_dir():
+    return os.path.join(rospkg.RosPack().get_path("dypho_slam"), "launch")
+
+
 def load(launch, *args):
     """The ROSLaunchConfig of `launch` (a file of this package) with `args` (name:=value)."""
-    path = os.path.join(rospkg.RosPack().get_path("dypho_slam"), "launch", launch)
+    path = os.path.join(launch_dir(), launch)
     saved = sys.argv
     sys.argv = [saved[0]] + list(args)  # roslaunch's loader reads the args from sys.argv
     try:
@@ -113,7 +122,39 @@ def check_distributed():
           "distributed.launch with the defaults (both hosts localhost) resolves")
 
 
+def undocumented_args(xml_text):
+    """Names of the <arg>s with a default (settable by a user) and no or an empty doc, in every
+    branch of the file (args under if/unless that are not taken with the default values too)."""
+    return [a.get("name") for a in ET.fromstring(xml_text).iter("arg")
+            if a.get("default") is not None and not (a.get("doc") or "").strip()]
+
+
+def check_arg_docs():
+    # The check itself must be able to fail.
+    check(undocumented_args('<launch><arg name="x" default="1"/><arg name="y" default="" doc=" "/>'
+                            '<arg name="z" default="" doc="z"/><arg name="r"/><arg name="v" value="1"/></launch>')
+          == ["x", "y"], "the doc check finds args with a default and no or a blank doc")
+    files = sorted(glob.glob(os.path.join(launch_dir(), "*.launch")))
+    check(len(files) >= 4, "launch/ holds the launch files (%d found)" % len(files))
+    for path in files:
+        name = os.path.basename(path)
+        with open(path) as f:
+            missing = undocumented_args(f.read())
+        check(not missing, "%s: every arg with a default has a doc (missing: %s)" % (name, ", ".join(missing) or "none"))
+        # What `roslaunch --ros-args` prints (args in force with the default values, includes not
+        # followed): default None = required, '' = an empty default.
+        saved = sys.argv
+        sys.argv = [saved[0]]
+        try:
+            listed = roslaunch.arg_dump.get_args([path])
+        finally:
+            sys.argv = saved
+        missing = sorted(n for n, (doc, default) in listed.items() if default is not None and not (doc or "").strip())
+        check(not missing, "%s --ros-args: no optional arg 'undocumented' (missing: %s)" % (name, ", ".join(missing) or "none"))
+
+
 def main():
+    check_arg_docs()
     check_live_camera()
     check_standalone()
     check_distributed()
