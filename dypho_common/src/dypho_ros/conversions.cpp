@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <limits>
 
 #include <boost/make_shared.hpp>
@@ -286,6 +287,19 @@ std::string outputBaseDirectory(const std::string& output_dir) {
   if (ros_home != nullptr && *ros_home != '\0') return std::string(ros_home) + "/dypho";
   const char* home = std::getenv("HOME");
   return std::string(home != nullptr ? home : ".") + "/.ros/dypho";
+}
+
+std::string prepareOutputDirectory(const std::string& output_dir, std::string& warning) {
+  warning.clear();
+  if (!output_dir.empty()) {
+    std::filesystem::create_directories(output_dir);
+    return output_dir;
+  }
+  const std::string dir = outputBaseDirectory(output_dir);
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) warning = "cannot create the default output folder " + dir + " (" + error.message() + ")";
+  return dir;
 }
 
 }  // namespace dypho::ros_conversions

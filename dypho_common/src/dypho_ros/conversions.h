@@ -88,4 +88,10 @@ MovingPoints toMovingPoints(const sensor_msgs::PointCloud2& cloud);
 /// The folder services write into: `output_dir` when set, else $ROS_HOME/dypho (~/.ros/dypho).
 std::string outputBaseDirectory(const std::string& output_dir);
 
+/// The folder a nodelet writes its outputs into, created at start-up so that the save at shutdown
+/// has somewhere to go: `output_dir` when set (a folder that cannot be created throws: a startup
+/// error, not a silent loss at the end of the run), else outputBaseDirectory("") — there a
+/// failure only fills `warning` (the outputs are lost unless ~output_dir is set).
+std::string prepareOutputDirectory(const std::string& output_dir, std::string& warning);
+
 }  // namespace dypho::ros_conversions

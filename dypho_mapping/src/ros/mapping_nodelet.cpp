@@ -62,13 +62,13 @@ struct MappingRosParams {
   /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
   double predicted_depth_scale = 0.5;
   /// where save_map writes (requests name folders inside it) and the map is saved on shutdown
-  /// (empty: not on shutdown; save_map then writes inside $ROS_HOME/dypho, default ~/.ros/dypho)
+  /// (empty: $ROS_HOME/dypho, default ~/.ros/dypho, resolved at start-up)
   std::string output_dir;
   std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
   /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
   bool refine_before_save = true;
-  /// Wall time the final refinement may take when the nodelet shuts down with ~output_dir set
+  /// Wall time the final refinement may take when the nodelet shuts down (and saves the map)
   /// [s]: queued keyframes are added untrained, refinement stops at the budget, then the files
   /// are written. Default 6: roslaunch escalates to SIGTERM 15 s after Ctrl-C, and tracking's
   /// trajectory is written after the map. > 0.
@@ -96,7 +96,13 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     cloud_cv_.notify_all();
     if (render_thread_.joinable()) render_thread_.join();
     if (cloud_thread_.joinable()) cloud_thread_.join();
-    if (!stage_ || params_.output_dir.empty()) return;
+    if (!stage_ || params_.output_dir.empty()) return;  // empty only when start() failed before it
+    const mapping::MappingStageStats stats = stage_->stats();
+    if (stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0) {
+      // A run stopped before its first keyframe must not replace the last run's map with nothing.
+      NODELET_INFO_STREAM("no keyframe and no Gaussian: nothing written to " << params_.output_dir);
+      return;
+    }
     try {
       stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
       mapping::KeyframeEvaluation eval;
@@ -146,12 +152,14 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
     if (!(params_.publish_period_s > 0)) throw std::invalid_argument("~publish_period_s must be > 0");
     reader.checkNoUnknownKeys();
-    // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
-    // created is a startup error, not a silent loss at the end of the run).
-    if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
+    // Empty output_dir: $ROS_HOME/dypho (~/.ros/dypho); the shutdown save writes there.
+    std::string output_warning;
+    params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
+    if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the map");
     options.validate();
     if (options.gaussian.num_threads == 0) options.gaussian.num_threads = planThreadBudget(params_.cores).mapping_threads;
-    NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\nthread budget: " << options.gaussian.num_threads
+    NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir
+                                              << "\nthread budget: " << options.gaussian.num_threads
                                               << " training threads at nice +" << options.gaussian.training_nice
                                               << (options.gaussian.training_idle_class ? " in the idle class (SCHED_IDLE)" : "")
                                               << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));

@@ -67,8 +67,8 @@ struct TrackingRosParams {
   /// a burst after the manager's threads were held up are not dropped before the pairer.
   int queue_size = 30;
   double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
-  /// where trajectory.txt is written on shutdown (empty = not on shutdown); ~save_trajectory
-  /// writes only inside it (empty: inside $ROS_HOME/dypho, default ~/.ros/dypho)
+  /// where trajectory.txt is written on shutdown; ~save_trajectory writes only inside it
+  /// (empty: $ROS_HOME/dypho, default ~/.ros/dypho, resolved at start-up)
   std::string output_dir;
   int max_path_length = 20000;      ///< path poses kept, newest (11 min at 30 Hz) [poses], >= 1
   double path_period_s = 0.5;       ///< the path is published at most this often, when it changed [s], > 0
@@ -140,11 +140,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     if (params_.max_path_length < 1) throw std::invalid_argument("max_path_length must be >= 1");
     if (!(params_.path_period_s > 0)) throw std::invalid_argument("path_period_s must be > 0");
     params_.mask_pairing.validate();
-    // Created now, so that the save at shutdown has somewhere to go (and a path that cannot be
-    // created is a startup error, not a silent loss at the end of the run).
-    if (!params_.output_dir.empty()) std::filesystem::create_directories(params_.output_dir);
+    // Empty output_dir: $ROS_HOME/dypho (~/.ros/dypho); the shutdown save writes there.
+    std::string output_warning;
+    params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
+    if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the trajectory");
     options.validate();
-    NODELET_INFO_STREAM("tracking parameters:" << reader.summary());
+    NODELET_INFO_STREAM("tracking parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir);
 
     // 2. Core.
     stage_ = std::make_unique<tracking::TrackingStage>(options);
@@ -197,7 +198,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     prepared_.close();
     if (worker_.joinable()) worker_.join();
     if (tracker_.joinable()) tracker_.join();
-    if (params_.output_dir.empty() || !stage_) return;
+    if (params_.output_dir.empty() || !stage_) return;  // empty only when start() failed before it
+    if (stage_->numFrames() == 0) {
+      // A run stopped before its first frame must not replace the last run's trajectory with nothing.
+      NODELET_INFO_STREAM("no frame tracked: nothing written to " << params_.output_dir);
+      return;
+    }
     try {
       saveTrajectory(params_.output_dir);
     } catch (const std::exception& e) {
