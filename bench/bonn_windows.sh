@@ -14,10 +14,11 @@
 #   --windows quoted list of "FIRST:LAST" RGB line ranges (0-based, LAST excluded); default
 #             "0:120 20:140 40:160 60:180 80:200" plus the whole sequence
 #   --shifts  also evaluate every run with its stamps shifted by these seconds (the ground
-#             truth's timing: see docs/benchmarks.md section 8)
+#             truth's timing: see docs/journal/benchmarks-2026.md section 8)
 #   --reversed  also the whole sequence played backwards (every stamp t of rgb.txt, depth.txt
 #             and groundtruth.txt becomes first + last - t; the images are the same): real frames
 #             that start with the people already in view and end in the empty room
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -35,7 +36,7 @@ while [ $# -gt 2 ]; do
     *) echo "bonn_windows: unknown option $1" >&2; exit 2;;
   esac
 done
-if [ $# -ne 2 ]; then sed -n 2,22p "$0" >&2; exit 2; fi
+if [ $# -ne 2 ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2; exit 2; fi
 DATA="$(cd "$1" && pwd)"; OUT="$2"
 for tool in dypho_run_dataset dypho_evaluate; do
   if [ ! -x "$BIN/$tool" ]; then echo "bonn_windows: $BIN/$tool missing: build first (scripts/build.sh)" >&2; exit 1; fi

@@ -20,8 +20,19 @@
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/tum_dataset.h"
 #include "training_frames.h"
+#include "help_flag.h"
+
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: export_training_frames --dataset DIR --trajectory T.txt --out FILE [--frames 20] [--downsample 2]\n"
+    "                              [--bonn-correction]\n"
+    "Writes the posed RGB-D frames of a TUM-layout sequence at training resolution into FILE, the\n"
+    "frames file `mapping_bench_cuda --frames` trains on. Poses come from the TUM trajectory T.txt\n"
+    "(T_world_camera, the nearest within 20 ms); --bonn-correction applies the Bonn marker-to-camera\n"
+    "correction to it. --frames frames spread evenly over the sequence, at 1/--downsample resolution.\n";
 
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   std::string dataset_dir, trajectory, out;
   int count = 20, downsample = 2;
   bool bonn = false;

@@ -5,6 +5,7 @@
 # the nodelet manager, Gaussian count, keyframes and status latency every 100 frames into
 # OUT/graph_soak.csv, plotted to OUT/graph_soak.png. Prints frames in, statuses and poses out.
 # Needs the catkin build (scripts/build.sh) and its environment (source build/devel/setup.bash).
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$ROOT/bench/graph_launch.sh"

@@ -27,8 +27,17 @@
 
 #include "dypho/common/atomic_file.h"
 #include "soak_stats.h"
+#include "help_flag.h"
+
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: graph_soak_probe --pid MANAGER_PID --out soak.csv [--every 100] [--expect FRAMES]\n"
+    "Watches a running DyPho graph: one CSV row (soak_runner's format) per --every tracking statuses\n"
+    "with the nodelet manager's resident memory, Gaussians, keyframes and status latency; ends after\n"
+    "--expect statuses, 20 s after the last one, or on Ctrl-C, and prints a summary of the run.\n";
 
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   ros::init(argc, argv, "graph_soak_probe", ros::init_options::AnonymousName);
   int pid = 0, every = 100, expect = 0;
   std::string out = "graph_soak.csv";

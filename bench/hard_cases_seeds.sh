@@ -1,10 +1,11 @@
 #!/bin/bash
-# The static-camera crowd cases of docs/benchmarks.md section 8 over several generator seeds:
+# The static-camera crowd cases of docs/journal/benchmarks-2026.md section 8 over several generator seeds:
 # one seed says little about sequences we do not have (seed 1 of the 6-crossing case gives
 # 0.46 cm, seeds 2 and 3 gave 8.8 and 11.4 cm on the same build). Prints the ATE RMSE and max of
 # each run (offline runner, every frame processed) and the mean RMSE per case.
 # Usage: bench/hard_cases_seeds.sh [BUILD_DIR] [OUT_DIR] [SEEDS] [CONFIG_YAML]
 #   SEEDS: quoted list, default "1 2 3"; CONFIG_YAML: passed to dypho_run_dataset --config.
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

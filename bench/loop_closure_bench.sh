@@ -4,6 +4,7 @@
 # a deliberately weak odometry (300 features, no local map, no local BA) that drifts more.
 # Prints final-trajectory ATE, online ATE and the first-to-last-frame drift (the loop gap).
 # Usage: bench/loop_closure_bench.sh [BUILD_DIR] [OUT_DIR]
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

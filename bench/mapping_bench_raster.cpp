@@ -23,6 +23,7 @@
 #include "dypho/mapping/map_renderer.h"
 #include "dypho/common/camera.h"
 #include "dypho/mapping/rasterizer.h"
+#include "help_flag.h"
 
 using namespace dypho;
 using namespace dypho::mapping;
@@ -66,7 +67,16 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: mapping_bench_raster [--threads 2] [--repeats 10] [--counts 10000,100000,300000]\n"
+    "                            [--sizes 640x480,320x240] [--sh-degree 1] [--stages 0|1]\n"
+    "                            [--isa auto|generic|avx2]\n"
+    "Times the CPU Gaussian rasterizer (forward, backward; with --stages 1 also its stages) on a\n"
+    "synthetic room of surface Gaussians, per Gaussian count and image size.\n";
+
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   int threads = 2, repeats = 10, degree = 1, stages = 0;
   std::string counts = "10000,100000,300000", sizes = "640x480,320x240";
   RasterSettings settings;

@@ -56,6 +56,7 @@
 #include "dypho/tools/tum_dataset.h"
 #include "dypho/tracking/orb_extractor.h"
 #include "dypho/tracking/tracking_options.h"
+#include "help_flag.h"
 
 using namespace dypho;
 
@@ -89,7 +90,17 @@ struct VariantStats {
 
 }  // namespace
 
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: mask_bonn_bench [--data DIR] [--model ONNX] [--frames N] [--variants LIST] [--pose cv|none]\n"
+    "                       [--every-n N] [--async] [--rate-hz HZ] [--threads T] [--verbose]\n"
+    "How many of the tracker's ORB features land on people in a Bonn crowd sequence, with and without\n"
+    "the dynamic mask. Defaults: --data /work/shared/data/rgbd_bonn_crowd_frames200to399, --model\n"
+    "/work/shared/models/yolox_nano.onnx, all frames, --variants none,flow,flow_bg,full, --pose cv,\n"
+    "2 OpenCV threads.\n";
+
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   std::string data = "/work/shared/data/rgbd_bonn_crowd_frames200to399";
   std::string model = "/work/shared/models/yolox_nano.onnx";
   std::string variants_arg = "none,flow,flow_bg,full", pose = "cv";

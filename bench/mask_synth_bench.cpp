@@ -25,6 +25,7 @@
 
 #include "dypho/mask/dynamic_masker.h"
 #include "dypho/tools/synthetic_scene.h"
+#include "help_flag.h"
 
 using namespace dypho;
 
@@ -38,7 +39,16 @@ double percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: mask_synth_bench [--motion halfsphere|xyz|static|rpy] [--frames N] [--people K] [--seed S]\n"
+    "                        [--pose cv|gt|none] [--model ONNX] [--every-n N] [--async] [--threads T]\n"
+    "                        [--no-background] [--no-grow] [--no-aperture] [--margin PX] [--dump DIR] [--verbose]\n"
+    "Accuracy (IoU, false-dynamic and missed shares) and speed of the dynamic mask on a synthetic\n"
+    "sequence with ground-truth masks and poses. Defaults: 150 frames, 2 people, seed 3, --pose cv.\n";
+
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   tools::SynthOptions so;
   so.frames = 150;
   so.people = 2;

@@ -13,6 +13,7 @@
 #   --mask    passed to dypho_run_dataset (default flow)
 # The backward half: a line with stamp t (first <= t <= last, the RGB stamps) is repeated at
 # 2 last + dt - t, dt = 1/30 s, for rgb.txt, depth.txt and groundtruth.txt alike.
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -25,7 +26,7 @@ while [ $# -gt 2 ]; do
     *) echo "pingpong: unknown option $1" >&2; exit 2;;
   esac
 done
-if [ $# -ne 2 ]; then sed -n 2,16p "$0" >&2; exit 2; fi
+if [ $# -ne 2 ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2; exit 2; fi
 DATA="$(cd "$1" && pwd)"; OUT="$2"
 [ -x "$BIN/dypho_run_dataset" ] || { echo "pingpong: $BIN/dypho_run_dataset missing: build first (scripts/build.sh)" >&2; exit 1; }
 for f in rgb.txt depth.txt groundtruth.txt; do

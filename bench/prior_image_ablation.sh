@@ -8,6 +8,7 @@
 # how many frames used R_d. Runs are deterministic for a build.
 # Usage: bench/prior_image_ablation.sh [BUILD_DIR] [OUT_DIR] [SEQUENCES...]
 #   SEQUENCES: any of fr1 bonn bonn_det synth (default: all four)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -15,6 +15,7 @@
 # the shipped config/ (launch arg config_dir).
 # Needs the catkin build and its environment (source build/devel/setup.bash). The summary is
 # also written to OUT/summary.txt; OUT keeps the roslaunch log, the outputs and the probe CSV.
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$ROOT/bench/graph_launch.sh"

@@ -10,6 +10,7 @@
 # its wall time; 0.0 = quiet, 2.0 = both cores taken by others).
 # The runs' outputs stay in OUT/<dataset>_<mask>_<mode>/ (log.txt is the runner's summary).
 # DYPHO_BIN: folder of dypho_run_dataset (default build/devel/lib/dypho_slam).
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BIN="${DYPHO_BIN:-$ROOT/build/devel/lib/dypho_slam}"

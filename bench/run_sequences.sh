@@ -1,7 +1,8 @@
 #!/bin/bash
 # Runs dypho_run_dataset on the shared real sequences and a synthetic one; prints ATE and the
-# median ms per stage (the numbers in docs/benchmarks.md).
+# median ms per stage (the numbers in docs/journal/benchmarks-2026.md).
 # Usage: bench/run_sequences.sh [BUILD_DIR] [OUT_DIR]     (../shared must sit beside the repo)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

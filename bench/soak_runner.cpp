@@ -30,6 +30,7 @@
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/synthetic_scene.h"
+#include "help_flag.h"
 
 namespace {
 
@@ -79,7 +80,16 @@ void plot(const std::vector<Row>& rows, const std::string& path) {
 
 }  // namespace
 
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: soak_runner [--frames 10000] [--every 100] [--out soak.csv] [--plot soak.png]\n"
+    "                   [--mapping-mode deterministic|live]\n"
+    "       soak_runner --plot-csv soak.csv --plot soak.png     (plot an earlier run's CSV)\n"
+    "A long synthetic sequence through the in-process pipeline: resident memory, Gaussians, queued\n"
+    "mapping jobs and per-frame latency every --every frames into the CSV, plotted to --plot.\n";
+
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   using namespace dypho;
   int frames = 10000, every = 100;
   std::string out = "soak.csv", plot_path = "soak.png", plot_csv;

@@ -10,6 +10,7 @@
 # the measuring processes' load on a 2-core machine down. Writes OUT_DIR/bw.tsv
 # (topic, MB/s, mean message size, Hz) and the raw outputs. Needs `source build/devel/setup.bash`.
 # BW_BATCHES="2" (indices, default "0 1 2") measures only those batches (2 = rendered views, clouds).
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 BAG="$(realpath "$1")"; OUT="$(realpath -m "$2")"; SECONDS_WINDOW="${3:-25}"; SCALE="${4:-1}"
 mkdir -p "$OUT"

@@ -4,6 +4,7 @@
 # test (the defaults), "adaptive" = FAST threshold relaxation only, "fixed" = neither. Prints the final-trajectory ATE
 # (and the online one) of `dypho_run_dataset` per case.
 # Usage: bench/tracking_ablation.sh [BUILD_DIR] [OUT_DIR]   (../shared must sit beside the repo)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

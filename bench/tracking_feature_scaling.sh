@@ -1,6 +1,7 @@
 #!/bin/bash
 # Tracking time and ATE against the keypoint budget on TUM fr1/rpy (tracker alone, no mask).
 # Usage: bench/tracking_feature_scaling.sh [BUILD_DIR]
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

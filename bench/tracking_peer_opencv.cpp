@@ -23,8 +23,16 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/common/trajectory_io.h"
 #include "dypho/tools/tum_dataset.h"
+#include "help_flag.h"
+
+/// What -h / --help prints (the usage of the file comment above).
+const char* const kUsage =
+    "usage: tracking_peer_opencv --dataset DIR --out TRAJ.txt [--camera NAME_OR_YAML]\n"
+    "OpenCV's cv::rgbd::RgbdOdometry (default parameters, frame to frame) on a TUM-layout folder:\n"
+    "writes a TUM trajectory and prints the median time per frame. Evaluate with dypho_evaluate.\n";
 
 int main(int argc, char** argv) {
+  if (dypho::bench::printHelpIfAsked(argc, argv, kUsage)) return 0;
   std::string dataset, out, camera_name;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i];

@@ -5,6 +5,7 @@
 # instructions must be one of the AVX2 kernels (namespace dypho::mapping::raster::avx2). Anything
 # else would run AVX2 code on a CPU without it (SIGILL). Exit 0 clean, 1 on a finding, 2 on a
 # usage or tool error.
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 lib="${1:-}"
 if [[ -z "$lib" || ! -f "$lib" ]]; then

@@ -4,6 +4,8 @@
 # Which setup.bash: $DYPHO_SETUP when set (in the remote login environment), else the devel space
 # of a plain-CMake build (build/devel, scripts/build.sh), else that of a catkin workspace whose
 # src/ holds this checkout (ws/devel).
+# Usage: env_loader.sh COMMAND [ARGS...]   (roslaunch passes the command)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -e
 export PATH=/usr/bin:/bin:$PATH   # a python first on PATH (pyenv, conda) breaks rospy
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -9,6 +9,7 @@
 #   scripts/gpu_check.sh run [OUT_DIR]  # on the GPU machine: build, tests, sanitizers, benchmark;
 #                                       # logs go to OUT_DIR (default build-gpu/out)
 #   DYPHO_CUDA_ARCHITECTURES=90 scripts/gpu_check.sh run ...   # build for that GPU only (faster)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 case "${1:-}" in

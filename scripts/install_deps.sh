@@ -1,6 +1,8 @@
 #!/bin/bash
 # Installs every Debian bookworm package DyPho-SLAM needs to build, run and test. Idempotent:
 # does nothing (and needs no network) when everything is already installed.
+# Usage: scripts/install_deps.sh   (no arguments; installs with apt-get, as root or through sudo)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 
 PACKAGES=(

@@ -4,6 +4,7 @@
 # a test skipped itself (GTEST_SKIP, e.g. ../shared missing), so ctest reports it as skipped and
 # never as passed; 0 when every test ran and passed.
 # Usage: run_gtest.sh EXECUTABLE [ARGS...]
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -u
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT

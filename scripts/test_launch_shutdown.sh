@@ -7,6 +7,7 @@
 # Each must end within 90 s, with exit code 0, no process that died (no segfault or abort at
 # shutdown), and the outputs written completely: trajectory.txt with the posed frames and a
 # map.ply, no temporary files left. Exit 0 when both pass.
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -uo pipefail
 bag="${1:-}"
 out="${2:-}"

@@ -4,6 +4,7 @@
 # the unit tests; any sanitizer report fails the run. The whole-system dataset runs
 # (test_datasets) are left to the optimised build in scripts/test.sh.
 # Usage: test_sanitized.sh [BUILD_DIR]
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

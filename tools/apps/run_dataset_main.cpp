@@ -406,6 +406,7 @@ int run(const Args& args) {
   mask_writer.finish();
   mapping::KeyframeEvaluation map_eval;
   if (args.build_map) {
+    if (!args.quiet) std::cerr << "refining the map over all keyframes and writing it (map.ply, map.pcd)...\n";
     pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
     makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
     map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
