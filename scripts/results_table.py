@@ -1,0 +1,154 @@
+#!/usr/bin/python3
+"""Writes docs/results.md and the README's results table from docs/results/rows.tsv.
+
+rows.tsv is written by bench/results.sh, one row per measured run (date, dataset, frames, mode,
+mask, ate_cm, psnr_db, ms_per_frame, posed, machine, commit, command). Nothing here is typed by
+hand: edit the runs, not the tables.
+
+Usage: scripts/results_table.py [--check]
+  --check  exit 1 (and say which) when docs/results.md or the README's table differ from what
+           rows.tsv gives; writes nothing. CI runs this.
+"""
+import collections
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROWS = os.path.join(ROOT, "docs", "results", "rows.tsv")
+RESULTS_MD = os.path.join(ROOT, "docs", "results.md")
+README = os.path.join(ROOT, "README.md")
+BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
+MODES = ["offline", "runner 1x", "graph 1x"]
+MODE_TEXT = {
+    "offline": "offline: every frame, as fast as it goes (`dypho_run_dataset`)",
+    "runner 1x": "live at 1x in one process (`dypho_run_dataset --realtime`): frames at their stamps, late ones dropped",
+    "graph 1x": "live at 1x through the ROS graph (`tum_bag.launch`, `rosbag play` at rate 1.0)",
+}
+
+
+def read_rows(path):
+    with open(path) as f:
+        lines = [l.rstrip("\n") for l in f if l.strip()]
+    header = lines[0].split("\t")
+    rows = []
+    for number, line in enumerate(lines[1:], start=2):
+        cells = line.split("\t")
+        if len(cells) != len(header):
+            sys.exit(f"results_table: {path}:{number}: {len(cells)} cells, the header has {len(header)}")
+        rows.append(dict(zip(header, cells)))
+    return rows
+
+
+def fps(ms):
+    try:
+        return f"{1000.0 / float(ms):.1f}"
+    except (ValueError, ZeroDivisionError):
+        return "-"
+
+
+def sort_key(row):
+    mode = MODES.index(row["mode"]) if row["mode"] in MODES else len(MODES)
+    return (mode, row["mask"], row["machine"])
+
+
+def results_md(rows):
+    by_dataset = collections.OrderedDict()
+    for row in rows:
+        by_dataset.setdefault(row["dataset"], []).append(row)
+    out = [
+        "# Results",
+        "",
+        "Every number here comes from `bench/results.sh` on the machine named in its row and is",
+        "rendered by `scripts/results_table.py` from [results/rows.tsv](results/rows.tsv); CI checks",
+        "that this page matches that file. The history of how the numbers got here is in the",
+        "[journal](journal/benchmarks-2026.md).",
+        "",
+        "Modes:",
+    ]
+    out += [f"- **{m}**: {MODE_TEXT[m]}." for m in MODES]
+    out += [
+        "",
+        "Metrics: ATE is the RMSE of the final trajectory after a rigid alignment to the ground truth",
+        "(Bonn: with the dataset's marker-to-camera correction). Map PSNR is measured on the static",
+        "pixels of the keyframes the map holds. ms/frame is the median work per frame",
+        "(mask + tracking + mapping); frames/s offline is its inverse. Posed: frames that got a pose.",
+        "`+changes` after a commit: the run had uncommitted changes to code.",
+        "",
+        "Reproduce a row: `bash scripts/build.sh && bench/results.sh --only NAME` (names:",
+        "`bench/results.sh --list`).",
+    ]
+    for dataset, drows in by_dataset.items():
+        drows = sorted(drows, key=sort_key)
+        frames = drows[0]["frames"]
+        out += ["", f"## {dataset}", "", f"{frames} frames.", ""]
+        out += ["### Trajectory", "", "| mode | mask | ATE (cm) | posed | machine | commit | date | command |",
+                "|---|---|---|---|---|---|---|---|"]
+        out += [f"| {r['mode']} | {r['mask']} | {r['ate_cm']} | {r['posed']} | {r['machine']} | {r['commit']} | "
+                f"{r['date']} | `{r['command']}` |" for r in drows]
+        out += ["", "### Map and speed", "",
+                "| mode | mask | map PSNR (dB) | ms/frame | frames/s offline | machine | commit | command |",
+                "|---|---|---|---|---|---|---|---|"]
+        out += [f"| {r['mode']} | {r['mask']} | {r['psnr_db']} | {r['ms_per_frame']} | "
+                f"{fps(r['ms_per_frame']) if r['mode'] == 'offline' else '-'} | {r['machine']} | "
+                f"{r['commit']} | `{r['command']}` |" for r in drows]
+    return "\n".join(out) + "\n"
+
+
+def readme_table(rows):
+    """One line per dataset: the default mask (flow) offline, at 1x in the runner and the graph."""
+    by_dataset = collections.OrderedDict()
+    for row in rows:
+        by_dataset.setdefault(row["dataset"], {})[(row["mode"], row["mask"])] = row
+    out = ["| dataset | ATE offline / live 1x (cm) | map PSNR (dB) | frames/s offline | posed live 1x | machine |",
+           "|---|---|---|---|---|---|"]
+    for dataset, runs in by_dataset.items():
+        off = runs.get(("offline", "flow"))
+        live = runs.get(("graph 1x", "flow")) or runs.get(("runner 1x", "flow"))
+        if not off:
+            continue
+        live_ate = live["ate_cm"] if live else "-"
+        posed = f"{live['posed']} ({'graph' if live['mode'] == 'graph 1x' else 'runner'})" if live else "-"
+        out.append(f"| {dataset} | {off['ate_cm']} / {live_ate} | {off['psnr_db']} | {fps(off['ms_per_frame'])} | "
+                   f"{posed} | {off['machine']} |")
+    return "\n".join(out) + "\n"
+
+
+def with_readme_table(text, table):
+    if BEGIN not in text or END not in text:
+        sys.exit(f"results_table: README.md has no {BEGIN} ... {END} block")
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    return head + BEGIN + "\n" + table + END + tail
+
+
+def main():
+    check = "--check" in sys.argv[1:]
+    if any(a in ("-h", "--help") for a in sys.argv[1:]):
+        print(__doc__.strip())
+        return 0
+    rows = read_rows(ROWS)
+    wanted = {RESULTS_MD: results_md(rows)}
+    with open(README) as f:
+        wanted[README] = with_readme_table(f.read(), readme_table(rows))
+    stale = []
+    for path, text in wanted.items():
+        current = open(path).read() if os.path.exists(path) else None
+        if current == text:
+            continue
+        if check:
+            stale.append(os.path.relpath(path, ROOT))
+        else:
+            tmp = path + ".tmp"
+            with open(tmp, "w") as f:
+                f.write(text)
+            os.replace(tmp, path)
+            print(f"results_table: wrote {os.path.relpath(path, ROOT)}")
+    if stale:
+        print("results_table: out of date with docs/results/rows.tsv: " + ", ".join(stale) +
+              " (run scripts/results_table.py)", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
