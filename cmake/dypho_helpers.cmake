@@ -32,7 +32,7 @@ function(dypho_add_gtest name)
     math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * ${DYPHO_TEST_TIMEOUT_SCALE}")
   endif()
   if(DYPHO_WITH_ROS)
-    catkin_add_executable_with_gtest(${name} ${ARG_SOURCES})
+    dypho_add_test_executable(${name} ${ARG_SOURCES})
   else()
     add_executable(${name} ${ARG_SOURCES})
     target_link_libraries(${name} GTest::gtest_main)
@@ -64,6 +64,17 @@ function(dypho_add_gtest name)
     DYPHO_SOURCE_DIR="${DYPHO_REAL_SOURCE_DIR}"
     DYPHO_SHARED_DIR="${DYPHO_SHARED_DIR}")
   dypho_set_warnings(${name})
+endfunction()
+
+# dypho_add_test_executable(<name> <sources...>): a gtest executable (catkin, gtest linked) that is
+# built by the `tests` target only. catkin_add_executable_with_gtest() puts it into `all`, so
+# `catkin_make` and a plain build compiled every test a user never runs.
+function(dypho_add_test_executable name)
+  catkin_add_executable_with_gtest(${name} ${ARGN})
+  if(TARGET ${name})
+    set_target_properties(${name} PROPERTIES EXCLUDE_FROM_ALL ON)
+    add_dependencies(tests ${name})
+  endif()
 endfunction()
 
 # dypho_add_nodelet(<module>): the thin ROS adapter library dypho_<module>_nodelet built from

@@ -2,8 +2,8 @@
 # Builds the package with plain CMake at the repository root (catkin's devel space ends up in
 # build/devel; `source build/devel/setup.bash` to use roslaunch/rosrun).
 # Usage: build.sh [BUILD_DIR [TARGET...]]
-#   no TARGET: everything a user runs (nodelets, tools), then the test executables
-#              (DYPHO_SKIP_TESTS=1 leaves the tests out);
+#   no TARGET: everything a user runs (nodelets, tools), then the test executables and the
+#              benchmark programs (DYPHO_SKIP_TESTS=1 leaves those out);
 #   TARGET...: only those targets and what they link (scripts/demo.sh builds its two tools).
 # Works from any clone path (long ones, spaces); the build folder may be anywhere.
 set -euo pipefail
@@ -38,8 +38,9 @@ if [ ${#TARGETS[@]} -gt 0 ]; then
   exit 0
 fi
 cmake --build "$BUILD" -j "$JOBS"
-# Test executables (catkin keeps them out of `all`); DYPHO_SKIP_TESTS=1 skips them.
+# Test executables, their generated inputs and the benchmark programs are not part of `all`;
+# DYPHO_SKIP_TESTS=1 leaves them out.
 if [ "${DYPHO_SKIP_TESTS:-0}" != "1" ]; then
-  cmake --build "$BUILD" -j "$JOBS" --target tests
+  cmake --build "$BUILD" -j "$JOBS" --target tests benches
 fi
 echo "build: done in $BUILD (source $BUILD/devel/setup.bash for roslaunch)"
