@@ -115,12 +115,15 @@ graph() {  # name label data mask: the bag through tum_bag.launch at rate 1.0
   local s; s="$(cat "$OUT/$name/summary.txt" 2>/dev/null || true)"
   local frames statuses
   frames="$(field "$s" 'frames in:')"; statuses="$(field "$s" 'statuses:')"
-  record "$name" "$label" "$frames" "graph 1x" "$mask" "$(printf '%s\n' "$s" | grep -m1 -oP 'rmse[:= ]*\K[0-9.]+' | awk '{printf "%.2f", $1 * 100}' || echo -)" \
+  record "$name" "$label" "$frames" "graph 1x" "$mask" "$(field "$s" '^ATE:\s*rmse')" \
     "$(field "$s" 'map PSNR:')" "-" "$statuses of $frames" \
     "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx}"
 }
 
 [ -x "$BIN/dypho_run_dataset" ] || { echo "results.sh: build first (bash scripts/build.sh): no $BIN/dypho_run_dataset" >&2; exit 1; }
+if { [ -z "$only" ] || [[ "$only" == *_graph,* ]]; } && [ ! -x "$BIN/graph_soak_probe" ]; then
+  echo "results.sh: the graph runs need the benchmark programs: bash scripts/build.sh (or catkin_make benches)" >&2; exit 1
+fi
 [ -d "$SYNTH" ] || "$BIN/dypho_synth" --out "$SYNTH" --frames 300 --motion halfsphere --people 2 --seed 1 --no-bag > /dev/null
 for r in "${RUNS[@]}"; do
   IFS='|' read -r name label data mask extra <<< "$r"
