@@ -4,17 +4,19 @@
 # replaced), then regenerates docs/results.md and the README's results table from that file
 # (scripts/results_table.py). Numbers are never typed by hand: they come from these runs.
 #
-# Usage: bench/results.sh [--only NAME[,NAME...]] [--list] [--no-table]
+# Usage: bench/results.sh [--only NAME[,NAME...]] [--repeats N] [--list] [--no-table]
 #   NAME: a run below (synthetic, fr1_flow, fr1_none, bonn_flow, bonn_detector, and the same with
 #         _live for dypho_run_dataset --realtime at 1x, and _graph for the ROS graph at 1x; the
 #         graph always masks, so there is no fr1_none_graph).
+#   --repeats: runs of each live mode (not repeatable; default 3): the row has the median and the
+#   ATE's range. Offline runs are deterministic: one each.
 #   Build first: bash scripts/build.sh. ../shared must sit beside the repository for the real
 #   sequences (runs whose data is missing are listed as not run, never recorded).
 #   DYPHO_BUILD_DIR (default build/), DYPHO_DEVEL (the devel space; default $DYPHO_BUILD_DIR/devel,
 #   ~/catkin_ws/devel after catkin_make), DYPHO_SHARED_DIR (default ../shared), OUT (the runs'
 #   output folders; default /tmp/dypho_results).
 set -euo pipefail
-if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0; fi
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0; fi
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${DYPHO_BUILD_DIR:-$ROOT/build}"
@@ -23,12 +25,13 @@ OUT="${OUT:-/tmp/dypho_results}"
 DEVEL="${DYPHO_DEVEL:-$BUILD/devel}"
 BIN="$DEVEL/lib/dypho_slam"
 ROWS="$ROOT/docs/results/rows.tsv"
-only="" list=0 table=1
+only="" list=0 table=1 REPEATS=3
 while [ $# -gt 0 ]; do
   case "$1" in
     --only) only=",$2,"; shift 2 ;;
     --list) list=1; shift ;;
     --no-table) table=0; shift ;;
+    --repeats) REPEATS="$2"; shift 2 ;;
     *) echo "results.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
 done
@@ -51,73 +54,93 @@ fi
 
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 commit="$(git -C "$ROOT" rev-parse --short=10 HEAD)"
-# Uncommitted changes to anything but docs make the commit column a lie: say so in the row.
-if ! git -C "$ROOT" diff --quiet HEAD -- . ':(exclude)docs' ':(exclude)README.md'; then commit="$commit+changes"; fi
+# Uncommitted changes to what is measured (code, parameters, launch files, these scripts) make the
+# commit column a lie: say so in the row.
+if ! git -C "$ROOT" diff --quiet HEAD -- CMakeLists.txt package.xml cmake config launch bench tools \
+       dypho_common dypho_mask dypho_tracking dypho_mapping dypho_pipeline dypho_msgs; then
+  commit="$commit+changes"
+fi
 mkdir -p "$OUT" "$(dirname "$ROWS")"
-[ -f "$ROWS" ] || printf 'date\tdataset\tframes\tmode\tmask\tate_cm\tpsnr_db\tms_per_frame\tposed\tmachine\tcommit\tcommand\n' > "$ROWS"
+[ -f "$ROWS" ] || printf 'date\tdataset\tframes\tmode\tmask\truns\tate_cm\tate_range_cm\tpsnr_db\tms_per_frame\tposed\tmachine\tcommit\tcommand\n' > "$ROWS"
 
-# record NAME DATASET FRAMES MODE MASK ATE PSNR MS POSED COMMAND: one row, replacing the row of
-# the same dataset, mode and mask measured on the same machine.
+# record NAME DATASET MODE MASK COMMAND RUNS_FILE: one row from the runs in RUNS_FILE (one line per
+# run: frames, ATE cm, PSNR dB, ms/frame, frames posed; '-' where a run has none), replacing the
+# row of the same dataset, mode and mask measured on the same machine. Several runs (the live
+# modes are not repeatable) give the median and the ATE's range.
 record() {
-  /usr/bin/python3 - "$ROWS" "$(date -u +%Y-%m-%d)" "$2" "$3" "$4" "$5" "$6" "$7" "$8" "$9" "$machine" "$commit" "${10}" <<'PY'
-import sys
-path, row = sys.argv[1], sys.argv[2:]
+  /usr/bin/python3 - "$ROWS" "$(date -u +%Y-%m-%d)" "$2" "$3" "$4" "$5" "$6" "$machine" "$commit" <<'PY'
+import os, statistics, sys
+path, date, dataset, mode, mask, command, runs_file, machine, commit = sys.argv[1:]
+runs = [l.split() for l in open(runs_file) if l.strip()]
+def column(i):
+    return [float(r[i]) for r in runs if r[i] != "-"]
+def median(i, fmt):
+    v = column(i)
+    return fmt % statistics.median(v) if v else "-"
+ate = column(1)
+frames = runs[0][0]
+row = [date, dataset, frames, mode, mask, str(len(runs)), median(1, "%.2f"),
+       "%.2f-%.2f" % (min(ate), max(ate)) if len(ate) > 1 else "-", median(2, "%.2f"), median(3, "%.1f"),
+       median(4, "%.0f") + " of " + frames, machine, commit, command]
 with open(path) as f:
     lines = f.read().splitlines()
 header, body = lines[0], [l.split("\t") for l in lines[1:] if l.strip()]
-key = lambda r: (r[1], r[3], r[4], r[9])  # dataset, mode, mask, machine
+key = lambda r: (r[1], r[3], r[4], r[11])  # dataset, mode, mask, machine
 body = [r for r in body if key(r) != key(row)] + [row]
-tmp = path + ".tmp"
-with open(tmp, "w") as f:
+with open(path + ".tmp", "w") as f:
     f.write(header + "\n" + "".join("\t".join(r) + "\n" for r in body))
-import os; os.replace(tmp, path)
+os.replace(path + ".tmp", path)
+print("results.sh: recorded %s, %s, %s: %s run(s), ATE %s cm (%s), PSNR %s dB, posed %s" %
+      (dataset, mode, mask, row[5], row[6], row[7], row[8], row[10]))
 PY
-  echo "results.sh: recorded $1: ATE $6 cm, PSNR $7 dB, $8 ms/frame, posed $9"
 }
 
 # field TEXT PATTERN: the first number after PATTERN in TEXT, or '-'.
 field() { printf '%s\n' "$1" | grep -m1 -oP "$2"'\s*\K[0-9.]+' || echo "-"; }
 
-offline() {  # name label data mask extra...
-  local name="$1" label="$2" data="$3" mask="$4"; shift 4
+offline() {  # name label data mask: dypho_run_dataset, deterministic (LIVE=0) or at 1x (LIVE=1)
+  local name="$1" label="$2" data="$3" mask="$4"
   local mask_args=(--mask "$mask") cfg=()
   if [ "$mask" = "detector" ]; then
     printf 'mask:\n  yolo_model_path: "%s"\n' "$MODEL" > "$OUT/detector.yaml"
     mask_args=(--mask flow --config "$OUT/detector.yaml"); cfg=(--config detector.yaml)
   fi
-  local mode="offline" rt=()
-  [ "${LIVE:-0}" = 1 ] && { mode="runner 1x"; rt=(--realtime); name="${name}_live"; }
-  echo "results.sh: $name"
-  local text
-  text="$("$BIN/dypho_run_dataset" --dataset "$data" --out "$OUT/$name" --quiet "${mask_args[@]}" "${rt[@]}")"
-  local frames posed
-  frames="$(printf '%s\n' "$text" | grep -m1 -oP 'frames:\s*[0-9]+ of \K[0-9]+')"
-  posed="$(printf '%s\n' "$text" | grep -m1 -oP 'posed:\s*\K[0-9]+ of [0-9]+' || true)"
-  [ -n "$posed" ] || posed="$(printf '%s\n' "$text" | grep -m1 -oP 'frames:\s*\K[0-9]+ of [0-9]+')"
+  local mode="offline" rt=() n=1
+  [ "${LIVE:-0}" = 1 ] && { mode="runner 1x"; rt=(--realtime); name="${name}_live"; n="$REPEATS"; }
+  : > "$OUT/$name.runs"
+  for ((k = 1; k <= n; ++k)); do
+    echo "results.sh: $name, run $k of $n"
+    local text frames posed
+    text="$("$BIN/dypho_run_dataset" --dataset "$data" --out "$OUT/$name" --quiet "${mask_args[@]}" "${rt[@]}")"
+    printf '%s\n' "$text" > "$OUT/$name.$k.txt"
+    frames="$(printf '%s\n' "$text" | grep -m1 -oP '^frames:\s*[0-9]+ of \K[0-9]+')"
+    posed="$(field "$text" '^posed:')"; [ "$posed" != "-" ] || posed="$(field "$text" '^frames:')"
+    echo "$frames $(field "$text" '^ATE RMSE:') $(field "$text" '^map PSNR:') $(field "$text" '^time:') $posed" >> "$OUT/$name.runs"
+  done
   local shown_mask="${mask_args[*]}"
-  record "$name" "$label" "$frames" "$mode" "$mask" "$(field "$text" 'ATE RMSE:')" \
-    "$(field "$text" 'map PSNR:')" "$(field "$text" 'time:')" "$posed" \
-    "dypho_run_dataset --dataset $(basename "$data") ${rt[*]} --mask ${shown_mask#--mask } ${cfg[*]}"
+  record "$name" "$label" "$mode" "$mask" \
+    "dypho_run_dataset --dataset $(basename "$data") ${rt[*]} --mask ${shown_mask#--mask } ${cfg[*]}" "$OUT/$name.runs"
 }
 
 graph() {  # name label data mask: the bag through tum_bag.launch at rate 1.0
   local name="${1}_graph" label="$2" data="$3" mask="$4"
-  echo "results.sh: $name"
+  [ "$mask" = "none" ] && { echo "results.sh: $name: the graph always masks; not run"; return; }
   # shellcheck disable=SC1091
   set +u; source "$DEVEL/setup.bash"; set -u
   local bag="$OUT/$(basename "$data").bag" det=() extra=()
   [ -f "$bag" ] || "$BIN/dypho_dataset_to_bag" --dataset "$data" --out "$bag" > /dev/null
   [ "$mask" = "detector" ] && det=(--detector "$MODEL")
   [ "$data" = "$BONN" ] && extra=(--bonn-correction)
-  [ "$mask" = "none" ] && { echo "results.sh: $name: the graph always masks; not run"; return; }
-  DYPHO_BIN="$BIN" bash "$ROOT/bench/realtime_graph.sh" "$bag" --out "$OUT/$name" "${det[@]}" \
-    --groundtruth "$data/groundtruth.txt" "${extra[@]}" > "$OUT/$name.log" 2>&1 || true
-  local s; s="$(cat "$OUT/$name/summary.txt" 2>/dev/null || true)"
-  local frames statuses
-  frames="$(field "$s" 'frames in:')"; statuses="$(field "$s" 'statuses:')"
-  record "$name" "$label" "$frames" "graph 1x" "$mask" "$(field "$s" '^ATE:\s*rmse')" \
-    "$(field "$s" 'map PSNR:')" "-" "$statuses of $frames" \
-    "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx}"
+  : > "$OUT/$name.runs"
+  for ((k = 1; k <= REPEATS; ++k)); do
+    echo "results.sh: $name, run $k of $REPEATS"
+    DYPHO_BIN="$BIN" bash "$ROOT/bench/realtime_graph.sh" "$bag" --out "$OUT/$name.$k" "${det[@]}" \
+      --groundtruth "$data/groundtruth.txt" "${extra[@]}" > "$OUT/$name.$k.log" 2>&1 || true
+    local s; s="$(cat "$OUT/$name.$k/summary.txt" 2>/dev/null || true)"
+    echo "$(field "$s" '^frames in:') $(field "$s" '^ATE:\s*rmse') $(field "$s" '^map PSNR:') - $(field "$s" '^statuses:')" >> "$OUT/$name.runs"
+  done
+  record "$name" "$label" "graph 1x" "$mask" \
+    "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx}" "$OUT/$name.runs"
 }
 
 [ -x "$BIN/dypho_run_dataset" ] || { echo "results.sh: build first (bash scripts/build.sh): no $BIN/dypho_run_dataset" >&2; exit 1; }

@@ -39,6 +39,21 @@ def read_rows(path):
     return rows
 
 
+def num(text, digits=2):
+    """A measured number as the tables show it (2 decimals), or the text as it is ('-')."""
+    try:
+        return f"{float(text):.{digits}f}"
+    except ValueError:
+        return text
+
+
+def ate(row):
+    """ATE as the tables show it: the median and, over several runs, the range."""
+    if row.get("runs", "1") not in ("", "1") and row.get("ate_range_cm", "-") != "-":
+        return f"{num(row['ate_cm'])} ({row['ate_range_cm']}, {row['runs']} runs)"
+    return num(row["ate_cm"])
+
+
 def fps(ms):
     try:
         return f"{1000.0 / float(ms):.1f}"
@@ -69,10 +84,12 @@ def results_md(rows):
     out += [
         "",
         "Metrics: ATE is the RMSE of the final trajectory after a rigid alignment to the ground truth",
-        "(Bonn: with the dataset's marker-to-camera correction). Map PSNR is measured on the static",
-        "pixels of the keyframes the map holds. ms/frame is the median work per frame",
-        "(mask + tracking + mapping); frames/s offline is its inverse. Posed: frames that got a pose.",
-        "`+changes` after a commit: the run had uncommitted changes to code.",
+        "(Bonn: with the dataset's marker-to-camera correction). The live modes are not repeatable:",
+        "their rows are the median of several runs, with the ATE's range. Map PSNR is measured on the",
+        "static pixels of the keyframes the map holds. ms/frame is the median work per frame",
+        "(mask + tracking + mapping; at 1x it includes waiting for a core); frames/s offline is the",
+        "inverse. Posed: frames that got a pose (the graph: a tracking status).",
+        "`+changes` after a commit: the run had uncommitted changes to code, parameters or scripts.",
         "",
         "Reproduce a row: `bash scripts/build.sh && bench/results.sh --only NAME` (names:",
         "`bench/results.sh --list`).",
@@ -83,15 +100,19 @@ def results_md(rows):
         out += ["", f"## {dataset}", "", f"{frames} frames.", ""]
         out += ["### Trajectory", "", "| mode | mask | ATE (cm) | posed | machine | commit | date | command |",
                 "|---|---|---|---|---|---|---|---|"]
-        out += [f"| {r['mode']} | {r['mask']} | {r['ate_cm']} | {r['posed']} | {r['machine']} | {r['commit']} | "
-                f"{r['date']} | `{r['command']}` |" for r in drows]
+        out += [f"| {r['mode']} | {r['mask']} | {ate(r)} | {r['posed']} | {r['machine']} | {r['commit']} | "
+                f"{r['date']} | `{command(r)}` |" for r in drows]
         out += ["", "### Map and speed", "",
                 "| mode | mask | map PSNR (dB) | ms/frame | frames/s offline | machine | commit | command |",
                 "|---|---|---|---|---|---|---|---|"]
-        out += [f"| {r['mode']} | {r['mask']} | {r['psnr_db']} | {r['ms_per_frame']} | "
+        out += [f"| {r['mode']} | {r['mask']} | {num(r['psnr_db'])} | {num(r['ms_per_frame'], 1)} | "
                 f"{fps(r['ms_per_frame']) if r['mode'] == 'offline' else '-'} | {r['machine']} | "
-                f"{r['commit']} | `{r['command']}` |" for r in drows]
+                f"{r['commit']} | `{command(r)}` |" for r in drows]
     return "\n".join(out) + "\n"
+
+
+def command(row):
+    return " ".join(row["command"].split())
 
 
 def readme_table(rows):
@@ -99,16 +120,18 @@ def readme_table(rows):
     by_dataset = collections.OrderedDict()
     for row in rows:
         by_dataset.setdefault(row["dataset"], {})[(row["mode"], row["mask"])] = row
-    out = ["| dataset | ATE offline / live 1x (cm) | map PSNR (dB) | frames/s offline | posed live 1x | machine |",
+    out = ["| dataset | ATE offline / live 1x (cm) | map PSNR offline (dB) | frames/s offline | posed live 1x | machine |",
            "|---|---|---|---|---|---|"]
     for dataset, runs in by_dataset.items():
         off = runs.get(("offline", "flow"))
         live = runs.get(("graph 1x", "flow")) or runs.get(("runner 1x", "flow"))
         if not off:
             continue
-        live_ate = live["ate_cm"] if live else "-"
+        live_ate = "-"
+        if live:
+            live_ate = num(live["ate_cm"]) + (f" (median of {live['runs']})" if live.get("runs", "1") != "1" else "")
         posed = f"{live['posed']} ({'graph' if live['mode'] == 'graph 1x' else 'runner'})" if live else "-"
-        out.append(f"| {dataset} | {off['ate_cm']} / {live_ate} | {off['psnr_db']} | {fps(off['ms_per_frame'])} | "
+        out.append(f"| {dataset} | {num(off['ate_cm'])} / {live_ate} | {num(off['psnr_db'])} | {fps(off['ms_per_frame'])} | "
                    f"{posed} | {off['machine']} |")
     return "\n".join(out) + "\n"
 
