@@ -3,6 +3,12 @@
 # dataset runs on ../shared; then the cores' unit tests again under ASan + UBSan (plain CMake, no
 # ROS) and a short run of the libFuzzer targets. Exit code 0 only when every part passed.
 set -euo pipefail
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then
+  sed -n '2,4p' "$0" | sed 's/^# \{0,1\}//'
+  echo "Environment: CI=true (strict: ../shared and every generated input required), DYPHO_BUILD_DIR,"
+  echo "DYPHO_SHARED_DIR, DYPHO_JOBS, DYPHO_FUZZ_SECONDS (default 20)."
+  exit 0
+fi
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD="${DYPHO_BUILD_DIR:-$ROOT/build}"
@@ -32,6 +38,10 @@ export ROS_HOME="$BUILD/ros_home"
 status=0
 ctest --output-on-failure -j 1 --timeout 1200 || status=$?
 phase_done "ctest"
+# docs/results.md and the README's results table are generated from docs/results/rows.tsv.
+/usr/bin/python3 "$ROOT/scripts/results_table.py" --check || status=1
+# docs/parameters.md lists every core parameter with the default of config/*.yaml.
+/usr/bin/python3 "$ROOT/scripts/check_parameters_doc.py" || status=1
 # What failed, and the failures' own lines (gtest assertions, the rostest nodes' summaries from
 # their logs under ROS_HOME): printed again at the very end, where a shortened log still shows it.
 failure_summary="$BUILD/failure_summary.txt"
