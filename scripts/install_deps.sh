@@ -19,7 +19,7 @@ PACKAGES=(
   librostest-dev python3-rostest ros-core rosbash python3-rosbag libstd-srvs-dev
   rviz xvfb imagemagick
   clang libclang-rt-14-dev
-  python3-onnx python3-numpy
+  python3-onnx python3-numpy python3-yaml
   opencv-doc
 )
 
