@@ -27,6 +27,12 @@ case "${DYPHO_CUDA:-on}" in
 esac
 CONFIG+=(-DDYPHO_WITH_CUDA=$CUDA)
 if [ "$CUDA" = ON ] && [ -x /usr/local/cuda/bin/nvcc ]; then CONFIG+=(-DCMAKE_CUDA_COMPILER=/usr/local/cuda/bin/nvcc); fi
+# rostest gives each test node its result file as an unquoted argument (rostest/runner.py): with
+# a space in the build path that file is never written and every rostest fails. catkin's test
+# results then go to a folder without spaces, one per build folder.
+if [[ "$BUILD" =~ [[:space:]] ]]; then
+  CONFIG+=(-DCATKIN_TEST_RESULTS_DIR="${TMPDIR:-/tmp}/dypho-test-results-$(printf '%s' "$BUILD" | md5sum | cut -c1-12)")
+fi
 # Configure twice: catkin caches an empty PYTHONPATH in setup_cached.sh on the first configure.
 mkdir -p "$BUILD"
 LOG="$BUILD/configure.log"
