@@ -199,8 +199,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     if (worker_.joinable()) worker_.join();
     if (tracker_.joinable()) tracker_.join();
     if (params_.output_dir.empty() || !stage_) return;  // empty only when start() failed before it
-    if (stage_->numFrames() == 0) {
-      // A run stopped before its first frame must not replace the last run's trajectory with nothing.
+    if (stage_->numFrames() == 0) {  // never replace the last run's trajectory with nothing
       NODELET_INFO_STREAM("no frame tracked: nothing written to " << params_.output_dir);
       return;
     }
