@@ -93,7 +93,7 @@ Scene room(int n, int width, double fx, std::mt19937& rng) {
   Scene s;
   s.n = n;
   const float ls = static_cast<float>(std::log(sigma_m)), thin = ls - std::log(10.f);
-  const float C0 = 0.28209479177387814f;
+  const float C0 = static_cast<float>(gs::kShC0);
   for (int i = 0; i < n; ++i) {
     const int face = static_cast<int>(u(rng) * 4.f) % 4;
     const float a = u(rng), b = u(rng);
@@ -227,7 +227,7 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
     for (float d : f.depth_m) valid += d > 0.f;
   }
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid) / 100000.0))));
-  const float C0 = 0.28209479177387814f;
+  const float C0 = static_cast<float>(gs::kShC0);
   Map0 start;
   for (const auto& f : tf.frames) {
     const double* T = f.T_world_camera;
@@ -251,13 +251,8 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
   auto lossParams = [&](const dypho::bench::TrainingFrame& f) {
     std::size_t nd = 0;
     for (float d : f.depth_m) nd += d > 0.f;
-    cuda_body::LossParams L{};
-    L.npix = static_cast<int>(npix);
-    L.wc = static_cast<float>(0.3 / (3.0 * npix));
-    L.wd = nd > 0 ? static_cast<float>(0.7 / nd) : 0.f;
-    L.wa = nd > 0 ? static_cast<float>(0.1 / nd) : 0.f;
-    for (int c = 0; c < 3; ++c) L.gain[c] = 1.f;
-    return L;
+    // Every pixel static; lambda_depth 0.7, alpha_weight 0.1, no exposure, no SSIM.
+    return train::lossParams(npix, npix, nd, 0.7, 0.1, nullptr, false);
   };
   auto meanPsnr = [&](auto&& render) {
     double sum = 0.0;
@@ -281,12 +276,12 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
   while (std::chrono::duration<double>(Clock::now() - c0).count() < seconds) {
     const std::size_t k = static_cast<std::size_t>(cpu_iters) % nf;
     cpu.forward(c.view(), views[k], out);
-    const cuda_body::LossParams L = lossParams(tf.frames[k]);
-    float sums[cuda_body::kLossSums] = {};
+    const train::LossParams L = lossParams(tf.frames[k]);
+    float sums[train::kLossSums] = {};
     for (std::size_t i = 0; i < npix; ++i)
-      cuda_body::l1LossPixel(static_cast<int>(i), L, out.color.data(), out.depth.data(), out.alpha.data(),
-                             tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(), mask.data(), gc.data(), gd.data(),
-                             ga.data(), sums);
+      train::l1LossPixel(static_cast<int>(i), L, out.color.data(), out.depth.data(), out.alpha.data(),
+                         tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(), mask.data(), gc.data(), gd.data(),
+                         ga.data(), sums);
     cpu.backward(PixelGrads<float>{gc.data(), gd.data(), ga.data()}, grads);
     const AdamStepSizes s = stepSizes(++cpu_iters);
     const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit, &grads.sh};

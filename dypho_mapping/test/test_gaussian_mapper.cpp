@@ -339,8 +339,16 @@ TEST(GaussianMapper, FinishRunsTheFinalRefinementOverAllKeyframes) {
     ASSERT_TRUE(mapper.addKeyframe(planeKeyframe(i, T)).added);
   }
   mapper.optimize(2);
-  EXPECT_GT(mapper.finish(), 0.0);  // mean loss of the refinement iterations
+  mapper.finish();
   EXPECT_EQ(mapper.stats().iterations, 2 + 7);
+  // finish() returns the mean loss of its refinement iterations: with one, that iteration's loss.
+  o.final_refine_iterations = 1;
+  GaussianMapper one(o);
+  ASSERT_TRUE(one.addKeyframe(planeKeyframe(0, Eigen::Isometry3d::Identity())).added);
+  const double loss = one.finish();
+  EXPECT_EQ(one.stats().iterations, 1);
+  EXPECT_EQ(loss, one.stats().last_loss);
+  EXPECT_GT(loss, 0.0);
   GaussianMapper empty(o);
   EXPECT_EQ(empty.finish(), 0.0);  // nothing to refine: no iteration, no crash
   EXPECT_EQ(empty.stats().iterations, 0);

@@ -86,7 +86,7 @@ TEST(Rasterizer, SingleGaussianMatchesAnalyticValue) {
   g.scale = {std::log(0.04), std::log(0.03), std::log(0.02)};
   g.rot = {0.95, 0.1, 0.2, -0.1};
   g.opa = {1.2};
-  g.sh = {(0.8 - 0.5) / 0.28209479177387814, (0.3 - 0.5) / 0.28209479177387814, (0.6 - 0.5) / 0.28209479177387814};
+  g.sh = {(0.8 - 0.5) / gs::kShC0, (0.3 - 0.5) / gs::kShC0, (0.6 - 0.5) / gs::kShC0};
   const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), cam);
   RenderResult<double> out;
   raster.forward(g.view(), view, out);

@@ -426,30 +426,22 @@ TEST(FlowMotionMasker, GreyInputIsAcceptedAndNotModified) {
 }
 
 // The stage times are parts of the whole: flow <= total on every frame, and the first frame (no
-// flow yet) spends nothing in the flow. Speed itself is measured by bench/, not asserted here;
-// the mean times are printed for the record.
-TEST(FlowMotionMasker, StageTimesArePartsOfTheTotalAt640x480) {
+// flow yet) spends nothing in the flow while every later one computes one. How long they take is
+// measured by bench/mask_synth_bench and bench/mask_vtest_bench, not here.
+TEST(FlowMotionMasker, StageTimesArePartsOfTheTotal) {
   FlowMotionMasker masker{FlowMaskOptions()};
   const cv::Mat texture = makeTexture(cv::Size(1000, 800), 12);
-  const cv::Mat sq = makeTexture(cv::Size(160, 160), 13);
-  double flow_ms = 0.0, total_ms = 0.0;
-  const int n = 40;
-  for (int k = 0; k <= n; ++k) {
-    cv::Mat frame = rotatedView(texture, rotation(0.1 * k, 0.3 * k, 0.1 * k));
-    sq(cv::Rect(0, 0, 100, 100)).copyTo(frame(cv::Rect(100 + 6 * k, 200, 100, 100)));
-    const FlowMaskResult r = masker.compute(frameOf(frame));
+  for (int k = 0; k <= 3; ++k) {
+    const FlowMaskResult r = masker.compute(frameOf(rotatedView(texture, rotation(0.1 * k, 0.3 * k, 0.1 * k))));
     ASSERT_GE(r.flow_ms, 0.0) << "frame " << k;
     ASSERT_LE(r.flow_ms, r.total_ms) << "frame " << k;
     if (k == 0) {
       EXPECT_TRUE(r.raw_flow_mask.empty());  // nothing to compare with yet
-      continue;
+      EXPECT_EQ(r.flow_ms, 0.0);
+    } else {
+      EXPECT_GT(r.flow_ms, 0.0) << "frame " << k;  // a flow was computed on every later frame
     }
-    EXPECT_GT(r.flow_ms, 0.0) << "frame " << k;  // a flow was computed on every later frame
-    flow_ms += r.flow_ms;
-    total_ms += r.total_ms;
   }
-  std::printf("[ report ] 640x480, flow_scale 0.25: flow %.2f ms/frame, total %.2f ms/frame\n",
-              flow_ms / n, total_ms / n);
 }
 
 }  // namespace

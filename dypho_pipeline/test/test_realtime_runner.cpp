@@ -153,7 +153,8 @@ void checkAccounting(const pipeline::RealtimeResult& r, std::size_t released, pi
   for (std::size_t k = 0; k < trajectory.size(); ++k) {
     EXPECT_EQ(trajectory[k].first, frames().at(r.processed[k].index).frame.stamp_ns) << "pose " << k;
   }
-  EXPECT_LE(r.latencyPercentileMs(0.5), r.latencyPercentileMs(0.95));
+  // A latency runs from a frame's release to its pose, both inside the run's wall time.
+  EXPECT_LE(r.latencyPercentileMs(1.0), r.wall_s * 1e3);
 }
 
 class RealtimeRun : public ::testing::TestWithParam<bool> {};  // parameter: pipelined
@@ -172,7 +173,9 @@ TEST_P(RealtimeRun, AtCameraRateEveryFrameIsProcessedOrDropped) {
   checkAccounting(r, kFrames - 1, slam);
   EXPECT_GT(r.framesPosed(), 0u);
   EXPECT_FALSE(r.stopped);
-  EXPECT_GT(r.wall_s, 0.0);
+  // At speed 1.0 the last frame is released no earlier than its stamp's offset from the first.
+  const double span_s = timestampToSeconds(frames().at(kFrames - 1).frame.stamp_ns - frames().at(0).frame.stamp_ns);
+  EXPECT_GE(r.wall_s, span_s);
 }
 
 // All frames released at once (speed 1e6: 30 frames within 1 us of stamp time) into hand-overs

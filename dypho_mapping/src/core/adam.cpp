@@ -28,8 +28,8 @@ void Adam::resetBlock(int param) {
 
 AdamStepSizes Adam::nextStep() {
   ++steps_;
-  const float c1 = 1.f - std::pow(0.9f, static_cast<float>(steps_));
-  const float c2 = 1.f - std::pow(0.999f, static_cast<float>(steps_));
+  float c1 = 1.f, c2 = 1.f;
+  adamBiasCorrections(steps_, c1, c2);
   const double lr[kNumGaussianParams] = {rates_.position, rates_.log_scale, rates_.rotation, rates_.opacity, rates_.sh_dc};
   AdamStepSizes s;
   static_assert(kNumGaussianParams == 5, "AdamStepSizes holds five blocks");

@@ -7,7 +7,7 @@
 
 namespace dypho::mapping {
 
-float rgbToShDc(float value) { return (value - 0.5f) / 0.28209479177387814f; }
+float rgbToShDc(float value) { return (value - 0.5f) / static_cast<float>(gs::kShC0); }
 
 GaussianMap::GaussianMap(int sh_degree, std::size_t capacity) : sh_degree_(sh_degree), capacity_(capacity) {
   if (sh_degree < 0 || sh_degree > 3) {

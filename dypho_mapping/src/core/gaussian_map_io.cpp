@@ -6,6 +6,7 @@
 
 #include "dypho/common/atomic_file.h"
 #include "dypho/mapping/gaussian_ply.h"
+#include "dypho/mapping/gaussian_sh.h"
 
 namespace dypho::mapping {
 
@@ -16,7 +17,7 @@ std::vector<GaussianCentre> gaussianCentres(const GaussianMap& m) {
   const int w = m.width(kParamSh);
   for (std::size_t i = 0; i < m.size(); ++i) {
     auto c8 = [&](int ch) {
-      const float v = 0.5f + 0.28209479177387814f * sh[w * i + ch];  // SH band 0 constant
+      const float v = 0.5f + static_cast<float>(gs::kShC0) * sh[w * i + ch];
       return static_cast<std::uint8_t>(std::min(255.f, std::max(0.f, v * 255.f + 0.5f)));
     };
     out[i] = {p[3 * i], p[3 * i + 1], p[3 * i + 2], c8(0), c8(1), c8(2)};

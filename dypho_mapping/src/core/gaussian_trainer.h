@@ -40,6 +40,12 @@ struct TrainingKeyframe {
   bool hasImages() const { return !bgr.empty(); }
 };
 
+/// Pixels of a keyframe's loss: static ones (colour term) and those of them with a depth.
+struct TrainingTargetCounts {
+  std::size_t static_pixels = 0;
+  std::size_t depth_pixels = 0;
+};
+
 /// Undistortion maps of one camera onto the pinhole with the same fx fy cx cy.
 struct Undistorter {
   CameraIntrinsics camera;
@@ -86,8 +92,14 @@ struct GaussianTrainer {
   /// Renders the map into `out` with `raster` (pinhole camera, distortion ignored).
   void renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
                      Rasterizer<float>& raster, RenderResult<float>& out);
-  /// Per-pixel loss and its gradient (writes pix_gc, pix_gd, pix_ga); returns the loss.
+  /// Per-pixel loss and its gradient (writes pix_gc, pix_gd, pix_ga and exposure_grad; the
+  /// math of training_math.h); returns the loss.
   double lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r);
+  /// The keyframe's images in the loss's layout (target_rgb: planar RGB in [0, 1], target_depth,
+  /// target_mask) and its pixel counts.
+  TrainingTargetCounts fillTarget(const TrainingKeyframe& kf);
+  /// The densify settings from the options, with the next split seed from `rng`.
+  DensifySettings nextDensifySettings();
 
   /// One iteration on the GPU (iterate() with a CUDA device); returns the loss.
   double iterateCuda(TrainingKeyframe& kf, bool fixed_exposure);
@@ -100,7 +112,7 @@ struct GaussianTrainer {
   std::string device_fallback;        ///< why training left the GPU (empty: it did not)
   /// Where the training state is current: both, the host only (edited), the device only (trained).
   enum class Current { kBoth, kHost, kDevice } current = Current::kBoth;
-  std::vector<float> target_rgb;      ///< scratch: a keyframe's planar RGB for CudaTrainer::setTarget
+  std::vector<float> target_rgb;      ///< scratch: a keyframe's planar RGB (loss, CudaTrainer::setTarget)
   std::vector<float> target_depth;    ///< scratch: its depth (continuous rows)
   std::vector<std::uint8_t> target_mask;  ///< scratch: its static mask
   GaussianMap map;
@@ -123,9 +135,8 @@ struct GaussianTrainer {
   std::vector<std::size_t> sample_all;    ///< scratch: indices of keyframes with images
   std::vector<std::size_t> refine_order;  ///< keyframes left in the current refinement pass
   SsimLoss<float> ssim;             ///< structural term of the loss (options.ssim_weight > 0)
-  std::vector<float> exposed;       ///< [3, H, W] rendered colour after the keyframe's exposure
+  std::vector<float> shown;         ///< [3, H, W] the colour the loss compares (SSIM term)
   float exposure_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< dL/d exposure of the last loss
-  std::vector<float> ssim_target;   ///< [3, H, W] the keyframe's colour, RGB in [0, 1]
 };
 
 /// PSNR on static pixels and depth L1 of `trainer`'s map at its stored keyframes; with

@@ -5,6 +5,7 @@
 
 #include "gaussian_trainer.h"
 #include "dypho/mapping/map_renderer.h"
+#include "dypho/mapping/training_math.h"
 
 namespace dypho::mapping {
 namespace {
@@ -89,24 +90,8 @@ double GaussianTrainer::iterateCuda(TrainingKeyframe& kf, bool fixed_exposure) {
     current = Current::kBoth;
   }
   if (!cuda->hasTarget(kf.id)) {
-    // The keyframe's images in the loss's layout: planar RGB in [0, 1], depth, static mask.
-    const int W = kf.bgr.cols, H = kf.bgr.rows;
-    const std::size_t npix = static_cast<std::size_t>(W) * H;
-    target_rgb.resize(3 * npix);
-    target_depth.resize(npix);
-    target_mask.resize(npix);
-    for (int v = 0; v < H; ++v) {
-      const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
-      const float* d = kf.depth_m.ptr<float>(v);
-      const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
-      for (int u = 0; u < W; ++u) {
-        const std::size_t i = static_cast<std::size_t>(v) * W + u;
-        for (int ch = 0; ch < 3; ++ch) target_rgb[ch * npix + i] = c[u][2 - ch] * (1.f / 255.f);
-        target_depth[i] = d[u];
-        target_mask[i] = m[u];
-      }
-    }
-    cuda->setTarget(kf.id, W, H, target_rgb.data(), target_depth.data(), target_mask.data());
+    fillTarget(kf);
+    cuda->setTarget(kf.id, kf.bgr.cols, kf.bgr.rows, target_rgb.data(), target_depth.data(), target_mask.data());
   }
   cuda->render(makePinholeView<float>(kf.T_world_camera, kf.camera));
   const CudaLossResult r = cuda->loss(kf.id, options.lambda_depth, options.alpha_weight, options.ssim_weight,
@@ -124,92 +109,62 @@ void GaussianTrainer::renderPinhole(const Eigen::Isometry3d& T_world_camera, con
   r.forward(params(), makePinholeView<float>(T_world_camera, pinhole), out);
 }
 
+TrainingTargetCounts GaussianTrainer::fillTarget(const TrainingKeyframe& kf) {
+  const int W = kf.bgr.cols, H = kf.bgr.rows;
+  const std::size_t npix = static_cast<std::size_t>(W) * H;
+  target_rgb.resize(3 * npix);
+  target_depth.resize(npix);
+  target_mask.resize(npix);
+  TrainingTargetCounts counts;
+  for (int v = 0; v < H; ++v) {
+    const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
+    const float* d = kf.depth_m.ptr<float>(v);
+    const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < W; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * W + u;
+      for (int ch = 0; ch < 3; ++ch) target_rgb[ch * npix + i] = c[u][2 - ch] * (1.f / 255.f);
+      target_depth[i] = d[u];
+      target_mask[i] = m[u];
+      if (!m[u]) continue;
+      ++counts.static_pixels;
+      if (d[u] > 0.f) ++counts.depth_pixels;
+    }
+  }
+  return counts;
+}
+
 double GaussianTrainer::lossAndGradient(const TrainingKeyframe& kf, const RenderResult<float>& r) {
   const int W = r.width, H = r.height;
   const std::size_t npix = static_cast<std::size_t>(W) * H;
+  const TrainingTargetCounts n = fillTarget(kf);
   pix_gc.assign(3 * npix, 0.f);
   pix_gd.assign(npix, 0.f);
   pix_ga.assign(npix, 0.f);
-  std::size_t nc = 0, nd = 0;
-  for (int v = 0; v < H; ++v) {
-    const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
-    const float* d = kf.depth_m.ptr<float>(v);
-    for (int u = 0; u < W; ++u) {
-      if (!m[u]) continue;
-      ++nc;
-      if (d[u] > 0.f) ++nd;
-    }
-  }
-  if (nc == 0) return 0.0;
-  const double lambda = options.lambda_depth;
-  const float wc = static_cast<float>((1.0 - lambda) / (3.0 * nc));
-  const float wd = nd > 0 ? static_cast<float>(lambda / nd) : 0.f;
-  const float wa = nd > 0 ? static_cast<float>(options.alpha_weight / nd) : 0.f;
-  double l1c = 0.0, l1d = 0.0, l1a = 0.0;
+  std::fill(exposure_grad, exposure_grad + 6, 0.f);
+  if (n.static_pixels == 0) return 0.0;
   const bool use_ssim = options.ssim_weight > 0.0;
-  if (use_ssim) ssim_target.resize(3 * npix);
-  // The colour the loss sees: exp(gain) * rendered + offset per channel (identity when off).
-  const float* color = r.color.data();
-  float gain[3] = {1.f, 1.f, 1.f};
-  if (options.exposure_compensation) {
-    exposed.resize(3 * npix);
-    for (int ch = 0; ch < 3; ++ch) {
-      gain[ch] = std::exp(kf.exposure[ch]);
-      const float g = gain[ch], b = kf.exposure[3 + ch];
-      const float* in = r.color.data() + ch * npix;
-      float* out = exposed.data() + ch * npix;
-      for (std::size_t i = 0; i < npix; ++i) out[i] = g * in[i] + b;
-    }
-    color = exposed.data();
+  const train::LossParams L =
+      train::lossParams(npix, n.static_pixels, n.depth_pixels, options.lambda_depth, options.alpha_weight,
+                        options.exposure_compensation ? kf.exposure : nullptr, use_ssim);
+  double sums[train::kLossSums] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  if (use_ssim) shown.resize(3 * npix);
+  for (std::size_t i = 0; i < npix; ++i) {
+    train::l1LossPixel(static_cast<int>(i), L, r.color.data(), r.depth.data(), r.alpha.data(), target_rgb.data(),
+                       target_depth.data(), target_mask.data(), pix_gc.data(), pix_gd.data(), pix_ga.data(), sums,
+                       use_ssim ? shown.data() : nullptr);
   }
-  for (int v = 0; v < H; ++v) {
-    const std::uint8_t* m = kf.static_mask.ptr<std::uint8_t>(v);
-    const float* d = kf.depth_m.ptr<float>(v);
-    const cv::Vec3b* c = kf.bgr.ptr<cv::Vec3b>(v);
-    if (use_ssim) {
-      for (int u = 0; u < W; ++u)
-        for (int ch = 0; ch < 3; ++ch) ssim_target[ch * npix + static_cast<std::size_t>(v) * W + u] = c[u][2 - ch] * (1.f / 255.f);
-    }
-    for (int u = 0; u < W; ++u) {
-      if (!m[u]) continue;
-      const std::size_t i = static_cast<std::size_t>(v) * W + u;
-      for (int ch = 0; ch < 3; ++ch) {
-        const float diff = color[ch * npix + i] - c[u][2 - ch] * (1.f / 255.f);
-        l1c += std::abs(diff);
-        pix_gc[ch * npix + i] = diff > 0.f ? wc : (diff < 0.f ? -wc : 0.f);
-      }
-      if (d[u] > 0.f) {
-        const float diff = r.depth[i] - d[u];
-        l1d += std::abs(diff);
-        pix_gd[i] = diff > 0.f ? wd : (diff < 0.f ? -wd : 0.f);
-        l1a += 1.f - r.alpha[i];  // alpha <= 1: |1 - A| = 1 - A
-        pix_ga[i] = -wa;
-      }
-    }
-  }
-  double loss = (1.0 - lambda) * l1c / (3.0 * nc) + (nd > 0 ? (lambda * l1d + options.alpha_weight * l1a) / nd : 0.0);
+  double loss = train::lossFromSums(sums, n.static_pixels, n.depth_pixels, options.lambda_depth, options.alpha_weight);
   if (use_ssim) {
-    // + w (1 - SSIM) over the static pixels; its gradient is added to pix_gc.
-    const double s = ssim.compute(color, ssim_target.data(), kf.static_mask.data, kf.static_mask.step, W, H,
+    // + w (1 - SSIM) over the static pixels; its gradient is added to pix_gc, then the exposure's
+    // chain rule runs over the sum of both terms.
+    const double s = ssim.compute(shown.data(), target_rgb.data(), kf.static_mask.data, kf.static_mask.step, W, H,
                                   static_cast<float>(options.ssim_weight), pix_gc.data());
     loss += options.ssim_weight * (1.0 - s);
-  }
-  if (options.exposure_compensation) {
-    // pix_gc holds dL/d(exposed colour): chain rule to the exposure and to the rendered colour.
-    for (int ch = 0; ch < 3; ++ch) {
-      const float b = kf.exposure[3 + ch];
-      float* g = pix_gc.data() + ch * npix;
-      const float* ex = exposed.data() + ch * npix;
-      double d_gain = 0.0, d_offset = 0.0;
-      for (std::size_t i = 0; i < npix; ++i) {
-        d_offset += g[i];
-        d_gain += g[i] * (ex[i] - b);  // d(exp(k) x + b)/dk = exp(k) x
-        g[i] *= gain[ch];
-      }
-      exposure_grad[ch] = static_cast<float>(d_gain);
-      exposure_grad[3 + ch] = static_cast<float>(d_offset);
+    if (L.defer_exposure) {
+      for (std::size_t i = 0; i < npix; ++i) train::exposureChain(static_cast<int>(i), L, shown.data(), pix_gc.data(), sums);
     }
   }
+  for (int k = 0; k < 6; ++k) exposure_grad[k] = static_cast<float>(sums[3 + k]);
   return loss;
 }
 
@@ -312,61 +267,50 @@ double GaussianTrainer::iterate(bool all_keyframes) {
 }
 
 void GaussianTrainer::stepExposure(TrainingKeyframe& kf) {
-  // Adam (beta 0.9 / 0.999, eps 1e-8) on the 6 exposure parameters of this keyframe.
-  const float lr = static_cast<float>(options.lr_exposure), b1 = 0.9f, b2 = 0.999f;
   ++kf.exposure_steps;
-  const float c1 = 1.f - std::pow(b1, static_cast<float>(kf.exposure_steps));
-  const float c2 = 1.f - std::pow(b2, static_cast<float>(kf.exposure_steps));
+  float c1 = 1.f, c2 = 1.f;
+  adamBiasCorrections(kf.exposure_steps, c1, c2);
+  const float step = static_cast<float>(options.lr_exposure) / c1, inv_c2 = 1.f / c2;
   for (int k = 0; k < 6; ++k) {
-    const float g = exposure_grad[k];
-    kf.exposure_m[k] = b1 * kf.exposure_m[k] + (1.f - b1) * g;
-    kf.exposure_v[k] = b2 * kf.exposure_v[k] + (1.f - b2) * g * g;
-    kf.exposure[k] -= lr * (kf.exposure_m[k] / c1) / (std::sqrt(kf.exposure_v[k] / c2) + 1e-8f);
+    adamUpdate(exposure_grad[k], step, inv_c2, kf.exposure[k], kf.exposure_m[k], kf.exposure_v[k],
+               kExposureAdamEpsilon);
   }
 }
 
+DensifySettings GaussianTrainer::nextDensifySettings() {
+  return train::densifySettings(options.densify_grad_threshold, options.densify_scale_threshold_m,
+                                options.prune_min_opacity, options.prune_max_scale_m,
+                                static_cast<std::uint32_t>(rng()));
+}
+
 void GaussianTrainer::densifyAndPrune() {
+  const DensifySettings s = nextDensifySettings();
   const std::size_t n0 = map.size();
-  const float thr = static_cast<float>(options.densify_grad_threshold);
-  const float log_split = std::log(static_cast<float>(options.densify_scale_threshold_m));
   std::vector<std::uint8_t> remove(n0, 0);
-  std::normal_distribution<float> normal(0.f, 1.f);
   bool full = false;
+  // Children are appended in parent order; the first that does not fit ends the pass (the device
+  // pass cuts its appended rows at the same place).
   for (std::size_t i = 0; i < n0 && !full; ++i) {
-    if (grad_count[i] == 0 || grad_accum[i] / grad_count[i] < thr) continue;
-    const float* ls = map.data(kParamLogScale) + 3 * i;
-    const float max_ls = std::max({ls[0], ls[1], ls[2]});
-    if (max_ls <= log_split) {  // small: clone in place (the copy separates under optimisation)
-      if (map.duplicate(i) < 0) full = true;
-      continue;
-    }
-    // Large: split into two samples of the Gaussian with 1/1.6 of the scale.
-    for (int c = 0; c < 2 && !full; ++c) {
+    const std::uint32_t children = train::densifyChildren(grad_accum[i], grad_count[i], map.data(kParamLogScale) + 3 * i, s);
+    if (children == 1 && map.duplicate(i) < 0) full = true;  // small: clone in place
+    if (children != 2) continue;
+    for (std::uint32_t k = 0; k < 2 && !full; ++k) {  // large: split into two samples
       const long j = map.duplicate(i);
       if (j < 0) {
         full = true;
         break;
       }
-      const float* q = map.data(kParamRotation) + 4 * i;
-      const Eigen::Quaternionf rot(q[0], q[1], q[2], q[3]);
-      const Eigen::Vector3f s(std::exp(ls[0]), std::exp(ls[1]), std::exp(ls[2]));
-      const Eigen::Vector3f offset = rot.normalized() * Eigen::Vector3f(s.x() * normal(rng), s.y() * normal(rng), s.z() * normal(rng));
-      float* pj = map.data(kParamPosition) + 3 * j;
-      for (int k = 0; k < 3; ++k) pj[k] += offset[k];
-      float* lj = map.data(kParamLogScale) + 3 * j;
-      for (int k = 0; k < 3; ++k) lj[k] -= std::log(1.6f);
+      train::splitChild(s.seed, static_cast<std::uint32_t>(i), k, map.data(kParamLogScale) + 3 * i,
+                        map.data(kParamRotation) + 4 * i, map.data(kParamPosition) + 3 * j,
+                        map.data(kParamLogScale) + 3 * j);
     }
     if (!full) remove[i] = 1;
   }
   if (full) ++capacity_hits;
-  // Prune: transparent or too large (new Gaussians are kept).
+  // Prune: transparent, too large or non-finite (new Gaussians included).
   remove.resize(map.size(), 0);
-  const float min_logit = std::log(static_cast<float>(options.prune_min_opacity) / (1.f - static_cast<float>(options.prune_min_opacity)));
-  const float max_ls = std::log(static_cast<float>(options.prune_max_scale_m));
   for (std::size_t i = 0; i < map.size(); ++i) {
-    const float* ls = map.data(kParamLogScale) + 3 * i;
-    if (map.data(kParamOpacity)[i] < min_logit || std::max({ls[0], ls[1], ls[2]}) > max_ls ||
-        !std::isfinite(map.data(kParamPosition)[3 * i])) {
+    if (train::isPruned(map.data(kParamLogScale) + 3 * i, map.data(kParamOpacity)[i], map.data(kParamPosition)[3 * i], s)) {
       remove[i] = 1;
     }
   }
@@ -382,12 +326,7 @@ void GaussianTrainer::densifyAndPruneOnDevice() {
     cuda->upload(stateView());
     current = Current::kBoth;
   }
-  DensifySettings s;
-  s.grad_threshold = static_cast<float>(options.densify_grad_threshold);
-  s.log_split_scale = std::log(static_cast<float>(options.densify_scale_threshold_m));
-  s.min_opacity_logit = std::log(static_cast<float>(options.prune_min_opacity) / (1.f - static_cast<float>(options.prune_min_opacity)));
-  s.max_log_scale = std::log(static_cast<float>(options.prune_max_scale_m));
-  s.seed = static_cast<std::uint32_t>(rng());
+  const DensifySettings s = nextDensifySettings();
   const DensifyOutcome o = cuda->densifyAndPrune(s, options.max_gaussians);
   if (o.capacity_hit) ++capacity_hits;
   // The host copy follows in structure only (ids, anchors, sizes): its values are stale until
@@ -402,7 +341,7 @@ void GaussianTrainer::densifyAndPruneOnDevice() {
 }
 
 void GaussianTrainer::resetOpacity() {
-  const float cap = std::log(0.01f / 0.99f);
+  const float cap = train::opacityLogit(train::kOpacityResetValue);
   float* o = map.data(kParamOpacity);
   for (std::size_t i = 0; i < map.size(); ++i) o[i] = std::min(o[i], cap);
   adam.resetBlock(kParamOpacity);

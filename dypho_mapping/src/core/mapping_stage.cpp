@@ -1,9 +1,11 @@
 /// MappingStage: Gaussian map + keyframe cloud with the queue, R_d and refinement policy.
 #include "dypho/mapping/mapping_stage.h"
 
-#include "dypho/mapping/gaussian_map_io.h"
-
+#include <ostream>
 #include <stdexcept>
+
+#include "dypho/common/atomic_file.h"
+#include "dypho/mapping/gaussian_map_io.h"
 
 namespace dypho::mapping {
 
@@ -129,6 +131,15 @@ std::vector<std::string> MappingStage::save(const std::string& dir, bool refine,
   }
   gaussians_.saveCentresPcd(paths[2]);
   return paths;
+}
+
+KeyframeEvaluation MappingStage::writeEvaluation(const std::string& dir) {
+  const KeyframeEvaluation eval = gaussians_.evaluateKeyframes();
+  writeFileAtomically(dir + "/" + kEvaluationFile, [&](std::ostream& os) {
+    os << "psnr_db: " << eval.psnr_db << "\nkeyframes: " << eval.num_keyframes << "\ndepth_l1_m: " << eval.depth_l1_m
+       << "\n";
+  });
+  return eval;
 }
 
 std::size_t MappingStage::loadMap(const std::string& path, std::string* note) {

@@ -17,8 +17,8 @@ namespace {
 
 constexpr int kThreads = 256;
 constexpr int kWarps = kThreads / 32;
-using cuda_body::kLossSums;
-using cuda_body::LossParams;
+using train::kLossSums;
+using train::LossParams;
 
 int blocksFor(std::size_t n) { return static_cast<int>((n + kThreads - 1) / kThreads); }
 
@@ -45,7 +45,7 @@ __device__ void blockSum(const float (&s)[N], double* out) {
   }
 }
 
-/// The loss per pixel (cuda_body::l1LossPixel); the block's sums go to `sums` in double.
+/// The loss per pixel (train::l1LossPixel); the block's sums go to `sums` in double.
 __global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const float* color, const float* depth,
                                                          const float* alpha, const float* t_rgb, const float* t_depth,
                                                          const std::uint8_t* mask, float* g_color, float* g_depth,
@@ -53,7 +53,7 @@ __global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const flo
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float s[kLossSums] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   if (i < L.npix) {
-    cuda_body::l1LossPixel(i, L, color, depth, alpha, t_rgb, t_depth, mask, g_color, g_depth, g_alpha, s, shown);
+    train::l1LossPixel(i, L, color, depth, alpha, t_rgb, t_depth, mask, g_color, g_depth, g_alpha, s, shown);
   }
   blockSum(s, sums);
 }
@@ -132,7 +132,7 @@ __global__ void __launch_bounds__(kThreads) exposureChainKernel(LossParams L, co
                                                                 double* sums) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float s[kLossSums] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
-  if (i < L.npix) cuda_body::exposureChain(i, L, shown, g_color, s);
+  if (i < L.npix) train::exposureChain(i, L, shown, g_color, s);
   blockSum(s, sums);
 }
 
@@ -364,19 +364,10 @@ CudaLossResult CudaTrainer::loss(std::int64_t id, double lambda_depth, double al
   constexpr int kSums = kLossSums + 1;  // + the SSIM sum
   d.sums.reserve(kSums);
   CudaLossResult result;
-  const double nc = static_cast<double>(t.static_pixels), nd = static_cast<double>(t.depth_pixels);
+  const double nc = static_cast<double>(t.static_pixels);
   const bool with_ssim = ssim_weight > 0.0 && nc > 0;
-  LossParams L{};
-  L.npix = static_cast<int>(npix);
-  L.wc = nc > 0 ? static_cast<float>((1.0 - lambda_depth) / (3.0 * nc)) : 0.f;
-  L.wd = nd > 0 ? static_cast<float>(lambda_depth / nd) : 0.f;
-  L.wa = nd > 0 ? static_cast<float>(alpha_weight / nd) : 0.f;
-  L.exposure = exposure != nullptr ? 1 : 0;
-  L.defer_exposure = with_ssim && exposure != nullptr ? 1 : 0;
-  for (int ch = 0; ch < 3; ++ch) {
-    L.gain[ch] = exposure != nullptr ? std::exp(exposure[ch]) : 1.f;
-    L.offset[ch] = exposure != nullptr ? exposure[3 + ch] : 0.f;
-  }
+  const LossParams L = train::lossParams(npix, t.static_pixels, t.depth_pixels, lambda_depth, alpha_weight, exposure,
+                                         with_ssim);
   float* shown = with_ssim ? d.shown.reserve(3 * npix) : nullptr;
   DYPHO_CUDA_CHECK(cudaMemsetAsync(d.sums.get(), 0, kSums * sizeof(double), st));
   l1LossKernel<<<blocksFor(npix), kThreads, 0, st>>>(L, d.last.color, d.last.depth, d.last.alpha, t.rgb.get(),
@@ -409,8 +400,7 @@ CudaLossResult CudaTrainer::loss(std::int64_t id, double lambda_depth, double al
   DYPHO_CUDA_CHECK(cudaMemcpyAsync(sums, d.sums.get(), sizeof(sums), cudaMemcpyDeviceToHost, st));
   DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
   if (nc == 0) return result;
-  result.loss = (1.0 - lambda_depth) * sums[0] / (3.0 * nc) +
-                (nd > 0 ? (lambda_depth * sums[1] + alpha_weight * sums[2]) / nd : 0.0);
+  result.loss = train::lossFromSums(sums, t.static_pixels, t.depth_pixels, lambda_depth, alpha_weight);
   if (with_ssim) result.loss += ssim_weight * (1.0 - sums[kLossSums] / (3.0 * nc));
   if (exposure != nullptr)
     for (int k = 0; k < 6; ++k) result.exposure_grad[k] = static_cast<float>(sums[3 + k]);

@@ -2,11 +2,12 @@
 /// \file kernel_bodies.h
 /// The bodies of the CUDA rasterizer's and trainer's kernels, one call per thread, as host+device
 /// functions: the kernels in cuda_rasterizer.cu / cuda_trainer.cu are one-line wrappers around
-/// them, and test_cuda_kernel_bodies.cpp runs the same bodies on the CPU (loops in place of the
-/// grid, std::stable_sort in place of the CUB radix sort) against the CPU rasterizer, so the
-/// indexing, binning and per-pixel logic of the GPU path is tested on machines without a GPU.
-/// Only what needs the hardware stays in the kernels: atomics, warp and block reductions, and the
-/// lockstep walk of the backward pass.
+/// them (the training math itself, loss and densify/prune, is training_math.h's, shared with
+/// GaussianTrainer). The tests run the same bodies on the CPU (test/gpu_emulator.h: loops in
+/// place of the grid, std::stable_sort in place of the CUB radix sort) against the CPU rasterizer
+/// and the CPU trainer, so the indexing, binning and per-pixel logic of the GPU path is tested on
+/// machines without a GPU. Only what needs the hardware stays in the kernels: atomics, warp and
+/// block reductions, and the lockstep walk of the backward pass.
 
 #include <cstdint>
 #include <cstring>
@@ -16,6 +17,7 @@
 #include "dypho/mapping/cuda_trainer.h"
 #include "dypho/mapping/raster_types.h"
 #include "dypho/mapping/ssim_math.h"
+#include "dypho/mapping/training_math.h"
 
 namespace dypho::mapping::cuda_body {
 
@@ -231,77 +233,6 @@ DYPHO_HOST_DEVICE inline void chain(int i, const GaussianParamsView<float>& P, c
   for (int k = 0; k < 6; ++k) pose[k] = pg.pose[k];
 }
 
-/// Settings of the masked L1 loss (GaussianTrainer::lossAndGradient without SSIM).
-struct LossParams {
-  int npix;
-  float wc, wd, wa;          ///< per-value gradient magnitudes: (1-lambda)/(3 nc), lambda/nd, alpha_weight/nd
-  float gain[3], offset[3];  ///< exposure exp(k_c), b_c
-  int exposure;              ///< 1 when the exposure is applied
-  /// 1 when an SSIM term follows: the colour gradients stay w.r.t. the shown (exposed) colour and
-  /// the exposure's chain rule runs after it (exposureChain), as the host loss does.
-  int defer_exposure;
-};
-
-/// Number of sums of the loss: |colour|, |depth|, 1 - alpha, d gain[3], d offset[3].
-constexpr int kLossSums = 9;
-
-/// Loss terms and pixel gradients of pixel i; adds its sums to `sums`.
-/// With `shown` not null, the colour the loss compares (exp(k) C_r + b, or C_r) is written there
-/// ([3, H, W], every pixel) for the SSIM term.
-DYPHO_HOST_DEVICE inline void l1LossPixel(int i, const LossParams& L, const float* color, const float* depth,
-                                          const float* alpha, const float* t_rgb, const float* t_depth,
-                                          const std::uint8_t* mask, float* g_color, float* g_depth, float* g_alpha,
-                                          float sums[kLossSums], float* shown_out = nullptr) {
-  const std::size_t n = static_cast<std::size_t>(L.npix);
-  float gd = 0.f, ga = 0.f;
-  float gc[3] = {0.f, 0.f, 0.f};
-  if (shown_out != nullptr) {
-    for (int ch = 0; ch < 3; ++ch) {
-      const float rendered = color[ch * n + i];
-      shown_out[ch * n + i] = L.exposure ? L.gain[ch] * rendered + L.offset[ch] : rendered;
-    }
-  }
-  if (mask[i] != 0) {
-    for (int ch = 0; ch < 3; ++ch) {
-      const float rendered = color[ch * n + i];
-      const float shown = L.exposure ? L.gain[ch] * rendered + L.offset[ch] : rendered;
-      const float diff = shown - t_rgb[ch * n + i];
-      sums[0] += diff < 0.f ? -diff : diff;
-      float g = diff > 0.f ? L.wc : (diff < 0.f ? -L.wc : 0.f);
-      if (L.exposure && !L.defer_exposure) {
-        sums[3 + ch] += g * (shown - L.offset[ch]);  // d(exp(k) x + b)/dk = exp(k) x
-        sums[6 + ch] += g;
-        g *= L.gain[ch];
-      }
-      gc[ch] = g;
-    }
-    const float td = t_depth[i];
-    if (td > 0.f) {
-      const float diff = depth[i] - td;
-      sums[1] += diff < 0.f ? -diff : diff;
-      gd = diff > 0.f ? L.wd : (diff < 0.f ? -L.wd : 0.f);
-      sums[2] += 1.f - alpha[i];
-      ga = -L.wa;
-    }
-  }
-  for (int ch = 0; ch < 3; ++ch) g_color[ch * n + i] = gc[ch];
-  g_depth[i] = gd;
-  g_alpha[i] = ga;
-}
-
-/// The exposure's chain rule at pixel i after every colour term (deferred): dL/dk_c, dL/db_c
-/// summed into sums[3..8], and the colour gradient taken back through the gain.
-DYPHO_HOST_DEVICE inline void exposureChain(int i, const LossParams& L, const float* shown, float* g_color,
-                                            float sums[kLossSums]) {
-  const std::size_t n = static_cast<std::size_t>(L.npix);
-  for (int ch = 0; ch < 3; ++ch) {
-    const float g = g_color[ch * n + i];
-    sums[3 + ch] += g * (shown[ch * n + i] - L.offset[ch]);
-    sums[6 + ch] += g;
-    g_color[ch * n + i] = g * L.gain[ch];
-  }
-}
-
 // ---------------------------------------------------------------------------------------------
 // The SSIM term on the device (SsimLoss's passes, ssim_math.h's per-pixel math), over the planes
 // [3, H, W]: (c, v, u) is channel, row, column.
@@ -392,35 +323,14 @@ struct StateBlocks {
 
 using mapping::DensifySettings;
 
-/// Children of Gaussian i: 0 none, 1 a clone, 2 the halves of a split.
+/// Children of Gaussian i (train::densifyChildren).
 DYPHO_HOST_DEVICE inline std::uint32_t densifyChildren(std::size_t i, const float* accum, const int* count,
                                                        const float* log_scale, const DensifySettings& s) {
-  if (count[i] == 0 || accum[i] / static_cast<float>(count[i]) < s.grad_threshold) return 0;
-  const float* ls = log_scale + 3 * i;
-  float m = ls[0] > ls[1] ? ls[0] : ls[1];
-  m = m > ls[2] ? m : ls[2];
-  return m <= s.log_split_scale ? 1u : 2u;
-}
-
-/// A standard normal sample, a function of (seed, i, k, axis) only (hash, then Box-Muller).
-DYPHO_HOST_DEVICE inline float normalSample(std::uint32_t seed, std::uint32_t i, std::uint32_t k, std::uint32_t axis) {
-  auto hash = [](std::uint32_t x) {
-    x ^= x >> 16;
-    x *= 0x7feb352dU;
-    x ^= x >> 15;
-    x *= 0x846ca68bU;
-    x ^= x >> 16;
-    return x;
-  };
-  const std::uint32_t h1 = hash(seed ^ hash(i * 8u + k * 4u + axis + 0x9e3779b9U));
-  const std::uint32_t h2 = hash(h1 ^ 0x85ebca6bU);
-  const float u1 = (static_cast<float>(h1 >> 8) + 1.f) * (1.f / 16777217.f);  // (0, 1]
-  const float u2 = static_cast<float>(h2 >> 8) * (1.f / 16777216.f);         // [0, 1)
-  return std::sqrt(-2.f * std::log(u1)) * std::cos(6.2831853071795865f * u2);
+  return train::densifyChildren(accum[i], count[i], log_scale + 3 * i, s);
 }
 
 /// Writes child k of Gaussian i into row `row`: a copy with zero moments; a split child is
-/// displaced by R (s . n) (n standard normal) and shrunk by 1.6.
+/// moved and shrunk by train::splitChild.
 DYPHO_HOST_DEVICE inline void spawnChild(std::size_t i, std::uint32_t k, bool split, std::size_t row,
                                          const StateBlocks& b, std::uint32_t seed) {
   for (int p = 0; p < 5; ++p) {
@@ -432,25 +342,14 @@ DYPHO_HOST_DEVICE inline void spawnChild(std::size_t i, std::uint32_t k, bool sp
     }
   }
   if (!split) return;
-  const float* ls = b.params[1] + 3 * i;
-  const gs::Mat3<float> R = gs::quatToRotation(b.params[2] + 4 * i);
-  float local[3];
-  for (int a = 0; a < 3; ++a) local[a] = std::exp(ls[a]) * normalSample(seed, static_cast<std::uint32_t>(i), k, a);
-  for (int a = 0; a < 3; ++a) {
-    b.params[0][row * 3 + a] += R.m[a][0] * local[0] + R.m[a][1] * local[1] + R.m[a][2] * local[2];
-    b.params[1][row * 3 + a] -= std::log(1.6f);
-  }
+  train::splitChild(seed, static_cast<std::uint32_t>(i), k, b.params[1] + 3 * i, b.params[2] + 4 * i,
+                    b.params[0] + row * 3, b.params[1] + row * 3);
 }
 
 /// True when row r is to be removed: a split parent whose both halves fit (`split_done`), or
-/// transparent, too large or with a non-finite position.
+/// pruned (train::isPruned).
 DYPHO_HOST_DEVICE inline bool pruned(std::size_t r, bool split_done, const StateBlocks& b, const DensifySettings& s) {
-  if (split_done) return true;
-  const float* ls = b.params[1] + 3 * r;
-  float m = ls[0] > ls[1] ? ls[0] : ls[1];
-  m = m > ls[2] ? m : ls[2];
-  const float x = b.params[0][3 * r];
-  return b.params[3][r] < s.min_opacity_logit || m > s.max_log_scale || !(x == x) || !(x - x == 0.f);
+  return split_done || train::isPruned(b.params[1] + 3 * r, b.params[3][r], b.params[0][3 * r], s);
 }
 
 /// Copies kept row r to its place `dst_row` in the compacted blocks.

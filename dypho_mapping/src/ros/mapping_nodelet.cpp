@@ -35,15 +35,14 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
 
-#include "dypho/common/atomic_file.h"
 #include "dypho/common/output_path.h"
-#include "dypho/common/frame_allocator.h"
 #include "dypho/common/thread_budget.h"
 #include "dypho/mapping/compute_device.h"
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mapping/mapping_stage.h"
 #include "dypho/mapping/rasterizer.h"
 #include "dypho_ros/conversions.h"
+#include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
 
 namespace dypho::mapping_ros {
@@ -86,8 +85,10 @@ struct RenderRequest {
 
 class GaussianMappingNodelet : public nodelet::Nodelet {
  public:
+  /// Shutdown order (nodelet_runtime.h): diagnostics, the render and cloud threads, then the map
+  /// is saved (a bounded final refinement first) with map_evaluation.txt.
   ~GaussianMappingNodelet() override {
-    diagnostics_timer_.stop();
+    if (diagnostics_) diagnostics_->stop();
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
       stop_ = true;
@@ -96,35 +97,19 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     cloud_cv_.notify_all();
     if (render_thread_.joinable()) render_thread_.join();
     if (cloud_thread_.joinable()) cloud_thread_.join();
-    if (!stage_ || params_.output_dir.empty()) return;  // empty only when start() failed before it
+    if (!stage_) return;
     const mapping::MappingStageStats stats = stage_->stats();
-    if (stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0) {
-      // A run stopped before its first keyframe must not replace the last run's map with nothing.
-      NODELET_INFO_STREAM("no keyframe and no Gaussian: nothing written to " << params_.output_dir);
-      return;
-    }
-    try {
-      stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
-      mapping::KeyframeEvaluation eval;
-      writeEvaluation(params_.output_dir, &eval);
-      NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of " << eval.num_keyframes
-                                      << " keyframes (map_evaluation.txt)");
-    } catch (const std::exception& e) {
-      NODELET_ERROR_STREAM("could not write the map on shutdown: " << e.what());
-    }
+    rc::saveOnShutdown(getName(), params_.output_dir, stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0,
+                       "no keyframe and no Gaussian", [&] {
+                         stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
+                         const mapping::KeyframeEvaluation eval = stage_->writeEvaluation(params_.output_dir);
+                         NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of " << eval.num_keyframes
+                                                         << " keyframes (map_evaluation.txt)");
+                       });
   }
 
-  /// A bad parameter must not take the manager down, nor vanish: it is logged as FATAL
-  /// with the reason and this nodelet stays idle (nothing advertised or subscribed) until it is
-  /// restarted with a fixed configuration.
   void onInit() override {
-    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
-    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
-    try {
-      start();
-    } catch (const std::exception& e) {
-      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
-    }
+    rc::startOrStayIdle(getName(), [this] { start(); });
   }
 
   void start() {
@@ -194,11 +179,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reset_srv_ = pnh.advertiseService("reset", &GaussianMappingNodelet::onReset, this);
     load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
     cloud_thread_ = std::thread([this, nice = options.gaussian.training_nice] { cloudLoop(nice); });
-    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
-    diagnostics_->setHardwareID("dypho_slam");
-    diagnostics_->add("mapping", this, &GaussianMappingNodelet::diagnose);
-    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
-                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
+        nh, pnh, getName(), "mapping", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
 
     // 4. Inputs.
     keyframe_sub_ = nh.subscribe("keyframe", 10, &GaussianMappingNodelet::onKeyframe, this);
@@ -352,8 +334,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       const std::string dir = resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory);
       std::filesystem::create_directories(dir);
       res.files = stage_->save(dir, params_.refine_before_save);
-      mapping::KeyframeEvaluation eval;
-      res.files.push_back(writeEvaluation(dir, &eval));
+      const mapping::KeyframeEvaluation eval = stage_->writeEvaluation(dir);
+      res.files.push_back(dir + "/" + mapping::MappingStage::kEvaluationFile);
       const mapping::MappingStageStats stats = stage_->stats();
       res.success = true;
       res.message = "wrote " + std::to_string(stats.gaussians.num_gaussians) + " Gaussians and " +
@@ -365,18 +347,6 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       res.message = e.what();
     }
     return true;
-  }
-
-  /// map_evaluation.txt in `dir`: the map's quality at the stored keyframes, as the offline
-  /// runner reports it (PSNR on static pixels, depth L1), written atomically; returns its path.
-  std::string writeEvaluation(const std::string& dir, mapping::KeyframeEvaluation* eval) {
-    *eval = stage_->gaussians().evaluateKeyframes();
-    const std::string path = dir + "/map_evaluation.txt";
-    writeFileAtomically(path, [&](std::ostream& os) {
-      os << "psnr_db: " << eval->psnr_db << "\nkeyframes: " << eval->num_keyframes
-         << "\ndepth_l1_m: " << eval->depth_l1_m << "\n";
-    });
-    return path;
   }
 
   struct LoadOutcome {
@@ -474,8 +444,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;  ///< after what its callback uses: destroyed first
+  std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< last: destroyed first (its task reads the stage)
   ros::WallTime last_diagnosis_{0.0};           ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;
   std::size_t dropped_at_last_diagnosis_ = 0;

@@ -18,6 +18,7 @@
 
 #include "dypho/mapping/adam_math.h"
 #include "dypho/mapping/cuda_rasterizer.h"
+#include "dypho/mapping/training_math.h"
 
 namespace dypho::mapping {
 
@@ -34,16 +35,6 @@ struct TrainingStateView {
   float* second_moment[kTrainingBlocks] = {};
   float* grad_accum = nullptr;  ///< [count] summed screen-space gradient norms
   int* grad_count = nullptr;    ///< [count] iterations with a gradient
-};
-
-/// The densify and prune rules (GaussianMapperOptions: densify_grad_threshold,
-/// log(densify_scale_threshold_m), logit(prune_min_opacity), log(prune_max_scale_m)).
-struct DensifySettings {
-  float grad_threshold = 0.f;     ///< mean |dL/dmean2d| at or above which a Gaussian is densified [1/px]
-  float log_split_scale = 0.f;    ///< largest log std dev above which it is split, else cloned
-  float min_opacity_logit = 0.f;  ///< pruned below this opacity logit
-  float max_log_scale = 0.f;      ///< pruned above this largest log std dev
-  std::uint32_t seed = 0;         ///< of the split offsets
 };
 
 /// What densifyAndPrune did, for the host's bookkeeping of ids and anchors (GaussianMap): append

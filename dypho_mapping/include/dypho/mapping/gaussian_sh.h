@@ -7,6 +7,9 @@
 
 namespace dypho::mapping::gs {
 
+/// The SH band-0 constant 1 / (2 sqrt(pi)): a DC coefficient dc renders as 0.5 + kShC0 * dc.
+constexpr double kShC0 = 0.28209479177387814;
+
 /// Coefficients per colour channel for an SH degree.
 DYPHO_HOST_DEVICE constexpr int shCoeffCount(int degree) { return (degree + 1) * (degree + 1); }
 
@@ -14,7 +17,7 @@ DYPHO_HOST_DEVICE constexpr int shCoeffCount(int degree) { return (degree + 1) *
 template <typename T>
 DYPHO_HOST_DEVICE inline void shBasis(int degree, const T* d, T* b) {
   const T x = d[0], y = d[1], z = d[2];
-  b[0] = T(0.28209479177387814);
+  b[0] = T(kShC0);
   if (degree < 1) return;
   const T C1 = T(0.4886025119029199);
   b[1] = -C1 * y;

@@ -94,6 +94,11 @@ class MappingStage {
   /// each atomically; returns the paths. `refine` = false skips finish().
   std::vector<std::string> save(const std::string& dir, bool refine = true,
                                 std::optional<double> budget_s = std::nullopt);
+  /// The evaluation file's name in an output folder.
+  static constexpr const char* kEvaluationFile = "map_evaluation.txt";
+  /// map_evaluation.txt in `dir`: the map's quality at the stored keyframes, as the offline
+  /// runner reports it (PSNR on static pixels, depth L1), written atomically; returns it.
+  KeyframeEvaluation writeEvaluation(const std::string& dir);
   /// Replaces the Gaussian map with a 3DGS PLY (GaussianMapper::loadPly); returns the count.
   std::size_t loadMap(const std::string& path, std::string* note = nullptr);
   /// Clears both maps and the motion prior.
