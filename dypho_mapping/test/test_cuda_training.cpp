@@ -22,14 +22,14 @@ struct Run {
   std::size_t gaussians_seeded = 0, gaussians = 0;
 };
 
-/// Two keyframes of a textured plane, 100 iterations (densify every 25), on `device`.
-Run train(const std::string& device, double ssim_weight) {
+/// Two keyframes of a textured plane, 100 iterations (densify every 25 with `densify`), on `device`.
+Run train(const std::string& device, double ssim_weight, bool densify) {
   GaussianMapperOptions o;
   o.device = device;
   o.train_downsample = 1;
   o.coverage_stride_px = 4;
   o.feature_samples = 0;
-  o.densify_interval = 25;
+  o.densify_interval = densify ? 25 : 0;
   o.ssim_weight = ssim_weight;
   // Low enough that both runs densify within 100 iterations (the default 2e-4 does not here), so
   // the device's densify and compaction kernels run.
@@ -62,11 +62,11 @@ Run train(const std::string& device, double ssim_weight) {
   return r;
 }
 
-void compareDevices(double ssim_weight) {
+void compareDevices(double ssim_weight, bool densify) {
   std::string reason;
   if (cudaDeviceCount(&reason) <= 0) GTEST_SKIP() << "no CUDA device: " << reason;
-  const Run cpu = train("cpu", ssim_weight);
-  const Run gpu = train("cuda", ssim_weight);
+  const Run cpu = train("cpu", ssim_weight, densify);
+  const Run gpu = train("cuda", ssim_weight, densify);
   // Same seeding on both (the host seeds): identical start.
   EXPECT_NEAR(gpu.psnr_seeded, cpu.psnr_seeded, 1e-3);
   EXPECT_LT(gpu.last_loss, gpu.first_loss);
@@ -74,16 +74,28 @@ void compareDevices(double ssim_weight) {
   // textured plane (plane_keyframe.h): the CPU run gains about 3 dB in 100 iterations.
   EXPECT_GT(cpu.psnr, cpu.psnr_seeded + 1.0);
   EXPECT_GT(gpu.psnr, gpu.psnr_seeded + 1.0);
-  EXPECT_GT(cpu.gaussians, cpu.gaussians_seeded);  // densification ran
-  EXPECT_GT(gpu.gaussians, gpu.gaussians_seeded);
+  if (densify) {
+    EXPECT_GT(cpu.gaussians, cpu.gaussians_seeded);  // densification ran
+    EXPECT_GT(gpu.gaussians, gpu.gaussians_seeded);
+  } else {
+    EXPECT_EQ(cpu.gaussians, cpu.gaussians_seeded);
+    EXPECT_EQ(gpu.gaussians, gpu.gaussians_seeded);
+  }
   // Float sums in another order make the runs diverge slowly (densification decisions at the
   // gradient threshold can differ): after 100 iterations within 0.5 dB of the CPU run.
   EXPECT_NEAR(gpu.psnr, cpu.psnr, 0.5);
 }
 
-TEST(CudaTraining, HundredIterationsEndWithinHalfADecibelOfTheCpu) { compareDevices(0.0); }
+// The whole iteration with densify and prune (the same rules and split samples on both:
+// training_math.h; TrainingMath.DeviceDensifyIsTheTrainers checks them equal on the CPU).
+TEST(CudaTraining, HundredIterationsEndWithinHalfADecibelOfTheCpu) { compareDevices(0.0, true); }
 
-TEST(CudaTraining, SsimTermThroughTheHostLossAlsoMatches) { compareDevices(0.5); }
+// The SSIM term's device passes through the host loss, without densification: with SSIM 0.5 the
+// runs grow the map by 2,000 Gaussians in 100 iterations, and which ones cross the gradient
+// threshold follows the order of the device's atomic sums, so the PSNR of one GPU run varied by
+// 0.5 dB (21.8-22.3) around a CPU run that itself moves by 0.3 dB with the split samples' seed.
+// Without densification the comparison is of the SSIM path alone.
+TEST(CudaTraining, SsimTermThroughTheHostLossAlsoMatches) { compareDevices(0.5, false); }
 
 /// `n` small Gaussians on a plane 2 m ahead, one colour.
 std::shared_ptr<const GaussianMap> planeMap(float red, int n) {
