@@ -51,7 +51,6 @@ if(TARGET GTest::gtest_main)
 endif()
 dypho_add_gtest(test_dypho_tools_io
   SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test/test_camera_config.cpp
-          ${CMAKE_CURRENT_SOURCE_DIR}/test/test_trajectory_io.cpp
           ${CMAKE_CURRENT_SOURCE_DIR}/test/test_tum_dataset.cpp
           ${CMAKE_CURRENT_SOURCE_DIR}/test/test_evaluation.cpp
   LIBS dypho_tools ${_dypho_tools_io_gtest_main})

@@ -1,93 +1,18 @@
 /// The in-process pipeline on a short synthetic sequence: repeatable to the bit with R_d in use,
-/// corrections reach the map, and the shared constant-velocity model's reset rules.
+/// corrections reach the map, stamps out of order are dropped or restart tracking.
 
 #include <cmath>
-#include <limits>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "dypho/common/motion_prior.h"
-#include "dypho/common/stamp_gate.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/synthetic_scene.h"
 
 namespace {
 
 using namespace dypho;
-
-Eigen::Isometry3d poseAt(double x_m, double yaw_rad) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x_m, 0.0, 0.0);
-  return T;
-}
-
-constexpr Timestamp kFrameNs = 33'333'333;  // 30 Hz
-
-TEST(ConstantVelocityModel, PredictsScaledByTime) {
-  ConstantVelocityModel model;
-  model.observe({0, poseAt(0.0, 0.0), true, false});
-  EXPECT_FALSE(model.predict(kFrameNs).has_value());  // one pose: no velocity yet
-  model.observe({kFrameNs, poseAt(0.01, 0.02), true, false});
-  // The step from frame 0 to 1 is poseAt(0.01, 0.02); the next one repeats it.
-  const auto next = model.predict(2 * kFrameNs);
-  ASSERT_TRUE(next.has_value());
-  const Eigen::Isometry3d step = poseAt(0.01, 0.02);
-  EXPECT_TRUE(next->isApprox(step * step, 1e-9)) << next->matrix();
-  // A dropped frame: two intervals ahead the step is doubled (twice the translation and angle).
-  const auto skip = model.predict(3 * kFrameNs);
-  ASSERT_TRUE(skip.has_value());
-  EXPECT_TRUE(skip->isApprox(step * poseAt(0.02, 0.04), 1e-9)) << skip->matrix();
-}
-
-TEST(ConstantVelocityModel, ResetRules) {
-  ConstantVelocityModel model(1.0);
-  model.observe({0, poseAt(0.0, 0.0), true, false});
-  model.observe({kFrameNs, poseAt(0.01, 0.0), true, false});
-  ASSERT_TRUE(model.hasVelocity());
-  // A jump (loop closure, relocalisation): the new pose is kept, no velocity across the jump.
-  model.observe({2 * kFrameNs, poseAt(5.0, 0.0), true, true});
-  EXPECT_FALSE(model.hasVelocity());
-  EXPECT_FALSE(model.predict(3 * kFrameNs).has_value());
-  ASSERT_TRUE(model.last().has_value());
-  EXPECT_NEAR(model.last()->translation().x(), 5.0, 1e-12);
-  model.observe({3 * kFrameNs, poseAt(5.01, 0.0), true, false});
-  EXPECT_TRUE(model.hasVelocity());
-  // Lost: everything is forgotten.
-  model.observe({4 * kFrameNs, poseAt(0.0, 0.0), false, false});
-  EXPECT_FALSE(model.last().has_value());
-  // Time going backwards starts over from that pose.
-  model.observe({10 * kFrameNs, poseAt(1.0, 0.0), true, false});
-  model.observe({11 * kFrameNs, poseAt(1.01, 0.0), true, false});
-  model.observe({5 * kFrameNs, poseAt(2.0, 0.0), true, false});
-  EXPECT_FALSE(model.hasVelocity());
-  // A gap over max_gap_s is a jump.
-  model.observe({5 * kFrameNs + 2'000'000'000, poseAt(2.01, 0.0), true, false});
-  EXPECT_FALSE(model.hasVelocity());
-}
-
-// A correction of the earlier poses (a local BA applied late) is applied to the last pose before
-// the step is formed: the velocity stays the camera's motion, not the correction.
-TEST(ConstantVelocityModel, CorrectionOfTheEarlierPosesIsNotMotion) {
-  ConstantVelocityModel model;
-  model.observe({0, poseAt(0.0, 0.0), true, false});
-  model.observe({kFrameNs, poseAt(0.01, 0.0), true, false});
-  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
-  correction.translation() << 0.0, 0.05, 0.0;  // the world moved 5 cm under frames 0 and 1
-  PoseUpdate update{2 * kFrameNs, correction * poseAt(0.02, 0.0), true, false};
-  update.T_correction = correction;
-  model.observe(update);
-  ASSERT_TRUE(model.lastStep().has_value());
-  EXPECT_TRUE(model.lastStep()->isApprox(poseAt(0.01, 0.0), 1e-9)) << model.lastStep()->matrix();
-  // Without it, the 5 cm would have become velocity.
-  ConstantVelocityModel uncorrected;
-  uncorrected.observe({0, poseAt(0.0, 0.0), true, false});
-  uncorrected.observe({kFrameNs, poseAt(0.01, 0.0), true, false});
-  uncorrected.observe({2 * kFrameNs, correction * poseAt(0.02, 0.0), true, false});
-  EXPECT_GT((uncorrected.lastStep()->translation() - poseAt(0.01, 0.0).translation()).norm(), 0.04);
-}
 
 struct RunResult {
   std::vector<Eigen::Isometry3d> poses;
@@ -164,26 +89,6 @@ TEST(SlamPipeline, LocalBaCorrectionsReachTheGaussianMap) {
 }  // namespace
 
 namespace {
-
-TEST(StampGate, DropsRepeatedAndLateFramesRestartsOnAJumpBack) {
-  StampGate gate(1.0);
-  EXPECT_EQ(gate.admit(10 * kFrameNs), StampOrder::kNext);
-  EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kNext);
-  EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kRepeated);
-  EXPECT_EQ(gate.admit(9 * kFrameNs), StampOrder::kLate);    // 2 frames late
-  EXPECT_EQ(gate.admit(12 * kFrameNs), StampOrder::kNext);   // the newest stays 11, then 12
-  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'000), StampOrder::kLate);  // exactly 1 s: late
-  EXPECT_EQ(gate.dropped(), 3u);
-  EXPECT_EQ(gate.restarts(), 0u);
-  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'001), StampOrder::kJumpedBack);
-  EXPECT_EQ(gate.restarts(), 1u);
-  // After the jump the new run's stamps are the reference.
-  EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'001 + kFrameNs), StampOrder::kNext);
-  // Extreme stamps do not overflow the comparison.
-  StampGate extremes;
-  EXPECT_EQ(extremes.admit(std::numeric_limits<Timestamp>::max()), StampOrder::kNext);
-  EXPECT_EQ(extremes.admit(std::numeric_limits<Timestamp>::min()), StampOrder::kJumpedBack);
-}
 
 // Through the whole pipeline: a repeated and a late frame are dropped (no pose, no restart, the
 // trajectory keeps its frames); a looped sequence (time back by 5 s) restarts tracking.
