@@ -6,13 +6,12 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "mask_internal.h"
+
 namespace dypho {
 namespace mask {
-namespace {
 
-inline bool valid(float z) { return z > 0.f && std::isfinite(z); }
-
-}  // namespace
+using internal::valid;
 
 void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camera,
                       const Eigen::Isometry3d& T_cur_prev, cv::Mat& depth_cur_m) {

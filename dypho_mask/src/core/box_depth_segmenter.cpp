@@ -7,6 +7,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "depth_layers.h"
+
 namespace dypho {
 namespace mask {
 namespace {
@@ -24,6 +26,80 @@ void nearestCluster(const std::vector<float>& z, const BoxDepthSettings& s, floa
   }
   lo = d_near - 0.1f;
   hi = d_near + static_cast<float>(s.depth_range_m);
+}
+
+/// A layer this far in front of its region's far depth is an object [m].
+constexpr float kLayerInFrontM = 0.3f;
+
+/// The components of what the layers so far left of the regions, by label: valid depths [m],
+/// pixel count, the original region they lie in, and whether they reach into the eroded core.
+struct RestComponents {
+  std::vector<std::vector<float>> z;
+  std::vector<int> total, parent;
+  std::vector<bool> has_core;
+};
+
+/// RestComponents of the `n` labels of `labels`, with `regions` the original regions' labels and
+/// `core` (non-zero) the part of the rest wider than the halo.
+RestComponents describeRest(const cv::Mat& labels, int n, const cv::Mat& regions, const cv::Mat& depth_m,
+                            const cv::Mat& core) {
+  RestComponents c;
+  c.z.resize(n);
+  c.total.assign(n, 0);
+  c.parent.assign(n, 0);
+  c.has_core.assign(n, false);
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const int* r = regions.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    const uchar* k = core.ptr<uchar>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      if (l[x] == 0) continue;
+      ++c.total[l[x]];
+      c.parent[l[x]] = r[x];
+      c.has_core[l[x]] = c.has_core[l[x]] || k[x] != 0;
+      if (d[x] > 0.f) c.z[l[x]].push_back(d[x]);
+    }
+  }
+  return c;
+}
+
+/// Depth window [lo, hi] of every component kept as a farther layer: its nearest cluster, when
+/// the component is wider than the halo (has_core), has enough valid depths and lies more than
+/// kLayerInFrontM in front of its region's far depth; an empty window (lo > hi) otherwise.
+/// Returns whether any component is kept.
+bool chooseLayerWindows(RestComponents& c, const BoxDepthSettings& s, const BoxDepthSettings& layer_settings,
+                        const std::vector<float>& region_far, std::vector<float>& lo, std::vector<float>& hi) {
+  const int n = static_cast<int>(c.z.size());
+  lo.assign(n, 1.f);  // empty range: nothing kept
+  hi.assign(n, -1.f);
+  bool any = false;
+  for (int i = 1; i < n; ++i) {
+    std::vector<float>& z = c.z[i];
+    if (!c.has_core[i] || z.empty() || static_cast<double>(z.size()) < s.min_valid_share * c.total[i]) continue;
+    std::sort(z.begin(), z.end());
+    float near_lo = 0.f, near_hi = 0.f;
+    nearestCluster(z, layer_settings, near_lo, near_hi);
+    if (near_hi < region_far[c.parent[i]] - kLayerInFrontM) {
+      lo[i] = near_lo;
+      hi[i] = near_hi;
+      any = true;
+    }
+  }
+  return any;
+}
+
+/// Sets 255 in `mask` where a labelled pixel's depth lies in its component's window.
+void paintLayerWindows(const cv::Mat& labels, const cv::Mat& depth_m, const std::vector<float>& lo,
+                       const std::vector<float>& hi, cv::Mat& mask) {
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    uchar* m = mask.ptr<uchar>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      if (l[x] != 0 && d[x] >= lo[l[x]] && d[x] <= hi[l[x]]) m[x] = 255;
+    }
+  }
 }
 
 }  // namespace
@@ -100,21 +176,12 @@ void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings&
   }
 }
 
-void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, int halo_px, int max_layers,
-                             cv::Mat& mask, cv::Mat* nearest_layer) {
-  CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size());
-  // The far depth of every original region (95th percentile): the background behind its objects.
-  cv::Mat regions;
-  const int num_regions = cv::connectedComponents(mask, regions, 8, CV_32S);
-  if (num_regions <= 1) {
-    if (nearest_layer != nullptr) mask.copyTo(*nearest_layer);
-    return;
-  }
+std::vector<float> internal::regionFarDepths(const cv::Mat& depth_m, const cv::Mat& regions, int num_regions) {
   std::vector<std::vector<float>> region_z(num_regions);
-  for (int y = 0; y < mask.rows; ++y) {
+  for (int y = 0; y < regions.rows; ++y) {
     const int* l = regions.ptr<int>(y);
     const float* d = depth_m.ptr<float>(y);
-    for (int x = 0; x < mask.cols; ++x) {
+    for (int x = 0; x < regions.cols; ++x) {
       if (l[x] != 0 && d[x] > 0.f) region_z[l[x]].push_back(d[x]);
     }
   }
@@ -126,6 +193,20 @@ void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, 
     std::nth_element(z.begin(), k, z.end());
     region_far[i] = *k;
   }
+  return region_far;
+}
+
+void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, int halo_px, int max_layers,
+                             cv::Mat& mask, cv::Mat* nearest_layer) {
+  CV_Assert(mask.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && depth_m.size() == mask.size());
+  // The far depth of every original region (95th percentile): the background behind its objects.
+  cv::Mat regions;
+  const int num_regions = cv::connectedComponents(mask, regions, 8, CV_32S);
+  if (num_regions <= 1) {
+    if (nearest_layer != nullptr) mask.copyTo(*nearest_layer);
+    return;
+  }
+  const std::vector<float> region_far = internal::regionFarDepths(depth_m, regions, num_regions);
   const cv::Mat work = mask.clone();
   cutRegionsToDepthForeground(depth_m, s, mask);  // layer 1: the nearest object of every region
   if (nearest_layer != nullptr) mask.copyTo(*nearest_layer);
@@ -133,8 +214,8 @@ void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, 
   // What is left of a region mixes objects and background; an object may hold a small share.
   BoxDepthSettings layer_settings = s;
   layer_settings.min_cluster_share = std::min(s.min_cluster_share, 0.05);
-  constexpr float kInFrontM = 0.3f;  // a layer this far in front of its region's far depth is an object
   cv::Mat rest, core, labels;
+  std::vector<float> lo, hi;
   for (int layer = 1; layer < max_layers; ++layer) {
     // What the layers so far left of the regions: objects farther back, and the halo on the
     // background. The halo is a band about as wide as the flow's margin; an object is wider.
@@ -142,44 +223,9 @@ void cutRegionsToDepthLayers(const cv::Mat& depth_m, const BoxDepthSettings& s, 
     cv::erode(rest, core, kernel);
     if (cv::countNonZero(core) == 0) return;
     const int n = cv::connectedComponents(rest, labels, 8, CV_32S);
-    std::vector<std::vector<float>> z(n);
-    std::vector<int> total(n, 0), parent(n, 0);
-    std::vector<bool> has_core(n, false);
-    for (int y = 0; y < rest.rows; ++y) {
-      const int* l = labels.ptr<int>(y);
-      const int* r = regions.ptr<int>(y);
-      const float* d = depth_m.ptr<float>(y);
-      const uchar* c = core.ptr<uchar>(y);
-      for (int x = 0; x < rest.cols; ++x) {
-        if (l[x] == 0) continue;
-        ++total[l[x]];
-        parent[l[x]] = r[x];
-        has_core[l[x]] = has_core[l[x]] || c[x] != 0;
-        if (d[x] > 0.f) z[l[x]].push_back(d[x]);
-      }
-    }
-    std::vector<float> lo(n, 1.f), hi(n, -1.f);  // empty range: nothing kept
-    bool any = false;
-    for (int i = 1; i < n; ++i) {
-      if (!has_core[i] || z[i].empty() || static_cast<double>(z[i].size()) < s.min_valid_share * total[i]) continue;
-      std::sort(z[i].begin(), z[i].end());
-      float near_lo = 0.f, near_hi = 0.f;
-      nearestCluster(z[i], layer_settings, near_lo, near_hi);
-      if (near_hi < region_far[parent[i]] - kInFrontM) {
-        lo[i] = near_lo;
-        hi[i] = near_hi;
-        any = true;
-      }
-    }
-    if (!any) return;
-    for (int y = 0; y < rest.rows; ++y) {
-      const int* l = labels.ptr<int>(y);
-      const float* d = depth_m.ptr<float>(y);
-      uchar* m = mask.ptr<uchar>(y);
-      for (int x = 0; x < rest.cols; ++x) {
-        if (l[x] != 0 && d[x] >= lo[l[x]] && d[x] <= hi[l[x]]) m[x] = 255;
-      }
-    }
+    RestComponents components = describeRest(labels, n, regions, depth_m, core);
+    if (!chooseLayerWindows(components, s, layer_settings, region_far, lo, hi)) return;
+    paintLayerWindows(labels, depth_m, lo, hi, mask);
   }
 }
 

@@ -10,15 +10,19 @@
 #include "dypho/mask/box_depth_segmenter.h"
 #include "dypho/mask/object_permanence.h"
 #include "dypho/mask/segment_scheduler.h"
+#include "mask_internal.h"
 
 namespace dypho {
 namespace mask {
+
+using internal::Clock;
+using internal::msSince;
+
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+/// Appends `note` to `result.message`, after a "; " when it holds one already.
+void addNote(MaskResult& result, const std::string& note) {
+  result.message += (result.message.empty() ? "" : "; ") + note;
 }
 
 MaskCleanerSettings cleanerAt(const DynamicMaskOptions& o, double scale) {
@@ -91,58 +95,76 @@ cv::Size DynamicMasker::workingSize(const cv::Size& input) const {
   return scaledImageSize(input.width, input.height, options_.background.scale);
 }
 
+/// One frame as compute() hands it from step to step.
+struct DynamicMasker::FrameState {
+  FrameState(const RgbdFrame& frame_in, const MaskPrior& prior_in) : frame(frame_in), prior(prior_in) {}
+  const RgbdFrame& frame;
+  const MaskPrior& prior;
+  cv::Size size;                 ///< input size
+  cv::Size small;                ///< background resolution (workingSize())
+  bool have_depth = false;       ///< depth CV_32FC1 of the colour size and a valid camera
+  bool run_background = false;   ///< background model on, with usable depth
+  bool network = false;          ///< a network mask was in use on the last frame (crowd aids off)
+  bool rendered_ignored = false; ///< R_d was given at an unusable type or size
+  double test_ms = 0.0;          ///< the consistency test's wall time, beside the flow [ms]
+  FlowMaskResult flow;           ///< this frame's motion mask
+  SegmentStep seg;               ///< this frame's segment mask
+};
+
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
   const auto t0 = Clock::now();
   MaskResult result;
-  auto note = [&](const std::string& m) { result.message += (result.message.empty() ? "" : "; ") + m; };
+  FrameState f(frame, prior);
+  f.size = frame.bgr.size();
+  f.have_depth = !frame.depth_m.empty() && frame.depth_m.size() == f.size &&
+                 frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
+  f.run_background = options_.background.enabled && f.have_depth;
+  f.small = workingSize(f.size);
 
-  const cv::Size size = frame.bgr.size();
-  const bool have_depth = !frame.depth_m.empty() && frame.depth_m.size() == size &&
-                          frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
-  const bool run_background = options_.background.enabled && have_depth;
-  const double s = options_.background.scale;
-  const cv::Size small = workingSize(size);
-  bool rendered_ignored = false;
-  double test_ms = 0.0;
-  // The consistency test of D_i against the prior (warped B_{i-1}, rendered depth) needs no flow:
-  // it runs beside the flow on a second thread of OpenCV's pool (serially with one thread).
-  auto background_test = [&] {
-    const auto t = Clock::now();
-    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
-    rendered_small_.release();
-    if (!prior.rendered_depth_m.empty()) {
-      if (prior.rendered_depth_m.type() == CV_32FC1 && prior.rendered_depth_m.size() == small) {
-        rendered_small_ = prior.rendered_depth_m;  // rendered at the working resolution already
-      } else if (prior.rendered_depth_m.type() == CV_32FC1 && prior.rendered_depth_m.size() == size) {
-        cv::resize(prior.rendered_depth_m, rendered_small_, small, 0, 0, cv::INTER_NEAREST);
-      } else {
-        rendered_ignored = true;
-      }
-    }
-    background_.test(depth_small_, rendered_small_, scaled(frame.camera, small, s), prior.T_prev_cur,
-                     consistency_small_);
-    test_ms = msSince(t);
-  };
+  // 1. Motion mask: flow and ego-motion (beside the background's consistency test).
+  computeMotionAndConsistency(f);
+  if (!reportMotion(f, result)) {  // unusable input: nothing else can run
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  // 2. Segment mask (network every N-th frame / async, carried by the flow in between).
+  computeSegment(f, result);
+  if (startsAllDynamic(f, result)) {
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  // 3. Raw mask, background model, consistency, fused at background resolution (without the
+  // background model: flow OR segment mask at input size).
+  const auto t_bg = Clock::now();
+  if (f.run_background) {
+    fuseAtBackground(f, result);
+  } else {
+    fuseAtInput(f, result);
+  }
+  result.background_ms = f.test_ms + msSince(t_bg);
+  result.total_ms = msSince(t0);
+  return result;
+}
 
-  // 1. Motion mask (beside the background test). The flow masker checks the colour image, depth
-  // size and camera size. Exceptions of either task are rethrown here, after both finished.
-  FlowMaskResult flow;
+void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
+  // The flow masker checks the colour image, depth size and camera size. Exceptions of either
+  // task are rethrown here, after both finished.
   std::exception_ptr failure[2];
   // The crowd aids of the flow mask (residual memory, depth layers) serve the flow-only mask; a
   // running network segments people whatever their speed and depth, and with it they only cost
   // accuracy (Bonn crowd with YOLOX-nano: 1.45 cm without, 1.7-2.7 cm with them). A network
   // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
-  const bool network = segment_->ready() && network_mask_in_use_;
+  f.network = segment_->ready() && network_mask_in_use_;
   cv::parallel_for_(
       cv::Range(0, 2),
       [&](const cv::Range& range) {
         for (int task = range.start; task < range.end; ++task) {
           try {
             if (task == 0) {
-              flow_.setResidualMemoryEnabled(!network);
-              flow = flow_.compute(frame, prior.T_prev_cur, previous_mask_);
-            } else if (run_background) {
-              background_test();
+              flow_.setResidualMemoryEnabled(!f.network);
+              f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_);
+            } else if (f.run_background) {
+              testAgainstBackground(f);
             }
           } catch (...) {
             failure[task] = std::current_exception();
@@ -153,49 +175,77 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   for (const std::exception_ptr& e : failure) {
     if (e) std::rethrow_exception(e);
   }
-  if (rendered_ignored) note("rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
-  result.rendered_depth_used = run_background && !rendered_small_.empty();
+}
+
+void DynamicMasker::testAgainstBackground(FrameState& f) {
+  // The consistency test of D_i against the prior (warped B_{i-1}, rendered depth) needs no flow:
+  // it runs beside the flow on a second thread of OpenCV's pool (serially with one thread).
+  const auto t = Clock::now();
+  const cv::Mat& rendered = f.prior.rendered_depth_m;
+  cv::resize(f.frame.depth_m, depth_small_, f.small, 0, 0, cv::INTER_NEAREST);
+  rendered_small_.release();
+  if (!rendered.empty()) {
+    if (rendered.type() == CV_32FC1 && rendered.size() == f.small) {
+      rendered_small_ = rendered;  // rendered at the working resolution already
+    } else if (rendered.type() == CV_32FC1 && rendered.size() == f.size) {
+      cv::resize(rendered, rendered_small_, f.small, 0, 0, cv::INTER_NEAREST);
+    } else {
+      f.rendered_ignored = true;
+    }
+  }
+  background_.test(depth_small_, rendered_small_, scaled(f.frame.camera, f.small, options_.background.scale),
+                   f.prior.T_prev_cur, consistency_small_);
+  f.test_ms = msSince(t);
+}
+
+bool DynamicMasker::reportMotion(const FrameState& f, MaskResult& result) {
+  const FlowMaskResult& flow = f.flow;
+  if (f.rendered_ignored) addNote(result, "rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
+  result.rendered_depth_used = f.run_background && !rendered_small_.empty();
   result.flow_ms = flow.total_ms;
   result.ego_motion_from_pose = flow.ego_motion_from_pose;
   result.raw_flow_mask = flow.raw_flow_mask;
   if (flow.degraded) {
     result.degraded = true;
-    note(flow.message);
+    addNote(result, flow.message);
   } else if (!flow.message.empty()) {
-    note(flow.message);
+    addNote(result, flow.message);
   }
-  if (flow.mask.empty()) {  // unusable input: nothing else can run
+  if (flow.mask.empty()) {
     result.mask = flow.mask;
-    result.total_ms = msSince(t0);
-    return result;
+    return false;
   }
+  return true;
+}
+
+void DynamicMasker::computeSegment(FrameState& f, MaskResult& result) {
   if (!warned_ && !segment_->ready()) {
-    note(segment_->status());
+    addNote(result, segment_->status());
     warned_ = true;
   }
-
-  // 2. Segment mask (network every N-th frame / async, carried by the flow in between).
   const auto t_seg = Clock::now();
-  const SegmentStep seg = segment_->step(frame, flow_.lastFlow());
+  f.seg = segment_->step(f.frame, flow_.lastFlow());
+  const SegmentStep& seg = f.seg;
   // Decides the crowd aids of the next frame's flow (this frame's flow already ran): on while no
   // network mask is in use (none yet, or the newest was too old: YoloOptions::max_age_frames).
   network_mask_in_use_ = !seg.mask.empty();
-  if (seg.too_old) note("segment: newest network mask older than " + std::to_string(options_.yolo.max_age_frames) + " frames, not used");
+  if (seg.too_old) addNote(result, "segment: newest network mask older than " + std::to_string(options_.yolo.max_age_frames) + " frames, not used");
   result.segment_ms = msSince(t_seg);
   result.segment_fresh = seg.fresh;
   result.segment_age_frames = seg.age_frames;
   result.detection_boxes = seg.boxes_image;
   result.raw_segment_mask = seg.mask;
-  if (!seg.message.empty()) note("segment: " + seg.message);
+  if (!seg.message.empty()) addNote(result, "segment: " + seg.message);
+}
 
+bool DynamicMasker::startsAllDynamic(const FrameState& f, MaskResult& result) {
   // Safe start: with no flow and no fresh network mask nothing has judged this frame's pixels;
   // people in it would look static (tracking verifies a first keyframe built from such a frame).
   // With unjudged_is_dynamic the frame is all dynamic and the background model does not learn it.
-  result.unjudged = flow_.lastFlow().empty() && !seg.fresh;
+  result.unjudged = flow_.lastFlow().empty() && !f.seg.fresh;
   if (options_.unjudged_is_dynamic && result.unjudged) {
-    allDynamic(size, "nothing judged yet (no flow, no network mask)", result);
-    result.total_ms = msSince(t0);
-    return result;
+    allDynamic(f.size, "nothing judged yet (no flow, no network mask)", result);
+    return true;
   }
 
   // Start in a crowd: on the first frames with a flow (as many as the background model needs to
@@ -205,103 +255,107 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   // background model does not learn it. Counted in flow frames, so that the start also ends
   // without depth or with the background model off.
   if (!flow_.lastFlow().empty()) ++flow_frames_;
-  if (options_.unknown_motion_is_dynamic && flow.motion_unknown && seg.mask.empty() &&
+  if (options_.unknown_motion_is_dynamic && f.flow.motion_unknown && f.seg.mask.empty() &&
       flow_frames_ <= options_.background.veto_after_updates) {
-    allDynamic(size, "camera motion not found and no earlier mask to carry", result);
-    result.total_ms = msSince(t0);
-    return result;
+    allDynamic(f.size, "camera motion not found and no earlier mask to carry", result);
+    return true;
   }
+  return false;
+}
 
-  // 3. Raw mask, background model, consistency.
-  const auto t_bg = Clock::now();
-  if (run_background) {
-    // Raw flow regions are cut to the depth of the people in them (no halo on the wall behind;
-    // people behind people in a crowd); the segment mask is already depth-cut (boxes) or
-    // pixel-exact (seg models).
-    cv::resize(flow.mask, raw_small_, small, 0, 0, cv::INTER_NEAREST);
-    // Depth layers behind the nearest one only while the camera is still enough for the flow's
-    // regions to be people rather than the ego-motion model's errors at depth edges.
-    const bool layers = options_.depth_layers > 1 && flow.still_camera_weight > 0.0 && !network;
-    cutRegionsToDepthLayers(depth_small_, box_settings_, halo_small_px_, layers ? options_.depth_layers : 1, raw_small_,
-                            layers ? &nearest_layer_small_ : nullptr);
-    if (layers && background_updates_ >= options_.background.veto_after_updates) {
-      // Layers behind the nearest one that the established background explains (the floor at a
-      // person's feet, furniture in the flow's margin) are static: only the nearest layer is kept there.
-      cv::subtract(raw_small_, nearest_layer_small_, farther_layers_small_);  // 0/255 masks: raw and not nearest
-      no_occluder_small_.create(small, CV_8UC1);
-      no_occluder_small_.setTo(0);
-      vetoRegionsOnBackground(background_.prior(), depth_small_, no_occluder_small_, options_.background.sigma_m, 0.5,
-                              0.5, farther_layers_small_);
-      cv::bitwise_or(nearest_layer_small_, farther_layers_small_, raw_small_);
-    }
-    if (!seg.mask.empty()) {
-      cv::resize(seg.mask, seg_small_, small, 0, 0, cv::INTER_NEAREST);
-      raw_small_ |= seg_small_;
-    }
-    if (background_updates_ == 0 && flow.raw_flow_mask.empty() && seg.mask.empty()) {
-      // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the
-      // consistency test above changed nothing that the next frame reads).
-      finish(raw_small_, size, true, result);
-      result.background_ms = test_ms + msSince(t_bg);
-      result.total_ms = msSince(t0);
-      return result;
-    }
-    cv::resize(consistency_small_, result.consistency_mask, size, 0, 0, cv::INTER_NEAREST);
-    // Flow regions that the established background explains (same depth, no occluder in front)
-    // are flow noise on the static scene; segment-mask pixels are never vetoed. Only while the
-    // camera moves: the veto is for the ego-motion model's errors, which grow with the camera's
-    // motion. With a still camera (cameraStill()) a flow region is motion, and the background
-    // that "explains" it has learnt a person who stood still or stood there from the start.
-    cv::resize(flow.mask, flow_small_, small, 0, 0, cv::INTER_NEAREST);
-    flow_small_ &= raw_small_;
-    const bool still = cameraStill(flow, prior.T_prev_cur);
-    if (background_updates_ >= options_.background.veto_after_updates && (!still || options_.veto_flow_while_still)) {
-      vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
-                              0.9, 0.5, flow_small_);
-    }
-    if (!seg.mask.empty()) {
-      cv::bitwise_or(flow_small_, seg_small_, raw_small_);
-    } else {
-      flow_small_.copyTo(raw_small_);  // no aliasing: both buffers are reused next frame
-    }
-    cv::bitwise_or(consistency_small_, raw_small_, combined_);
-    if (options_.moving_point_seeds && !prior.moving_points_camera_m.empty()) {
-      addMovingPointSeeds(prior.moving_points_camera_m, scaled(frame.camera, small, s));
-    }
-    // Object permanence (permanence_frames) serves the flow-only mask of a still camera (a
-    // network segments people whatever they do; a moving camera's ego-motion errors would be
-    // kept as well), and starts once the background model is established: before, the depth
-    // growth has no background to stop it and can spill over a wall nobody has seen yet, which
-    // must not last.
-    const bool permanence = permanence_ && !network && still &&
-                            background_updates_ >= options_.background.veto_after_updates;
-    if (permanence) {
-      // What this frame found itself (the evidence that restarts a surface's quiet count), then
-      // the surfaces of the previous frame that are still there.
-      combined_.copyTo(evidence_small_);
-      permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
-      combined_ |= kept_small_;
-    }
-    if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
-    // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
-    background_.update(depth_small_, rendered_small_, combined_);
-    ++background_updates_;
-    finish(combined_, size, true, result);
-    if (permanence) {
-      permanence_->remember(cleaned_small_, evidence_small_, depth_small_);
-    } else if (permanence_) {
-      permanence_->reset();
-    }
-  } else {
-    if (permanence_) permanence_->reset();
-    if (options_.background.enabled && !have_depth) note("no usable depth/camera: background model skipped");
-    combined_ = flow.mask.clone();
-    if (!seg.mask.empty()) combined_ |= seg.mask;
-    finish(combined_, size, false, result);
+void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
+  cutRawMaskAtBackground(f);
+  if (background_updates_ == 0 && f.flow.raw_flow_mask.empty() && f.seg.mask.empty()) {
+    // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the
+    // consistency test above changed nothing that the next frame reads).
+    finish(raw_small_, f.size, true, result);
+    return;
   }
-  result.background_ms = test_ms + msSince(t_bg);
-  result.total_ms = msSince(t0);
-  return result;
+  cv::resize(consistency_small_, result.consistency_mask, f.size, 0, 0, cv::INTER_NEAREST);
+  const bool still = vetoFlowOnBackground(f);
+  cv::bitwise_or(consistency_small_, raw_small_, combined_);
+  if (options_.moving_point_seeds && !f.prior.moving_points_camera_m.empty()) {
+    addMovingPointSeeds(f.prior.moving_points_camera_m, scaled(f.frame.camera, f.small, options_.background.scale));
+  }
+  // Object permanence (permanence_frames) serves the flow-only mask of a still camera (a
+  // network segments people whatever they do; a moving camera's ego-motion errors would be
+  // kept as well), and starts once the background model is established: before, the depth
+  // growth has no background to stop it and can spill over a wall nobody has seen yet, which
+  // must not last.
+  const bool permanence = permanence_ && !f.network && still &&
+                          background_updates_ >= options_.background.veto_after_updates;
+  if (permanence) {
+    // What this frame found itself (the evidence that restarts a surface's quiet count), then
+    // the surfaces of the previous frame that are still there.
+    combined_.copyTo(evidence_small_);
+    permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
+    combined_ |= kept_small_;
+  }
+  if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
+  // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
+  background_.update(depth_small_, rendered_small_, combined_);
+  ++background_updates_;
+  finish(combined_, f.size, true, result);
+  if (permanence) {
+    permanence_->remember(cleaned_small_, evidence_small_, depth_small_);
+  } else if (permanence_) {
+    permanence_->reset();
+  }
+}
+
+void DynamicMasker::cutRawMaskAtBackground(const FrameState& f) {
+  // Raw flow regions are cut to the depth of the people in them (no halo on the wall behind;
+  // people behind people in a crowd); the segment mask is already depth-cut (boxes) or
+  // pixel-exact (seg models).
+  cv::resize(f.flow.mask, raw_small_, f.small, 0, 0, cv::INTER_NEAREST);
+  // Depth layers behind the nearest one only while the camera is still enough for the flow's
+  // regions to be people rather than the ego-motion model's errors at depth edges.
+  const bool layers = options_.depth_layers > 1 && f.flow.still_camera_weight > 0.0 && !f.network;
+  cutRegionsToDepthLayers(depth_small_, box_settings_, halo_small_px_, layers ? options_.depth_layers : 1, raw_small_,
+                          layers ? &nearest_layer_small_ : nullptr);
+  if (layers && background_updates_ >= options_.background.veto_after_updates) {
+    // Layers behind the nearest one that the established background explains (the floor at a
+    // person's feet, furniture in the flow's margin) are static: only the nearest layer is kept there.
+    cv::subtract(raw_small_, nearest_layer_small_, farther_layers_small_);  // 0/255 masks: raw and not nearest
+    no_occluder_small_.create(f.small, CV_8UC1);
+    no_occluder_small_.setTo(0);
+    vetoRegionsOnBackground(background_.prior(), depth_small_, no_occluder_small_, options_.background.sigma_m, 0.5,
+                            0.5, farther_layers_small_);
+    cv::bitwise_or(nearest_layer_small_, farther_layers_small_, raw_small_);
+  }
+  if (!f.seg.mask.empty()) {
+    cv::resize(f.seg.mask, seg_small_, f.small, 0, 0, cv::INTER_NEAREST);
+    raw_small_ |= seg_small_;
+  }
+}
+
+bool DynamicMasker::vetoFlowOnBackground(const FrameState& f) {
+  // Flow regions that the established background explains (same depth, no occluder in front)
+  // are flow noise on the static scene; segment-mask pixels are never vetoed. Only while the
+  // camera moves: the veto is for the ego-motion model's errors, which grow with the camera's
+  // motion. With a still camera (cameraStill()) a flow region is motion, and the background
+  // that "explains" it has learnt a person who stood still or stood there from the start.
+  cv::resize(f.flow.mask, flow_small_, f.small, 0, 0, cv::INTER_NEAREST);
+  flow_small_ &= raw_small_;
+  const bool still = cameraStill(f.flow, f.prior.T_prev_cur);
+  if (background_updates_ >= options_.background.veto_after_updates && (!still || options_.veto_flow_while_still)) {
+    vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
+                            0.9, 0.5, flow_small_);
+  }
+  if (!f.seg.mask.empty()) {
+    cv::bitwise_or(flow_small_, seg_small_, raw_small_);
+  } else {
+    flow_small_.copyTo(raw_small_);  // no aliasing: both buffers are reused next frame
+  }
+  return still;
+}
+
+void DynamicMasker::fuseAtInput(const FrameState& f, MaskResult& result) {
+  if (permanence_) permanence_->reset();
+  if (options_.background.enabled && !f.have_depth) addNote(result, "no usable depth/camera: background model skipped");
+  combined_ = f.flow.mask.clone();
+  if (!f.seg.mask.empty()) combined_ |= f.seg.mask;
+  finish(combined_, f.size, false, result);
 }
 
 bool cameraStill(const FlowMaskResult& flow, const std::optional<Eigen::Isometry3d>& T_prev_cur) {

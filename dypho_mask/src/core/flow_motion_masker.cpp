@@ -11,15 +11,15 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "mask_internal.h"
+
 namespace dypho {
 namespace mask {
+
+using internal::Clock;
+using internal::msSince;
+
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 std::string sizeString(const cv::Size& s) {
   return std::to_string(s.width) + "x" + std::to_string(s.height);
@@ -110,10 +110,31 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   }
   const cv::Size size = frame.bgr.size();
   result.mask = cv::Mat::zeros(size, CV_8UC1);
+  const cv::Size small = reduceGrey(frame.bgr);
+  if (!continueHistory(size, result)) {
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  computeFlow(result);
+  computeCorrespondences(size, small, frame.camera);
+  carryPrevious(previous_dynamic);
+  if (!fitEgoMotion(frame, small, T_prev_cur, result)) {
+    result.total_ms = msSince(t0);
+    return result;
+  }
+  weighStillCamera(result);
+  accumulateResidual(result.still_camera_weight);
+  thresholdResidual(size, result);
+  finishMask(size, result);
+  result.total_ms = msSince(t0);
+  return result;
+}
 
+cv::Size FlowMotionMasker::reduceGrey(const cv::Mat& bgr) {
   // grey_ is only written by cvtColor; a mono8 input is read in place (never written).
-  if (frame.bgr.channels() == 3) cv::cvtColor(frame.bgr, grey_, cv::COLOR_BGR2GRAY);
-  const cv::Mat& grey = frame.bgr.channels() == 3 ? grey_ : frame.bgr;
+  if (bgr.channels() == 3) cv::cvtColor(bgr, grey_, cv::COLOR_BGR2GRAY);
+  const cv::Mat& grey = bgr.channels() == 3 ? grey_ : bgr;
+  const cv::Size size = bgr.size();
   const cv::Size small(static_cast<int>(std::lround(size.width * options_.flow_scale)),
                        static_cast<int>(std::lround(size.height * options_.flow_scale)));
   if (small == size) {
@@ -121,23 +142,26 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   } else {
     cv::resize(grey, cur_small_, small, 0, 0, cv::INTER_AREA);
   }
+  return small;
+}
 
-  const bool have_previous = !input_size_.empty() && input_size_ == size;
-  if (!have_previous) {
-    if (!input_size_.empty()) {
-      result.degraded = true;
-      result.message = "image size changed from " + sizeString(input_size_) + " to " +
-                       sizeString(size) + ": flow history reset, mask empty for this frame";
-    } else {
-      result.message = "first frame: no previous image, mask empty";
-    }
-    input_size_ = size;
-    memory_.release();
-    std::swap(prev_small_, cur_small_);
-    result.total_ms = msSince(t0);
-    return result;
+bool FlowMotionMasker::continueHistory(const cv::Size& input_size, FlowMaskResult& result) {
+  const bool have_previous = !input_size_.empty() && input_size_ == input_size;
+  if (have_previous) return true;
+  if (!input_size_.empty()) {
+    result.degraded = true;
+    result.message = "image size changed from " + sizeString(input_size_) + " to " +
+                     sizeString(input_size) + ": flow history reset, mask empty for this frame";
+  } else {
+    result.message = "first frame: no previous image, mask empty";
   }
+  input_size_ = input_size;
+  memory_.release();
+  std::swap(prev_small_, cur_small_);
+  return false;
+}
 
+void FlowMotionMasker::computeFlow(FlowMaskResult& result) {
   // Backward flow: defined on current pixels, pointing to where they were in the previous image,
   // so that the mask lies on the objects' current positions.
   const auto t_flow = Clock::now();
@@ -146,10 +170,13 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   last_flow_valid_ = true;
   computeTexture(cur_small_);
   std::swap(prev_small_, cur_small_);
+}
 
+void FlowMotionMasker::computeCorrespondences(const cv::Size& input_size, const cv::Size& small,
+                                              const CameraIntrinsics& camera) {
   // Correspondences in full-resolution (undistorted) pixels: current = the pixel grid, previous =
   // the grid sampled where the flow points (NaN when that is outside the previous image).
-  updatePixelGrid(size, small, frame.camera);
+  updatePixelGrid(input_size, small, camera);
   flow_target_.create(flow_.size(), CV_32FC2);
   for (int y = 0; y < flow_.rows; ++y) {
     const cv::Vec2f* f = flow_.ptr<cv::Vec2f>(y);
@@ -159,7 +186,11 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR,
             cv::BORDER_CONSTANT, cv::Scalar(nan, nan));
-  carryPrevious(previous_dynamic);
+}
+
+bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& small,
+                                    const std::optional<Eigen::Isometry3d>& T_prev_cur,
+                                    FlowMaskResult& result) {
   // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
   // plain homography. It is tried again without the previous frame's dynamic pixels when it
   // fails (people fill the view) or when it follows them (their pixels agree with it better than
@@ -167,75 +198,79 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
   // back into its own fit, which must not happen on frames that fit anyway (a region masked once
   // would stay masked).
   const bool with_pose = T_prev_cur && frame.camera.valid() && !frame.depth_m.empty();
-  if (with_pose) {
-    cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
-    predictRigidPrevious(grid_px_, depth_small_, frame.camera, *T_prev_cur, predicted_px_);
-    cv::Mat channels[2];
-    cv::split(predicted_px_, channels);
-    cv::compare(channels[0], channels[0], usable_, cv::CMP_EQ);  // NaN != NaN
-    if (!textured_.empty()) usable_ &= textured_;
-  }
-  // Ego-motion from depth + predicted pose: a homography between predicted and measured previous
-  // positions absorbs the prediction's rotation error (exact for a pure rotation).
-  auto fitOnce = [&](bool exclude_previous, bool* from_pose) {
-    GlobalMotionFit fit;
-    for (const bool pose_attempt : {true, false}) {
-      if (pose_attempt && !with_pose) continue;
-      const cv::Mat& usable = pose_attempt ? usable_ : textured_;
-      if (exclude_previous) {
-        cv::bitwise_not(carried_, fit_usable_);
-        if (!usable.empty()) fit_usable_ &= usable;
-      }
-      fit = global_motion_.fit(pose_attempt ? predicted_px_ : grid_px_, prev_px_, exclude_previous ? fit_usable_ : usable);
-      *from_pose = pose_attempt;
-      if (fit.ok) break;
-    }
-    return fit;
-  };
-  auto residualOf = [&](const GlobalMotionFit& fit, bool from_pose) {
-    computeResidualMagnitude(from_pose ? predicted_px_ : grid_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
-    if (options_.aperture_aware && !txx_.empty()) applyAperture(residual_vec_, residual_);
-  };
+  if (with_pose) predictFromPose(frame, small, *T_prev_cur);
   const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
   bool from_pose = false;
-  GlobalMotionFit fit = fitOnce(false, &from_pose);
-  if (fit.ok) residualOf(fit, from_pose);
+  GlobalMotionFit fit = fitOnce(with_pose, false, from_pose);
+  if (fit.ok) computeResidual(fit, from_pose);
   if (can_exclude && (!fit.ok || followsCarried())) {
     bool refit_from_pose = false;
-    const GlobalMotionFit refit = fitOnce(true, &refit_from_pose);
+    const GlobalMotionFit refit = fitOnce(with_pose, true, refit_from_pose);
     if (refit.ok) {
       fit = refit;
       from_pose = refit_from_pose;
       result.fit_excluded_previous_mask = true;
-      residualOf(fit, from_pose);
+      computeResidual(fit, from_pose);
     }
   }
   result.inlier_ratio = fit.inlierRatio();
   if (!fit.ok) {
     result.message = "global motion not found: " + fit.message;
     memory_.release();  // no residual this frame: the slow-motion evidence starts again
-    useCarried(size, result);
-    result.total_ms = msSince(t0);
-    return result;
+    useCarried(frame.bgr.size(), result);
+    return false;
   }
   result.H_prev_cur = fit.H_prev_cur;
   result.ego_motion_from_pose = from_pose;
-  {
-    // Full weight below kStillFlowPx of median flow, none from kMovingFlowPx on (full-res px).
-    constexpr double kStillFlowPx = 2.0, kMovingFlowPx = 6.0;
-    flowStatistics(result);
-    result.still_camera_weight =
-        std::clamp((kMovingFlowPx - result.median_flow_px) / (kMovingFlowPx - kStillFlowPx), 0.0, 1.0);
+  return true;
+}
+
+void FlowMotionMasker::predictFromPose(const RgbdFrame& frame, const cv::Size& small,
+                                       const Eigen::Isometry3d& T_prev_cur) {
+  cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
+  predictRigidPrevious(grid_px_, depth_small_, frame.camera, T_prev_cur, predicted_px_);
+  cv::Mat channels[2];
+  cv::split(predicted_px_, channels);
+  cv::compare(channels[0], channels[0], usable_, cv::CMP_EQ);  // NaN != NaN
+  if (!textured_.empty()) usable_ &= textured_;
+}
+
+GlobalMotionFit FlowMotionMasker::fitOnce(bool with_pose, bool exclude_previous, bool& from_pose) {
+  // Ego-motion from depth + predicted pose: a homography between predicted and measured previous
+  // positions absorbs the prediction's rotation error (exact for a pure rotation).
+  GlobalMotionFit fit;
+  for (const bool pose_attempt : {true, false}) {
+    if (pose_attempt && !with_pose) continue;
+    const cv::Mat& usable = pose_attempt ? usable_ : textured_;
+    if (exclude_previous) {
+      cv::bitwise_not(carried_, fit_usable_);
+      if (!usable.empty()) fit_usable_ &= usable;
+    }
+    fit = global_motion_.fit(pose_attempt ? predicted_px_ : grid_px_, prev_px_, exclude_previous ? fit_usable_ : usable);
+    from_pose = pose_attempt;
+    if (fit.ok) break;
   }
-  accumulateResidual(result.still_camera_weight);
+  return fit;
+}
+
+void FlowMotionMasker::computeResidual(const GlobalMotionFit& fit, bool from_pose) {
+  computeResidualMagnitude(from_pose ? predicted_px_ : grid_px_, prev_px_, fit.H_prev_cur, residual_, &residual_vec_);
+  if (options_.aperture_aware && !txx_.empty()) applyAperture(residual_vec_, residual_);
+}
+
+void FlowMotionMasker::weighStillCamera(FlowMaskResult& result) const {
+  // Full weight below kStillFlowPx of median flow, none from kMovingFlowPx on (full-res px).
+  constexpr double kStillFlowPx = 2.0, kMovingFlowPx = 6.0;
+  flowStatistics(result);
+  result.still_camera_weight =
+      std::clamp((kMovingFlowPx - result.median_flow_px) / (kMovingFlowPx - kStillFlowPx), 0.0, 1.0);
+}
+
+void FlowMotionMasker::thresholdResidual(const cv::Size& input_size, FlowMaskResult& result) {
   cv::threshold(residual_, residual_, options_.residual_threshold_px, 255, cv::THRESH_BINARY);
   residual_.convertTo(small_mask_, CV_8U);
   if (!textured_.empty()) small_mask_ &= textured_;
-  cv::resize(small_mask_, result.raw_flow_mask, size, 0, 0, cv::INTER_NEAREST);
-
-  finishMask(size, result);
-  result.total_ms = msSince(t0);
-  return result;
+  cv::resize(small_mask_, result.raw_flow_mask, input_size, 0, 0, cv::INTER_NEAREST);
 }
 
 void FlowMotionMasker::updatePixelGrid(const cv::Size& input_size, const cv::Size& small,

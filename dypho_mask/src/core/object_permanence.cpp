@@ -10,12 +10,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/mask/box_depth_segmenter.h"
+#include "mask_internal.h"
 
 namespace dypho {
 namespace mask {
-namespace {
 
-inline bool valid(float z) { return z > 0.f && std::isfinite(z); }
+using internal::valid;
+
+namespace {
 
 /// Largest depth step between 4-neighbours on one surface [m]: the depth growth's rule.
 inline float surfaceStep(float z) {

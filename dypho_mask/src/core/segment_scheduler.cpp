@@ -5,16 +5,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dypho/common/thread_budget.h"
+#include "mask_internal.h"
 
 namespace dypho {
 namespace mask {
-namespace {
 
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
+using internal::msSince;
 
 SegmentScheduler::SegmentScheduler(const YoloOptions& options)
     : options_(options), segmenter_(std::make_unique<YoloSegmenter>(options)) {}

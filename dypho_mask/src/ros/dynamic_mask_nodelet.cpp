@@ -67,87 +67,12 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
+  /// onInit()'s work, in order: parameters, core, outputs, inputs.
   void start() {
-    ros::NodeHandle& nh = getNodeHandle();
-    ros::NodeHandle& pnh = getPrivateNodeHandle();
-
-    // 1. Parameters.
-    rc::RosParamReader reader(pnh);
-    mask::DynamicMaskOptions options;
-    mask::visitOptions(options, reader);
-    mask::MaskStageOptions stage_options;
-    int queue_size = 30;  // 1 s at 30 Hz: a burst after a held-up moment is not dropped here
-    bool approx_sync = true;
-    double watchdog_s = 5.0;
-    int cores = 0;
-    reader("queue_size", queue_size, "synchroniser queue length [messages]");
-    reader("approx_sync", approx_sync, "approximate-time sync of rgb/depth/camera_info");
-    reader("watchdog_s", watchdog_s, "warn when no input arrived for this long [s]; 0 = off");
-    reader("rendered_depth_tolerance_s", stage_options.rendered_depth_tolerance_s,
-           "R_d is used by the frame whose stamp is within this of its stamp [s]");
-    reader("max_waiting_frames", max_waiting_frames_,
-           "frames waiting for the mask worker; beyond it the oldest is skipped and counted, >= 1");
-    reader("cores", cores, "cores of the thread budget (0 = every core): OpenCV's pool gets half");
-    reader.checkNoUnknownKeys();
-    if (max_waiting_frames_ < 1) throw std::invalid_argument("max_waiting_frames must be >= 1");
-    const ThreadBudget budget = planThreadBudget(cores);
-    cv::setNumThreads(budget.opencv_threads);  // process-wide: the manager's nodelets share it
-    NODELET_INFO_STREAM("thread budget: " << budget.cores << " cores, OpenCV pool " << budget.opencv_threads
-                                          << " threads, network nice +" << options.yolo.async_nice
-                                          << (options.yolo.async ? " (asynchronous)" : " (in the mask thread)"));
-    options.validate();
-    NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary());
-
-    // 2. Core.
-    stage_ = std::make_unique<mask::MaskStage>(options, stage_options);
-    const std::string& status = stage_->masker().segmentStatus();
-    if (!options.yolo.model_path.empty() && !stage_->masker().segmentReady()) {
-      NODELET_WARN_STREAM(status);  // once; flow + background keep working
-    } else {
-      NODELET_INFO_STREAM(status);
-    }
-
-    // 3. Outputs.
-    it_ = std::make_unique<image_transport::ImageTransport>(nh);
-    mask_pub_ = it_->advertise("mask", 5);
-    raw_pub_ = it_->advertise("mask/raw_flow", 2);
-    raw_segment_pub_ = it_->advertise("mask/raw_segment", 2);
-    consistency_pub_ = it_->advertise("mask/raw_consistency", 2);
-    timing_pub_ = nh.advertise<dypho_slam::StageTiming>("mask/timing", 10);
-    status_pub_ = nh.advertise<dypho_slam::MaskStatus>("mask/status", 10);
-    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
-    diagnostics_->setHardwareID("dypho_slam");
-    diagnostics_->add("mask", this, &DynamicMaskNodelet::diagnose);
-    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
-                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
-    waiting_ = std::make_unique<BoundedHandOver<FrameMsgs>>(static_cast<std::size_t>(max_waiting_frames_));
-    worker_ = std::thread([this] { workerLoop(); });
-
-    // 4. Inputs.
-    rgb_sub_.subscribe(*it_, "rgb/image", queue_size);
-    depth_sub_.subscribe(*it_, "depth/image", queue_size);
-    info_sub_.subscribe(nh, "rgb/camera_info", queue_size);
-    tracking_sub_ = nh.subscribe("tracking_status", 20, &DynamicMaskNodelet::trackingCallback, this);
-    if (stage_->masker().options().moving_point_seeds) {
-      moving_points_sub_ = nh.subscribe("moving_points", 5, &DynamicMaskNodelet::movingPointsCallback, this);
-    }
-    if (stage_->wantsRenderedDepth()) {  // else mapping renders no R_d for us (no subscriber)
-      rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
-    }
-    if (approx_sync) {
-      approx_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
-          ApproxPolicy(queue_size), rgb_sub_, depth_sub_, info_sub_);
-      approx_->registerCallback(&DynamicMaskNodelet::callback, this);
-    } else {
-      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-          ExactPolicy(queue_size), rgb_sub_, depth_sub_, info_sub_);
-      exact_->registerCallback(&DynamicMaskNodelet::callback, this);
-    }
-    watchdog_ = std::make_unique<rc::SyncWatchdog>(
-        nh, getName(),
-        std::vector<std::string>{nh.resolveName("rgb/image"), nh.resolveName("depth/image"),
-                                 nh.resolveName("rgb/camera_info")},
-        watchdog_s, /*has_approx_sync=*/true);
+    const StartParameters params = loadParameters();
+    startStage(params.options, params.stage_options);
+    advertise();
+    subscribe(params);
   }
 
  ~DynamicMaskNodelet() override {
@@ -158,6 +83,100 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   }
 
  private:
+  /// What start() reads from the private parameters (besides max_waiting_frames_).
+  struct StartParameters {
+    mask::DynamicMaskOptions options;
+    mask::MaskStageOptions stage_options;
+    int queue_size = 30;  // 1 s at 30 Hz: a burst after a held-up moment is not dropped here
+    bool approx_sync = true;
+    double watchdog_s = 5.0;
+  };
+
+  /// 1. Parameters: reads, checks and prints them, and sets OpenCV's pool (thread budget).
+  StartParameters loadParameters() {
+    rc::RosParamReader reader(getPrivateNodeHandle());
+    StartParameters p;
+    mask::visitOptions(p.options, reader);
+    int cores = 0;
+    reader("queue_size", p.queue_size, "synchroniser queue length [messages]");
+    reader("approx_sync", p.approx_sync, "approximate-time sync of rgb/depth/camera_info");
+    reader("watchdog_s", p.watchdog_s, "warn when no input arrived for this long [s]; 0 = off");
+    reader("rendered_depth_tolerance_s", p.stage_options.rendered_depth_tolerance_s,
+           "R_d is used by the frame whose stamp is within this of its stamp [s]");
+    reader("max_waiting_frames", max_waiting_frames_,
+           "frames waiting for the mask worker; beyond it the oldest is skipped and counted, >= 1");
+    reader("cores", cores, "cores of the thread budget (0 = every core): OpenCV's pool gets half");
+    reader.checkNoUnknownKeys();
+    if (max_waiting_frames_ < 1) throw std::invalid_argument("max_waiting_frames must be >= 1");
+    const ThreadBudget budget = planThreadBudget(cores);
+    cv::setNumThreads(budget.opencv_threads);  // process-wide: the manager's nodelets share it
+    NODELET_INFO_STREAM("thread budget: " << budget.cores << " cores, OpenCV pool " << budget.opencv_threads
+                                          << " threads, network nice +" << p.options.yolo.async_nice
+                                          << (p.options.yolo.async ? " (asynchronous)" : " (in the mask thread)"));
+    p.options.validate();
+    NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary());
+    return p;
+  }
+
+  /// 2. Core: the mask stage, with the network's status logged once.
+  void startStage(const mask::DynamicMaskOptions& options, const mask::MaskStageOptions& stage_options) {
+    stage_ = std::make_unique<mask::MaskStage>(options, stage_options);
+    const std::string& status = stage_->masker().segmentStatus();
+    if (!options.yolo.model_path.empty() && !stage_->masker().segmentReady()) {
+      NODELET_WARN_STREAM(status);  // once; flow + background keep working
+    } else {
+      NODELET_INFO_STREAM(status);
+    }
+  }
+
+  /// 3. Outputs: the mask topics, status, timing and diagnostics, and the mask worker thread.
+  void advertise() {
+    ros::NodeHandle& nh = getNodeHandle();
+    it_ = std::make_unique<image_transport::ImageTransport>(nh);
+    mask_pub_ = it_->advertise("mask", 5);
+    raw_pub_ = it_->advertise("mask/raw_flow", 2);
+    raw_segment_pub_ = it_->advertise("mask/raw_segment", 2);
+    consistency_pub_ = it_->advertise("mask/raw_consistency", 2);
+    timing_pub_ = nh.advertise<dypho_slam::StageTiming>("mask/timing", 10);
+    status_pub_ = nh.advertise<dypho_slam::MaskStatus>("mask/status", 10);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, getPrivateNodeHandle(), getName());
+    diagnostics_->setHardwareID("dypho_slam");
+    diagnostics_->add("mask", this, &DynamicMaskNodelet::diagnose);
+    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
+                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    waiting_ = std::make_unique<BoundedHandOver<FrameMsgs>>(static_cast<std::size_t>(max_waiting_frames_));
+    worker_ = std::thread([this] { workerLoop(); });
+  }
+
+  /// 4. Inputs: the synchronised rgb + depth + camera_info, the optional inputs, the watchdog.
+  void subscribe(const StartParameters& p) {
+    ros::NodeHandle& nh = getNodeHandle();
+    rgb_sub_.subscribe(*it_, "rgb/image", p.queue_size);
+    depth_sub_.subscribe(*it_, "depth/image", p.queue_size);
+    info_sub_.subscribe(nh, "rgb/camera_info", p.queue_size);
+    tracking_sub_ = nh.subscribe("tracking_status", 20, &DynamicMaskNodelet::trackingCallback, this);
+    if (stage_->masker().options().moving_point_seeds) {
+      moving_points_sub_ = nh.subscribe("moving_points", 5, &DynamicMaskNodelet::movingPointsCallback, this);
+    }
+    if (stage_->wantsRenderedDepth()) {  // else mapping renders no R_d for us (no subscriber)
+      rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
+    }
+    if (p.approx_sync) {
+      approx_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
+          ApproxPolicy(p.queue_size), rgb_sub_, depth_sub_, info_sub_);
+      approx_->registerCallback(&DynamicMaskNodelet::callback, this);
+    } else {
+      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+          ExactPolicy(p.queue_size), rgb_sub_, depth_sub_, info_sub_);
+      exact_->registerCallback(&DynamicMaskNodelet::callback, this);
+    }
+    watchdog_ = std::make_unique<rc::SyncWatchdog>(
+        nh, getName(),
+        std::vector<std::string>{nh.resolveName("rgb/image"), nh.resolveName("depth/image"),
+                                 nh.resolveName("rgb/camera_info")},
+        p.watchdog_s, /*has_approx_sync=*/true);
+  }
+
   /// One synchronised input set, held as message pointers (no copy) until masked.
   struct FrameMsgs {
     sensor_msgs::ImageConstPtr rgb, depth;

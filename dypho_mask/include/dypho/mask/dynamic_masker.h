@@ -123,14 +123,42 @@ class DynamicMasker {
   const cv::Mat& backgroundPrior() const { return background_.prior(); }
 
  private:
+  struct FrameState;  ///< one frame as compute() hands it from step to step (dynamic_masker.cpp)
+
+  /// Step 1: the flow masker's motion mask (flow, ego-motion) into f.flow, beside the
+  /// consistency test (when f.run_background) on OpenCV's pool; rethrows either task's exception.
+  void computeMotionAndConsistency(FrameState& f);
+  /// The consistency test of D_i against the prior: depth_small_, rendered_small_ and
+  /// consistency_small_ at background resolution; f.test_ms, f.rendered_ignored.
+  void testAgainstBackground(FrameState& f);
+  /// Copies the motion mask's outputs and notes into `result`; false when it has no mask
+  /// (unusable input: `result` is final).
+  bool reportMotion(const FrameState& f, MaskResult& result);
+  /// Step 2: the segment mask of this frame into f.seg (and its outputs into `result`).
+  void computeSegment(FrameState& f, MaskResult& result);
+  /// True when the start rules (unjudged_is_dynamic, unknown_motion_is_dynamic) made `result`
+  /// all dynamic; counts the flow frames.
+  bool startsAllDynamic(const FrameState& f, MaskResult& result);
+  /// Step 3 with the background model: raw mask, veto, consistency, seeds, permanence and depth
+  /// growth fused at background resolution, B_i updated, `result` finished.
+  void fuseAtBackground(const FrameState& f, MaskResult& result);
+  /// raw_small_ = the flow mask cut to depth layers (farther layers the background explains
+  /// dropped) OR the segment mask (seg_small_), at background resolution.
+  void cutRawMaskAtBackground(const FrameState& f);
+  /// raw_small_ = its flow part less the regions the established background explains (while
+  /// the camera moves, or always with veto_flow_while_still) OR seg_small_; returns cameraStill().
+  bool vetoFlowOnBackground(const FrameState& f);
+  /// Step 3 without the background model: flow mask OR segment mask at input size, finished.
+  void fuseAtInput(const FrameState& f, MaskResult& result);
   /// ORs into combined_ the surfaces grown from the moving points (moving_point_seeds).
   void addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m, const CameraIntrinsics& camera_small);
-  /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
-  /// when `at_background`, else at input resolution).
   /// The frame says nothing about what is static: `result` all dynamic (255), `why` added to its
   /// message, and nothing carried into the next frame.
   void allDynamic(const cv::Size& size, const std::string& why, MaskResult& result);
+  /// finishMask(), then the mask is kept for the next frame's flow (previous_mask_).
   void finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
+  /// Clean-up, margin and upsampling of `dynamic` (at background resolution with depth_small_
+  /// when `at_background`, else at input resolution).
   void finishMask(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result);
 
   DynamicMaskOptions options_;

@@ -143,6 +143,36 @@ class FlowMotionMasker {
 
  private:
   bool checkInput(const RgbdFrame& frame, FlowMaskResult& result) const;
+  /// cur_small_ = grey of `bgr` reduced by flow_scale; returns its size (flow resolution).
+  cv::Size reduceGrey(const cv::Mat& bgr);
+  /// True when the previous image is of `input_size`; else starts the history with cur_small_
+  /// (first frame or size change, said in `result`) and returns false.
+  bool continueHistory(const cv::Size& input_size, FlowMaskResult& result);
+  /// flow_ = backward DIS flow cur_small_ -> prev_small_ [flow px]; texture of cur_small_, which
+  /// then becomes prev_small_. Sets result.flow_ms.
+  void computeFlow(FlowMaskResult& result);
+  /// prev_px_ = full-resolution (undistorted) previous position of each grid_px_ along flow_
+  /// (flow_target_: the same in flow px).
+  void computeCorrespondences(const cv::Size& input_size, const cv::Size& small_size,
+                              const CameraIntrinsics& camera);
+  /// The camera's own motion: the fit (pose + depth, else homography; retried without the carried
+  /// pixels) and its residual_. False (result degraded, carried mask) when no fit was found.
+  bool fitEgoMotion(const RgbdFrame& frame, const cv::Size& small_size,
+                    const std::optional<Eigen::Isometry3d>& T_prev_cur, FlowMaskResult& result);
+  /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
+  /// usable_ = textured cells that have one.
+  void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size,
+                       const Eigen::Isometry3d& T_prev_cur);
+  /// One global-motion fit, from the pose prediction first when `with_pose`, then from the grid;
+  /// without the carried pixels when `exclude_previous`. `from_pose`: which one was fitted last.
+  GlobalMotionFit fitOnce(bool with_pose, bool exclude_previous, bool& from_pose);
+  /// residual_ (and residual_vec_) of `fit` [full-res px], aperture-weighted when configured.
+  void computeResidual(const GlobalMotionFit& fit, bool from_pose);
+  /// Sets the flow statistics and result.still_camera_weight.
+  void weighStillCamera(FlowMaskResult& result) const;
+  /// small_mask_ = textured residual_ above residual_threshold_px (flow resolution);
+  /// result.raw_flow_mask = it at input size.
+  void thresholdResidual(const cv::Size& input_size, FlowMaskResult& result);
   void finishMask(const cv::Size& input_size, FlowMaskResult& result);
   /// carried_ = `previous_dynamic` moved along the flow into the current frame (flow resolution);
   /// empty when `previous_dynamic` is empty or of another size.
