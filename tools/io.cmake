@@ -53,4 +53,9 @@ dypho_add_gtest(test_dypho_tools_io
   SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test/test_camera_config.cpp
           ${CMAKE_CURRENT_SOURCE_DIR}/test/test_tum_dataset.cpp
           ${CMAKE_CURRENT_SOURCE_DIR}/test/test_evaluation.cpp
+          ${CMAKE_CURRENT_SOURCE_DIR}/test/test_trajectory_plot.cpp
   LIBS dypho_tools ${_dypho_tools_io_gtest_main})
+if(TARGET test_dypho_tools_io)
+  # test_trajectory_plot.cpp checks the plot's layout steps: the private trajectory_plot_layout.h.
+  target_include_directories(test_dypho_tools_io PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+endif()

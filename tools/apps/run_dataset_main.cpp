@@ -286,16 +286,38 @@ std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, con
   return os.str();
 }
 
-int run(const Args& args) {
-  const std::string config_dir = defaultConfigDir();
+/// Every frame's outcome, gathered by either frame loop (deterministic or realtime).
+struct RunTally {
+  std::size_t num_frames = 0;  ///< frames asked for: the sequence, cut to --max-frames
+  std::size_t processed = 0;   ///< frames read and handed to the pipeline
+  std::size_t lost = 0;        ///< posed frames whose tracking state was not kOk
+  std::size_t num_keyframes = 0;
+  std::vector<TimingRow> rows;  ///< one per posed frame (timing.csv)
+  std::vector<double> totals;   ///< work per posed frame [ms], for the median
+  std::vector<std::string> unreadable;    ///< frames skipped because their files could not be read
+  std::vector<std::string> out_of_order;  ///< frames dropped for a repeated or late stamp (stamp_gate.h)
+  std::optional<RealtimeResult> realtime;  ///< --realtime only
+};
+
+/// What the outputs step hands to the summary and the evaluation.
+struct RunOutputs {
+  std::vector<StampedPose> final_trajectory;  ///< trajectory.txt
+  std::vector<StampedPose> trajectory;        ///< trajectory_online.txt
+  std::size_t num_final_keyframes = 0;
+  mapping::KeyframeEvaluation map_eval;  ///< default (zeros) with --no-map
+};
+
+/// The pipeline options: config/*.yaml with --config on top, plus --mask and --no-map.
+PipelineOptions loadRunOptions(const Args& args, const std::string& config_dir) {
   PipelineOptions options = loadPipelineOptions(config_dir, args.config);
   options.mask_source = parseMaskSource(args.mask);
   options.build_map = args.build_map;
-  if (args.print_config) {
-    writePipelineOptionsYaml(std::cout, options);
-    return 0;
-  }
+  return options;
+}
 
+/// Opens --dataset, checks it has what --mask needs, creates --out and logs what was opened.
+std::unique_ptr<FrameSource> openDataset(const Args& args, const PipelineOptions& options,
+                                         const std::string& config_dir) {
   std::unique_ptr<FrameSource> source = openFrameSource(args.dataset, args.camera, config_dir);
   if (options.mask_source == MaskSource::kExternal && !source->hasMasks()) {
     throw std::runtime_error("--mask gt needs a mask/ folder in the dataset (written by dypho_synth)");
@@ -304,70 +326,80 @@ int run(const Args& args) {
   std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size()
             << " frames, camera " << source->cameraName() << ", mask " << args.mask << "\n";
   for (const std::string& w : source->warnings()) std::cerr << "warning: " << w << "\n";
-  // Ctrl-C / SIGTERM: stop after the current frame and write what was processed.
+  return source;
+}
+
+/// Ctrl-C / SIGTERM: stop after the current frame and write what was processed.
+void installStopHandlers() {
   struct sigaction stop_action{};
   stop_action.sa_handler = onStopSignal;
   sigaction(SIGINT, &stop_action, nullptr);
   sigaction(SIGTERM, &stop_action, nullptr);
+}
 
+/// --realtime: switches `options` to the graph's live policy and logs each change.
+void applyRealtimePolicy(const Args& args, PipelineOptions& options) {
   if (args.realtime) {
     for (const std::string& change : applyLivePolicy(options)) std::cerr << "dypho_run_dataset: realtime: " << change << "\n";
   }
-  // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.
-  SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
-  std::size_t num_keyframes = 0;
-  std::vector<TimingRow> rows;
-  std::vector<double> totals;
-  std::size_t n = source->size();
-  if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
-  std::size_t lost = 0;
-  std::vector<std::string> unreadable;  // frames skipped because their files could not be read
-  std::vector<std::string> out_of_order;  // frames dropped for a repeated or late stamp (stamp_gate.h)
-  std::size_t processed = 0;
-  std::optional<RealtimeResult> realtime;
-  if (args.realtime) {
-    std::cerr << "dypho_run_dataset: realtime: frames released at their stamps x" << args.realtime_options.speed
-              << ", hand-overs of " << args.realtime_options.queue_capacity_frames << " frames (oldest dropped), "
-              << (args.realtime_options.pipelined ? "mask and tracking pipelined on two threads" : "mask and tracking on one thread")
-              << ", live mapping\n";
-    std::vector<double> load_ms(n, 0.0);  // written by the producer thread, read after run()
-    const RealtimeFrameLoader load = [&](std::size_t i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      SourceFrame sf = source->load(i);
-      load_ms[i] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      return RealtimeInput{std::move(sf.frame), std::move(sf.mask)};
-    };
-    realtime = RealtimeRunner(pipeline, args.realtime_options).run(n, load, &g_stop);
-    unreadable = realtime->unreadable;
-    for (const RealtimeProcessedFrame& f : realtime->processed) {
-      ++processed;
-      if (f.report.dropped) {
-        out_of_order.push_back("frame " + std::to_string(f.index) + ": " + f.report.message);
-        continue;
-      }
-      const auto& tr = f.report.tracking;
-      if (tr.state != tracking::TrackingState::kOk) ++lost;
-      if (tr.keyframe) ++num_keyframes;
-      // Work on this frame, not the waits between the stages: render + mask + tracking + mapping.
-      const double work_ms = f.report.render_ms + f.report.mask_ms + tr.times.total + f.report.mapping_ms;
-      rows.push_back({f.index, timestampToSeconds(tr.stamp_ns), load_ms[f.index], f.report, work_ms});
-      totals.push_back(work_ms);
+}
+
+/// Counts a frame that got a pose and keeps its timing row; `total_ms` is its work [ms].
+void tallyPosedFrame(RunTally& tally, std::size_t index, double stamp_s, double load_ms, const FrameReport& report,
+                     double total_ms) {
+  const auto& tr = report.tracking;
+  if (tr.state != tracking::TrackingState::kOk) ++tally.lost;
+  if (tr.keyframe) ++tally.num_keyframes;
+  tally.rows.push_back({index, stamp_s, load_ms, report, total_ms});
+  tally.totals.push_back(total_ms);
+}
+
+/// --realtime: plays the frames at their stamps (RealtimeRunner), tallies them, writes realtime.csv.
+void runRealtimeFrames(const Args& args, const FrameSource& source, SlamPipeline& pipeline, RunTally& tally) {
+  const std::size_t n = tally.num_frames;
+  std::cerr << "dypho_run_dataset: realtime: frames released at their stamps x" << args.realtime_options.speed
+            << ", hand-overs of " << args.realtime_options.queue_capacity_frames << " frames (oldest dropped), "
+            << (args.realtime_options.pipelined ? "mask and tracking pipelined on two threads" : "mask and tracking on one thread")
+            << ", live mapping\n";
+  std::vector<double> load_ms(n, 0.0);  // written by the producer thread, read after run()
+  const RealtimeFrameLoader load = [&](std::size_t i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    SourceFrame sf = source.load(i);
+    load_ms[i] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return RealtimeInput{std::move(sf.frame), std::move(sf.mask)};
+  };
+  tally.realtime = RealtimeRunner(pipeline, args.realtime_options).run(n, load, &g_stop);
+  tally.unreadable = tally.realtime->unreadable;
+  for (const RealtimeProcessedFrame& f : tally.realtime->processed) {
+    ++tally.processed;
+    if (f.report.dropped) {
+      tally.out_of_order.push_back("frame " + std::to_string(f.index) + ": " + f.report.message);
+      continue;
     }
-    writeRealtimeCsv(args.out + "/realtime.csv", *realtime, n);
+    const auto& tr = f.report.tracking;
+    // Work on this frame, not the waits between the stages: render + mask + tracking + mapping.
+    const double work_ms = f.report.render_ms + f.report.mask_ms + tr.times.total + f.report.mapping_ms;
+    tallyPosedFrame(tally, f.index, timestampToSeconds(tr.stamp_ns), load_ms[f.index], f.report, work_ms);
   }
-  MaskWriter mask_writer(args.out);
-  for (std::size_t i = 0; !args.realtime && i < n && !g_stop; ++i) {
+  writeRealtimeCsv(args.out + "/realtime.csv", *tally.realtime, n);
+}
+
+/// Default mode: every frame in order, as fast as possible (repeatable); --save-masks via `mask_writer`.
+void runDeterministicFrames(const Args& args, const FrameSource& source, SlamPipeline& pipeline,
+                            MaskWriter& mask_writer, RunTally& tally) {
+  const std::size_t n = tally.num_frames;
+  for (std::size_t i = 0; i < n && !g_stop; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     SourceFrame sf;
     try {
-      sf = source->load(i);
+      sf = source.load(i);
     } catch (const std::exception& e) {
       // One bad file must not cost the run: skip the frame, name it in the summary, go on.
-      unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
-      std::cerr << "\nwarning: skipping " << unreadable.back() << "\n";
+      tally.unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
+      std::cerr << "\nwarning: skipping " << tally.unreadable.back() << "\n";
       continue;
     }
-    ++processed;
+    ++tally.processed;
     const double load_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const auto t1 = std::chrono::steady_clock::now();
@@ -377,63 +409,81 @@ int run(const Args& args) {
     const double total_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     if (report.dropped) {  // repeated or late stamp in the list: counted and named, no pose
-      out_of_order.push_back("frame " + std::to_string(i) + ": " + report.message);
+      tally.out_of_order.push_back("frame " + std::to_string(i) + ": " + report.message);
       continue;
     }
-    const auto& tr = report.tracking;
-    if (tr.state != tracking::TrackingState::kOk) ++lost;
-    if (tr.keyframe) ++num_keyframes;
-    rows.push_back({i, timestampToSeconds(sf.frame.stamp_ns), load_ms, report, total_ms});
-    totals.push_back(total_ms);
+    tallyPosedFrame(tally, i, timestampToSeconds(sf.frame.stamp_ns), load_ms, report, total_ms);
     if (!args.quiet && (i % 10 == 0 || i + 1 == n)) {
       std::cerr << "\r[" << std::setw(5) << i + 1 << "/" << n << "] " << std::fixed
-                << std::setprecision(1) << median(totals) << " ms/frame (median), "
-                << num_keyframes << " keyframes, " << lost << " not tracked, state "
-                << tracking::toString(tr.state) << "      " << std::flush;
+                << std::setprecision(1) << median(tally.totals) << " ms/frame (median), "
+                << tally.num_keyframes << " keyframes, " << tally.lost << " not tracked, state "
+                << tracking::toString(report.tracking.state) << "      " << std::flush;
     }
   }
-  if (!args.quiet) std::cerr << "\n";
-  if (g_stop) std::cerr << "dypho_run_dataset: stopped by a signal after " << processed << " frames; writing what was processed\n";
+}
 
+/// Runs the first `num_frames` frames in the mode --realtime picks and ends the progress line.
+RunTally runFrames(const Args& args, const FrameSource& source, SlamPipeline& pipeline, MaskWriter& mask_writer,
+                   std::size_t num_frames) {
+  RunTally tally;
+  tally.num_frames = num_frames;
+  if (args.realtime) runRealtimeFrames(args, source, pipeline, tally);
+  else runDeterministicFrames(args, source, pipeline, mask_writer, tally);
+  if (!args.quiet) std::cerr << "\n";
+  if (g_stop) std::cerr << "dypho_run_dataset: stopped by a signal after " << tally.processed << " frames; writing what was processed\n";
+  return tally;
+}
+
+/// Writes the trajectories, keyframes, timing.csv, the --save-masks list and (unless --no-map) the
+/// refined map with its per-keyframe renders.
+RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally& tally,
+                        const MaskWriter& mask_writer) {
+  RunOutputs outputs;
   // trajectory.txt: every frame re-expressed with the final pose of the keyframe it was tracked
   // against (after local BA and loop closure; what ORB-SLAM saves); trajectory_online.txt: the
   // poses as published at frame time; keyframes.txt. The final map gets the final refinement.
   pipeline.tracking().saveTrajectories(args.out);
-  const std::vector<StampedPose> final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
-  const std::vector<StampedPose> trajectory = toStampedPoses(pipeline.tracking().onlineTrajectory());
-  const std::size_t num_final_keyframes = pipeline.tracking().keyframePoses().size();
-  writeTiming(args.out + "/timing.csv", rows);
+  outputs.final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
+  outputs.trajectory = toStampedPoses(pipeline.tracking().onlineTrajectory());
+  outputs.num_final_keyframes = pipeline.tracking().keyframePoses().size();
+  writeTiming(args.out + "/timing.csv", tally.rows);
   mask_writer.finish();
-  mapping::KeyframeEvaluation map_eval;
   if (args.build_map) {
     if (!args.quiet) std::cerr << "refining the map over all keyframes and writing it (map.ply, map.pcd)...\n";
     pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
     makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
-    map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
+    outputs.map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
   }
+  return outputs;
+}
+
+/// The summary on stdout: frames, skips and drops, the realtime run, the mask prior, the time per
+/// frame, the files written and the map.
+void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& tally, const RunOutputs& outputs) {
   const mapping::MappingStageStats map_stats = pipeline.mapping().stats();
   const mask::MaskStageStats mask_stats = pipeline.mask().stats();
-  std::cout << "frames:       " << processed << " of " << n << " processed (" << lost << " not tracked, "
-            << unreadable.size() << " unreadable and skipped, " << out_of_order.size()
+  std::cout << "frames:       " << tally.processed << " of " << tally.num_frames << " processed (" << tally.lost
+            << " not tracked, " << tally.unreadable.size() << " unreadable and skipped, " << tally.out_of_order.size()
             << " dropped for a repeated or late stamp" << (g_stop ? ", stopped early by a signal" : "")
-            << "), " << num_final_keyframes << " keyframes\n";
-  for (const std::string& u : unreadable) std::cout << "  skipped " << u << "\n";
-  for (const std::string& u : out_of_order) std::cout << "  dropped " << u << "\n";
-  if (realtime) std::cout << realtimeSummary(*realtime, n, args.realtime_options) << "\n";
+            << "), " << outputs.num_final_keyframes << " keyframes\n";
+  for (const std::string& u : tally.unreadable) std::cout << "  skipped " << u << "\n";
+  for (const std::string& u : tally.out_of_order) std::cout << "  dropped " << u << "\n";
+  if (tally.realtime) std::cout << realtimeSummary(*tally.realtime, tally.num_frames, args.realtime_options) << "\n";
   std::cout
             << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion\n"
-            << "time:         " << std::fixed << std::setprecision(1) << median(totals)
-            << (realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
-                           "waits between the stages not counted)\n"
-                         : " ms/frame median (mask + tracking + mapping)\n")
+            << "time:         " << std::fixed << std::setprecision(1) << median(tally.totals)
+            << (tally.realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
+                                 "waits between the stages not counted)\n"
+                               : " ms/frame median (mask + tracking + mapping)\n")
             << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n";
   if (!args.build_map) {
     std::cout << "map:          not built (--no-map)\n";
   } else {
+    const mapping::KeyframeEvaluation& map_eval = outputs.map_eval;
     std::cout << "map:          " << args.out << "/map.pcd (" << pipeline.mapping().numCloudPoints()
               << " points before voxel filter)\n"
               << "gaussians:    " << args.out << "/map.ply (" << map_stats.gaussians.num_gaussians << " Gaussians, "
@@ -442,45 +492,78 @@ int run(const Args& args) {
               << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
               << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
   }
+}
 
-  if (args.eval && !source->groundtruth().empty()) {
-    std::vector<StampedPose> gt = source->groundtruth();
-    std::string gt_note = "raw ground truth";
-    if (source->cameraName() == "bonn") {
-      gt = applyBonnCorrection(gt);
-      gt_note = "Bonn marker-to-camera correction applied";
-    }
-    const AteResult ate = computeAte(final_trajectory, gt);
-    // RPE needs pose pairs 1 s apart; a short (or interrupted) run may have none: say so.
-    std::string rpe_line;
-    try {
-      const RpeResult rpe = computeRpe(final_trajectory, gt, 1.0);
-      std::ostringstream r;
-      r << std::fixed << std::setprecision(2) << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg
-        << " deg (" << rpe.num_pairs << " pairs)";
-      rpe_line = r.str();
-    } catch (const std::exception& e) {
-      rpe_line = std::string("n/a (") + e.what() + ")";
-    }
-    const AteResult ate_online = computeAte(trajectory, gt);
-    std::ostringstream ev;
-    ev << std::fixed << std::setprecision(2) << "ATE RMSE:     " << ate.rmse_m * 100 << " cm (mean "
-       << ate.mean_m * 100 << ", median " << ate.median_m * 100 << ", max " << ate.max_m * 100
-       << ", " << ate.num_pairs << " poses; " << gt_note << ")\n"
-       << "RPE (1 s):    " << rpe_line << "\n"
-       << "ATE online:   " << ate_online.rmse_m * 100
-       << " cm (trajectory_online.txt, poses as published at frame time)\n";
-    if (realtime) {
-      // Realtime: the ATE covers the frames that got a pose; how many did belongs beside it.
-      ev << "posed:        " << realtime->framesPosed() << " of " << n << " frames (fraction "
-         << std::setprecision(3) << static_cast<double>(realtime->framesPosed()) / static_cast<double>(std::max<std::size_t>(n, 1))
-         << "; " << realtime->framesDropped() << " dropped by --realtime have no pose)\n";
-    }
-    writeFileAtomically(args.out + "/evaluation.txt", [&](std::ostream& os) { os << ev.str(); });
-    writeTrajectoryPlotPng(args.out + "/trajectory.png", ate, source->description());
-    std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out
-              << "/trajectory.png\n";
+/// "x cm, y deg (n pairs)" of the 1 s RPE; RPE needs pose pairs 1 s apart and a short (or
+/// interrupted) run may have none: then "n/a (why)".
+std::string rpeLine(const std::vector<StampedPose>& final_trajectory, const std::vector<StampedPose>& gt) {
+  try {
+    const RpeResult rpe = computeRpe(final_trajectory, gt, 1.0);
+    std::ostringstream r;
+    r << std::fixed << std::setprecision(2) << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg
+      << " deg (" << rpe.num_pairs << " pairs)";
+    return r.str();
+  } catch (const std::exception& e) {
+    return std::string("n/a (") + e.what() + ")";
   }
+}
+
+/// With ground truth (and without --no-eval): ATE and RPE of the final trajectory, ATE of the online
+/// one; writes evaluation.txt and trajectory.png and prints the numbers.
+void evaluateRun(const Args& args, const FrameSource& source, const RunTally& tally, const RunOutputs& outputs) {
+  if (!args.eval || source.groundtruth().empty()) return;
+  std::vector<StampedPose> gt = source.groundtruth();
+  std::string gt_note = "raw ground truth";
+  if (source.cameraName() == "bonn") {
+    gt = applyBonnCorrection(gt);
+    gt_note = "Bonn marker-to-camera correction applied";
+  }
+  const AteResult ate = computeAte(outputs.final_trajectory, gt);
+  const std::string rpe_line = rpeLine(outputs.final_trajectory, gt);
+  const AteResult ate_online = computeAte(outputs.trajectory, gt);
+  std::ostringstream ev;
+  ev << std::fixed << std::setprecision(2) << "ATE RMSE:     " << ate.rmse_m * 100 << " cm (mean "
+     << ate.mean_m * 100 << ", median " << ate.median_m * 100 << ", max " << ate.max_m * 100
+     << ", " << ate.num_pairs << " poses; " << gt_note << ")\n"
+     << "RPE (1 s):    " << rpe_line << "\n"
+     << "ATE online:   " << ate_online.rmse_m * 100
+     << " cm (trajectory_online.txt, poses as published at frame time)\n";
+  if (tally.realtime) {
+    // Realtime: the ATE covers the frames that got a pose; how many did belongs beside it.
+    const std::size_t n = tally.num_frames;
+    ev << "posed:        " << tally.realtime->framesPosed() << " of " << n << " frames (fraction "
+       << std::setprecision(3) << static_cast<double>(tally.realtime->framesPosed()) / static_cast<double>(std::max<std::size_t>(n, 1))
+       << "; " << tally.realtime->framesDropped() << " dropped by --realtime have no pose)\n";
+  }
+  writeFileAtomically(args.out + "/evaluation.txt", [&](std::ostream& os) { os << ev.str(); });
+  writeTrajectoryPlotPng(args.out + "/trajectory.png", ate, source.description());
+  std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out
+            << "/trajectory.png\n";
+}
+
+/// Parse options -> open the dataset -> build the pipeline -> run the frames -> write the outputs
+/// -> evaluate. Returns the exit status.
+int run(const Args& args) {
+  const std::string config_dir = defaultConfigDir();
+  PipelineOptions options = loadRunOptions(args, config_dir);
+  if (args.print_config) {
+    writePipelineOptionsYaml(std::cout, options);
+    return 0;
+  }
+
+  const std::unique_ptr<FrameSource> source = openDataset(args, options, config_dir);
+  installStopHandlers();
+  applyRealtimePolicy(args, options);
+  // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.
+  SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
+  std::size_t n = source->size();
+  if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
+  MaskWriter mask_writer(args.out);
+  const RunTally tally = runFrames(args, *source, pipeline, mask_writer, n);
+
+  const RunOutputs outputs = writeOutputs(args, pipeline, tally, mask_writer);
+  printRunSummary(args, pipeline, tally, outputs);
+  evaluateRun(args, *source, tally, outputs);
   return g_stop ? 130 : 0;  // 130: stopped by SIGINT, outputs written
 }
 
