@@ -67,6 +67,74 @@ TEST(GaussianMath, BehindCameraIsCulled) {
   EXPECT_FALSE(gs::projectGaussian(view, pos, ls, q, 0.0, sh, 0, 3.0, 0.0, p));
 }
 
+/// Loss of the camera-point step: L = g.mean_u u + g.mean_v v + g.depth z + <gj, J(p_c)>.
+double cameraPointLoss(const gs::PinholeView<double>& view, const double* pc, const gs::ScreenJacobianGrad<double>& gj,
+                       const gs::ScreenGrad<double>& g) {
+  const gs::ProjectionJacobian<double> J = gs::projectionJacobian(view, pc);
+  const double u = view.fx * pc[0] / pc[2] + view.cx, v = view.fy * pc[1] / pc[2] + view.cy;
+  return g.mean_u * u + g.mean_v * v + g.depth * pc[2] + gj.gJ00 * J.J00 + gj.gJ02 * J.J02 + gj.gJ11 * J.J11 +
+         gj.gJ12 * J.J12;
+}
+
+TEST(GaussianMath, CameraPointBackwardMatchesCentralDifferences) {
+  const auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), testCamera());
+  gs::ScreenGrad<double> g{};
+  g.mean_u = 0.7;
+  g.mean_v = -1.3;
+  g.depth = 0.4;
+  gs::ScreenJacobianGrad<double> gj{};
+  gj.gJ00 = 0.2, gj.gJ02 = -0.5, gj.gJ11 = 0.9, gj.gJ12 = 0.3;
+  const double pc[3] = {0.3, -0.2, 1.7};  // inside the clamp: every J entry depends on p_c
+  ASSERT_FALSE(gs::projectionJacobian(view, pc).clamp_x);
+  ASSERT_FALSE(gs::projectionJacobian(view, pc).clamp_y);
+  double gpc[3];
+  gs::cameraPointBackward(view, gs::projectionJacobian(view, pc), pc, gj, g, gpc);
+  const double h = 1e-6;
+  for (int i = 0; i < 3; ++i) {
+    double plus[3] = {pc[0], pc[1], pc[2]}, minus[3] = {pc[0], pc[1], pc[2]};
+    plus[i] += h;
+    minus[i] -= h;
+    const double numeric = (cameraPointLoss(view, plus, gj, g) - cameraPointLoss(view, minus, gj, g)) / (2 * h);
+    EXPECT_NEAR(gpc[i], numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << "p_c[" << i << "]";  // O(h^2) + round-off
+  }
+}
+
+TEST(GaussianMath, ScreenJacobianBackwardIsTheAdjointOfJTimesR) {
+  // L = <GA, J R>: dL/dJ = GA R^T (four entries), dL/dR = J^T GA; L is linear in each, so
+  // one-sided differences with a step of 1 are exact up to round-off (|L| < 100: 1e-9).
+  auto view = makePinholeView<double>(Eigen::Isometry3d::Identity(), testCamera());
+  const double R[3][3] = {{0.9, -0.1, 0.3}, {0.2, 0.8, -0.4}, {-0.3, 0.5, 0.7}};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) view.R_cw[i][j] = R[i][j];
+  const double GA[2][3] = {{0.5, -1.0, 0.25}, {2.0, 0.1, -0.7}};
+  gs::ProjectionJacobian<double> J{};
+  J.J00 = 30.0, J.J02 = -4.0, J.J11 = 33.0, J.J12 = 2.5;
+  auto loss = [&](const gs::PinholeView<double>& cam, const gs::ProjectionJacobian<double>& Jm) {
+    double A[2][3];
+    gs::screenJacobianWorld(cam, Jm, A);
+    double l = 0.0;
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 3; ++j) l += GA[i][j] * A[i][j];
+    return l;
+  };
+  const gs::ScreenJacobianGrad<double> gj = gs::screenJacobianBackward(view, J, GA);
+  const double l0 = loss(view, J);
+  using PJ = gs::ProjectionJacobian<double>;
+  double PJ::*const entries[4] = {&PJ::J00, &PJ::J02, &PJ::J11, &PJ::J12};
+  const double expected_gJ[4] = {gj.gJ00, gj.gJ02, gj.gJ11, gj.gJ12};
+  for (int e = 0; e < 4; ++e) {
+    gs::ProjectionJacobian<double> Jp = J;
+    Jp.*entries[e] += 1.0;
+    EXPECT_NEAR(expected_gJ[e], loss(view, Jp) - l0, 1e-9) << "J entry " << e;
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      auto moved = view;
+      moved.R_cw[i][j] += 1.0;
+      EXPECT_NEAR(gj.GW[i][j], loss(moved, J) - l0, 1e-9) << "R_cw(" << i << ", " << j << ")";
+    }
+}
+
 TEST(GaussianMath, FastExpMatchesStdExp) {
   // Bound 1e-6: polynomial truncation < 1.2e-7 plus float rounding of ~8 operations (each
   // <= 6e-8) in blendExp, in std::exp and in the division here.

@@ -37,6 +37,129 @@ void forEachTileRow(int tx0, int ty0, int tx1, int ty1, int image_width, CopyRow
   }
 }
 
+/// The per-pixel state of one tile in the backward pass (row-major S x S, partial tiles padded).
+template <typename T>
+struct BackwardTileState {
+  /// Transmittance, and colour / depth / alpha accumulated behind the current Gaussian.
+  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels],
+      BD[gs::kTilePixels], BA[gs::kTilePixels];
+  /// Loss gradients w.r.t. the pixel's colour, depth and alpha (zero where none is given).
+  alignas(64) T gR[gs::kTilePixels], gG[gs::kTilePixels], gB[gs::kTilePixels], gD[gs::kTilePixels], gA[gs::kTilePixels];
+  alignas(64) std::uint32_t last[gs::kTilePixels];  ///< one past the last entry the pixel used
+};
+
+/// Number of per-lane partial sums of the screen gradient (the fields of gs::ScreenGrad).
+constexpr int kNumSums = 10;
+
+/// Loads the tile [tx0, tx1) x [ty0, ty1) of the forward's final transmittance and last entries
+/// and of the pixel gradients into `st`; returns the largest last entry of its pixels (>= begin).
+template <typename T>
+std::uint32_t loadBackwardTile(int tx0, int ty0, int tx1, int ty1, int width, std::size_t npix, std::uint32_t begin,
+                               const BackwardInputs<T>& in, BackwardTileState<T>& st) {
+  const PixelGrads<T>& grads = in.grads;
+  std::uint32_t max_last = begin;
+  for (int i = 0; i < gs::kTilePixels; ++i) {
+    st.Tc[i] = T(1);
+    st.Br[i] = st.Bg[i] = st.Bb[i] = st.BD[i] = st.BA[i] = T(0);
+    st.gR[i] = st.gG[i] = st.gB[i] = st.gD[i] = st.gA[i] = T(0);
+    st.last[i] = begin;
+  }
+  // Rows of the images into the tile (block copies; full-width rows with a constant size).
+  auto copyRow = [&](int row, std::size_t o, auto width) {
+    std::memcpy(&st.Tc[row], &in.final_T[o], width * sizeof(T));
+    std::memcpy(&st.last[row], &in.last_entry[o], width * sizeof(std::uint32_t));
+    if (grads.color) {
+      std::memcpy(&st.gR[row], &grads.color[o], width * sizeof(T));
+      std::memcpy(&st.gG[row], &grads.color[npix + o], width * sizeof(T));
+      std::memcpy(&st.gB[row], &grads.color[2 * npix + o], width * sizeof(T));
+    }
+    if (grads.depth) std::memcpy(&st.gD[row], &grads.depth[o], width * sizeof(T));
+    if (grads.alpha) std::memcpy(&st.gA[row], &grads.alpha[o], width * sizeof(T));
+  };
+  forEachTileRow(tx0, ty0, tx1, ty1, width, copyRow);
+  for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, st.last[i]);
+  return max_last;
+}
+
+/// Steps the pixels of rows [py0, py1), 8-pixel blocks [xb0, xb1), back over entry k (Gaussian
+/// `p`) and adds each pixel's screen gradient to lane (x - xb) of `lanes` (zeroed here first).
+template <typename T>
+void backwardGaussianInTile(const PackedGaussian<T>& p, std::uint32_t k, int tx0, int ty0, int py0, int py1, int xb0,
+                            int xb1, T min_alpha, BackwardTileState<T>& st, T (&lanes)[kNumSums][8]) {
+  constexpr int S = gs::kTileSize;
+  const T a = p.conic_a, b = p.conic_b, c = p.conic_c;
+  const T mu0 = p.mean_u - T(tx0);
+  T* const l_mu = lanes[0];
+  T* const l_mv = lanes[1];
+  T* const l_a = lanes[2];
+  T* const l_b = lanes[3];
+  T* const l_c = lanes[4];
+  T* const l_o = lanes[5];
+  T* const l_c0 = lanes[6];
+  T* const l_c1 = lanes[7];
+  T* const l_c2 = lanes[8];
+  T* const l_d = lanes[9];
+  for (int s = 0; s < kNumSums; ++s)
+    for (int j = 0; j < 8; ++j) lanes[s][j] = T(0);
+  for (int py = py0; py < py1; ++py) {
+    const T dy = p.mean_v - T(py);
+    const T row_term = gs::conicRowTerm(c, dy);
+    const T bdy = b * dy;
+    const int row = (py - ty0) * S;
+    // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
+    // transmittance and its accumulators unchanged and contributes nothing.
+    for (int xb = xb0; xb < xb1; xb += 8)
+#pragma omp simd
+    for (int j = 0; j < 8; ++j) {
+      const int x = xb + j;
+      const int i = row + x;
+      const T dx = mu0 - T(x);
+      const T power = gs::conicPower(a, bdy, row_term, dx);
+      const gs::PixelLossGrad<T> lg{st.gR[i], st.gG[i], st.gB[i], st.gD[i], st.gA[i]};
+      gs::BackwardPixel<T> px{st.Tc[i], st.Br[i], st.Bg[i], st.Bb[i], st.BD[i], st.BA[i]};
+      const gs::ScreenGrad<T> s =
+          gs::blendBackwardStep(p, dx, dy, power, k < st.last[i] ? T(1) : T(0), min_alpha, lg, px);
+      st.Tc[i] = px.transmittance;
+      st.Br[i] = px.behind_r;
+      st.Bg[i] = px.behind_g;
+      st.Bb[i] = px.behind_b;
+      st.BD[i] = px.behind_depth;
+      st.BA[i] = px.behind_alpha;
+      l_mu[j] += s.mean_u;
+      l_mv[j] += s.mean_v;
+      l_a[j] += s.conic_a;
+      l_b[j] += s.conic_b;
+      l_c[j] += s.conic_c;
+      l_o[j] += s.opacity;
+      l_c0[j] += s.color[0];
+      l_c1[j] += s.color[1];
+      l_c2[j] += s.color[2];
+      l_d[j] += s.depth;
+    }
+  }
+}
+
+/// Sums each field's 8 lanes (in lane order) and adds the sums to the Gaussian's screen gradient.
+template <typename T>
+void addLaneSums(const T (&lanes)[kNumSums][8], gs::ScreenGrad<T>& sg) {
+  T sums[kNumSums];
+  for (int s = 0; s < kNumSums; ++s) {
+    T v = T(0);
+    for (int j = 0; j < 8; ++j) v += lanes[s][j];
+    sums[s] = v;
+  }
+  sg.mean_u += sums[0];
+  sg.mean_v += sums[1];
+  sg.conic_a += sums[2];
+  sg.conic_b += sums[3];
+  sg.conic_c += sums[4];
+  sg.opacity += sums[5];
+  sg.color[0] += sums[6];
+  sg.color[1] += sums[7];
+  sg.color[2] += sums[8];
+  sg.depth += sums[9];
+}
+
 }  // namespace
 
 template <typename T>
@@ -117,39 +240,14 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
   const int tx0 = (tile % lists.tiles_x) * S, ty0 = (tile / lists.tiles_x) * S;
   const int tx1 = std::min(tx0 + S, lists.width), ty1 = std::min(ty0 + S, lists.height);
   const std::size_t npix = static_cast<std::size_t>(lists.width) * lists.height;
-  const PixelGrads<T>& grads = in.grads;
   const std::uint32_t* const entries = lists.entries;
   const PackedGaussian<T>* const sorted = lists.sorted;
-  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels],
-      BD[gs::kTilePixels], BA[gs::kTilePixels];
-  alignas(64) T gR[gs::kTilePixels], gG[gs::kTilePixels], gB[gs::kTilePixels], gD[gs::kTilePixels], gA[gs::kTilePixels];
-  alignas(64) std::uint32_t last[gs::kTilePixels];
+  BackwardTileState<T> st;
   const std::uint32_t begin = lists.ranges[tile];
-  std::uint32_t max_last = begin;
-  for (int i = 0; i < gs::kTilePixels; ++i) {
-    Tc[i] = T(1);
-    Br[i] = Bg[i] = Bb[i] = BD[i] = BA[i] = T(0);
-    gR[i] = gG[i] = gB[i] = gD[i] = gA[i] = T(0);
-    last[i] = begin;
-  }
-  // Rows of the images into the tile (block copies; full-width rows with a constant size).
-  auto copyRow = [&](int row, std::size_t o, auto width) {
-    std::memcpy(&Tc[row], &in.final_T[o], width * sizeof(T));
-    std::memcpy(&last[row], &in.last_entry[o], width * sizeof(std::uint32_t));
-    if (grads.color) {
-      std::memcpy(&gR[row], &grads.color[o], width * sizeof(T));
-      std::memcpy(&gG[row], &grads.color[npix + o], width * sizeof(T));
-      std::memcpy(&gB[row], &grads.color[2 * npix + o], width * sizeof(T));
-    }
-    if (grads.depth) std::memcpy(&gD[row], &grads.depth[o], width * sizeof(T));
-    if (grads.alpha) std::memcpy(&gA[row], &grads.alpha[o], width * sizeof(T));
-  };
-  forEachTileRow(tx0, ty0, tx1, ty1, lists.width, copyRow);
-  for (int i = 0; i < gs::kTilePixels; ++i) max_last = std::max(max_last, last[i]);
+  const std::uint32_t max_last = loadBackwardTile(tx0, ty0, tx1, ty1, lists.width, npix, begin, in, st);
   const T min_alpha = lists.min_alpha;
   // Per-lane partial sums of the screen gradients: summed across lanes once per (Gaussian, tile)
   // pair, not once per 8-pixel block.
-  constexpr int kNumSums = 10;
   alignas(64) T lanes[kNumSums][8];
   for (std::uint32_t k = max_last; k-- > begin;) {
     // Fetch ahead (the list is walked back to front): the Gaussian and its gradient slot.
@@ -162,73 +260,9 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
     const std::uint32_t g = entries[k];
     const PackedGaussian<T>& p = sorted[g];
     const auto [py0, py1, xb0, xb1] = gs::windowInTile(p, tx0, ty0, ty1, S);
-    const T a = p.conic_a, b = p.conic_b, c = p.conic_c;
-    const T mu0 = p.mean_u - T(tx0);
     if (py0 >= py1 || xb0 >= xb1) continue;
-    T* const l_mu = lanes[0];
-    T* const l_mv = lanes[1];
-    T* const l_a = lanes[2];
-    T* const l_b = lanes[3];
-    T* const l_c = lanes[4];
-    T* const l_o = lanes[5];
-    T* const l_c0 = lanes[6];
-    T* const l_c1 = lanes[7];
-    T* const l_c2 = lanes[8];
-    T* const l_d = lanes[9];
-    for (int s = 0; s < kNumSums; ++s)
-      for (int j = 0; j < 8; ++j) lanes[s][j] = T(0);
-    for (int py = py0; py < py1; ++py) {
-      const T dy = p.mean_v - T(py);
-      const T row_term = gs::conicRowTerm(c, dy);
-      const T bdy = b * dy;
-      const int row = (py - ty0) * S;
-      // Branch-free: a pixel that skips this Gaussian gets alpha = 0, which leaves its
-      // transmittance and its accumulators unchanged and contributes nothing.
-      for (int xb = xb0; xb < xb1; xb += 8)
-#pragma omp simd
-      for (int j = 0; j < 8; ++j) {
-        const int x = xb + j;
-        const int i = row + x;
-        const T dx = mu0 - T(x);
-        const T power = gs::conicPower(a, bdy, row_term, dx);
-        const gs::PixelLossGrad<T> lg{gR[i], gG[i], gB[i], gD[i], gA[i]};
-        gs::BackwardPixel<T> px{Tc[i], Br[i], Bg[i], Bb[i], BD[i], BA[i]};
-        const gs::ScreenGrad<T> s = gs::blendBackwardStep(p, dx, dy, power, k < last[i] ? T(1) : T(0), min_alpha, lg, px);
-        Tc[i] = px.transmittance;
-        Br[i] = px.behind_r;
-        Bg[i] = px.behind_g;
-        Bb[i] = px.behind_b;
-        BD[i] = px.behind_depth;
-        BA[i] = px.behind_alpha;
-        l_mu[j] += s.mean_u;
-        l_mv[j] += s.mean_v;
-        l_a[j] += s.conic_a;
-        l_b[j] += s.conic_b;
-        l_c[j] += s.conic_c;
-        l_o[j] += s.opacity;
-        l_c0[j] += s.color[0];
-        l_c1[j] += s.color[1];
-        l_c2[j] += s.color[2];
-        l_d[j] += s.depth;
-      }
-    }
-    T sums[kNumSums];
-    for (int s = 0; s < kNumSums; ++s) {
-      T v = T(0);
-      for (int j = 0; j < 8; ++j) v += lanes[s][j];
-      sums[s] = v;
-    }
-    gs::ScreenGrad<T>& sg = acc[g];
-    sg.mean_u += sums[0];
-    sg.mean_v += sums[1];
-    sg.conic_a += sums[2];
-    sg.conic_b += sums[3];
-    sg.conic_c += sums[4];
-    sg.opacity += sums[5];
-    sg.color[0] += sums[6];
-    sg.color[1] += sums[7];
-    sg.color[2] += sums[8];
-    sg.depth += sums[9];
+    backwardGaussianInTile(p, k, tx0, ty0, py0, py1, xb0, xb1, min_alpha, st, lanes);
+    addLaneSums(lanes, acc[g]);
   }
 }
 

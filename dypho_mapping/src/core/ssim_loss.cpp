@@ -39,6 +39,104 @@ void convolveColumn(const T* plane, int W, int H, int v, const T* taps, T* out) 
   }
 }
 
+/// The working planes of one SSIM evaluation (SsimLoss's buffers, sized for W x H).
+template <typename T>
+struct SsimPlanes {
+  int W, H;
+  const T* taps;                  ///< [kWindow] window taps
+  const std::uint8_t* static_px;  ///< [HW] 1 = static
+  T* x;                           ///< [3HW] composited rendered image x' = M x + (1 - M) y
+  T* y;                           ///< [3HW] target
+  T* h[5];                        ///< [3HW] horizontal passes (reused by the backward)
+  T* p[3];                        ///< [3HW] per-pixel dS/d(mu_x, sxx, sxy) terms
+};
+
+/// Writes 1 (static) or 0 per pixel of the H x W mask (rows of `mask_step` bytes, nonzero =
+/// static; null = all static) into `static_px`; returns how many are static.
+std::size_t markStaticPixels(const std::uint8_t* static_mask, std::size_t mask_step, int W, int H,
+                             std::uint8_t* static_px) {
+  std::size_t n_static = 0;
+  for (int v = 0; v < H; ++v) {
+    const std::uint8_t* m = static_mask ? static_mask + v * mask_step : nullptr;
+    std::uint8_t* s = static_px + static_cast<std::size_t>(v) * W;
+    for (int u = 0; u < W; ++u) {
+      s[u] = (!m || m[u]) ? 1 : 0;
+      n_static += s[u];
+    }
+  }
+  return n_static;
+}
+
+/// Step 1 on plane row r ([3H] rows): composite x' = M x + (1 - M) y, then the horizontal pass of
+/// x', y, x'^2, y^2, x'y into h[0..4]. `pad`: 2 (W + 2R) scratch values.
+template <typename T>
+void compositeAndFilterRow(const SsimPlanes<T>& b, int r, const T* rendered, const T* target, T* pad) {
+  const int W = b.W, H = b.H;
+  const std::size_t pad_len = static_cast<std::size_t>(W + 2 * kRadius);
+  const int v = r % H;
+  const std::size_t row = static_cast<std::size_t>(r) * W;
+  const std::uint8_t* s = b.static_px + static_cast<std::size_t>(v) * W;
+  T* x = b.x + row;
+  T* y = b.y + row;
+  for (int u = 0; u < W; ++u) {
+    y[u] = target[row + u];
+    x[u] = s[u] ? rendered[row + u] : y[u];
+  }
+  T* prod = pad + pad_len;  // one row of products
+  convolveRow(x, W, b.taps, pad, b.h[0] + row);
+  convolveRow(y, W, b.taps, pad, b.h[1] + row);
+  for (int u = 0; u < W; ++u) prod[u] = x[u] * x[u];
+  convolveRow(prod, W, b.taps, pad, b.h[2] + row);
+  for (int u = 0; u < W; ++u) prod[u] = y[u] * y[u];
+  convolveRow(prod, W, b.taps, pad, b.h[3] + row);
+  for (int u = 0; u < W; ++u) prod[u] = x[u] * y[u];
+  convolveRow(prod, W, b.taps, pad, b.h[4] + row);
+}
+
+/// Step 2 on plane row r: vertical pass -> window statistics -> SSIM (into `ssim_map` when not
+/// null) and, with `want_grad`, the per-pixel terms p[0..2]. Returns the row's SSIM summed over
+/// its static pixels. `acc`: 5 W scratch values.
+template <typename T>
+double ssimRow(const SsimPlanes<T>& b, int r, bool want_grad, T* ssim_map, T* acc) {
+  const int W = b.W, H = b.H;
+  const int c = r / H, v = r % H;
+  const std::size_t row = static_cast<std::size_t>(r) * W;
+  const std::size_t plane = static_cast<std::size_t>(c) * W * H;
+  for (int j = 0; j < 5; ++j) convolveColumn(b.h[j] + plane, W, H, v, b.taps, acc + j * W);
+  const std::uint8_t* s = b.static_px + static_cast<std::size_t>(v) * W;
+  double sum = 0.0;
+  for (int u = 0; u < W; ++u) {
+    const ssim::PixelSsim<T> px =
+        ssim::pixelSsim(acc[u], acc[W + u], acc[2 * W + u], acc[3 * W + u], acc[4 * W + u], s[u] ? T(1) : T(0));
+    if (ssim_map) ssim_map[row + u] = px.S;
+    if (s[u]) sum += static_cast<double>(px.S);
+    if (want_grad) {
+      b.p[0][row + u] = px.p0;
+      b.p[1][row + u] = px.p1;
+      b.p[2][row + u] = px.p2;
+    }
+  }
+  return sum;
+}
+
+/// Step 4 on plane row r: vertical pass of the adjoint and grad += scale M (G0 + 2 x' G1 + y G2)
+/// at the static pixels. `acc`: 3 W scratch values.
+template <typename T>
+void addGradientRow(const SsimPlanes<T>& b, int r, T scale, T* grad, T* acc) {
+  const int W = b.W, H = b.H;
+  const int c = r / H, v = r % H;
+  const std::size_t row = static_cast<std::size_t>(r) * W;
+  const std::size_t plane = static_cast<std::size_t>(c) * W * H;
+  for (int j = 0; j < 3; ++j) convolveColumn(b.h[j] + plane, W, H, v, b.taps, acc + j * W);
+  const std::uint8_t* s = b.static_px + static_cast<std::size_t>(v) * W;
+  const T* x = b.x + row;
+  const T* y = b.y + row;
+  for (int u = 0; u < W; ++u) {
+    if (!s[u]) continue;
+    grad[row + u] += ssim::ssimGradient(scale, acc[u], acc[W + u], acc[2 * W + u], x[u], y[u]);
+  }
+}
+
 }  // namespace
 
 template <typename T>
@@ -75,16 +173,7 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
   if (width <= 0 || height <= 0) return 1.0;
   resize(width, height);
   const int W = width, H = height;
-  const std::size_t npix = static_cast<std::size_t>(W) * H;
-  std::size_t n_static = 0;
-  for (int v = 0; v < H; ++v) {
-    const std::uint8_t* m = static_mask ? static_mask + v * mask_step : nullptr;
-    std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
-    for (int u = 0; u < W; ++u) {
-      s[u] = (!m || m[u]) ? 1 : 0;
-      n_static += s[u];
-    }
-  }
+  const std::size_t n_static = markStaticPixels(static_mask, mask_step, W, H, static_.data());
   const bool want_grad = grad != nullptr && n_static > 0;
   auto forRows = [&](const auto& fn) {
     if (pool_) {
@@ -93,54 +182,16 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
       for (int r = 0; r < 3 * H; ++r) fn(r, 0);
     }
   };
-  const std::size_t pad_len = static_cast<std::size_t>(W + 2 * kRadius);
+  const SsimPlanes<T> planes{W, H, taps_, static_.data(), x_.data(), y_.data(),
+                             {h_[0].data(), h_[1].data(), h_[2].data(), h_[3].data(), h_[4].data()},
+                             {p_[0].data(), p_[1].data(), p_[2].data()}};
 
   // 1. Composite x' = M x + (1 - M) y; horizontal pass of x', y, x'^2, y^2, x'y.
-  forRows([&](int r, int thread) {
-    const int v = r % H;
-    const std::size_t row = static_cast<std::size_t>(r) * W;
-    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
-    T* x = x_.data() + row;
-    T* y = y_.data() + row;
-    for (int u = 0; u < W; ++u) {
-      y[u] = target[row + u];
-      x[u] = s[u] ? rendered[row + u] : y[u];
-    }
-    T* pad = pad_[thread].data();
-    T* prod = pad + pad_len;  // one row of products
-    convolveRow(x, W, taps_, pad, h_[0].data() + row);
-    convolveRow(y, W, taps_, pad, h_[1].data() + row);
-    for (int u = 0; u < W; ++u) prod[u] = x[u] * x[u];
-    convolveRow(prod, W, taps_, pad, h_[2].data() + row);
-    for (int u = 0; u < W; ++u) prod[u] = y[u] * y[u];
-    convolveRow(prod, W, taps_, pad, h_[3].data() + row);
-    for (int u = 0; u < W; ++u) prod[u] = x[u] * y[u];
-    convolveRow(prod, W, taps_, pad, h_[4].data() + row);
-  });
+  forRows([&](int r, int thread) { compositeAndFilterRow(planes, r, rendered, target, pad_[thread].data()); });
 
   // 2. Vertical pass -> window statistics -> SSIM and the per-pixel derivative terms
   //    P0 = M (dS/dmu_x - 2 mu_x dS/dsxx - mu_y dS/dsxy), P1 = M dS/dsxx, P2 = M dS/dsxy.
-  forRows([&](int r, int thread) {
-    const int c = r / H, v = r % H;
-    const std::size_t row = static_cast<std::size_t>(r) * W;
-    const std::size_t plane = static_cast<std::size_t>(c) * npix;
-    T* acc = pad_[thread].data();  // 5 rows of W
-    for (int j = 0; j < 5; ++j) convolveColumn(h_[j].data() + plane, W, H, v, taps_, acc + j * W);
-    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
-    double sum = 0.0;
-    for (int u = 0; u < W; ++u) {
-      const ssim::PixelSsim<T> px =
-          ssim::pixelSsim(acc[u], acc[W + u], acc[2 * W + u], acc[3 * W + u], acc[4 * W + u], s[u] ? T(1) : T(0));
-      if (ssim_map) ssim_map[row + u] = px.S;
-      if (s[u]) sum += static_cast<double>(px.S);
-      if (want_grad) {
-        p_[0][row + u] = px.p0;
-        p_[1][row + u] = px.p1;
-        p_[2][row + u] = px.p2;
-      }
-    }
-    row_sum_[r] = sum;
-  });
+  forRows([&](int r, int thread) { row_sum_[r] = ssimRow(planes, r, want_grad, ssim_map, pad_[thread].data()); });
   double total = 0.0;
   for (int r = 0; r < 3 * H; ++r) total += row_sum_[r];
   if (n_static == 0) return 1.0;
@@ -156,20 +207,7 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
   });
   // 4. Vertical pass and d(1 - mean SSIM)/dx = -(1/n) M (G0 + 2 x' G1 + y G2).
   const T scale = static_cast<T>(-static_cast<double>(weight) / n);
-  forRows([&](int r, int thread) {
-    const int c = r / H, v = r % H;
-    const std::size_t row = static_cast<std::size_t>(r) * W;
-    const std::size_t plane = static_cast<std::size_t>(c) * npix;
-    T* acc = pad_[thread].data();
-    for (int j = 0; j < 3; ++j) convolveColumn(h_[j].data() + plane, W, H, v, taps_, acc + j * W);
-    const std::uint8_t* s = static_.data() + static_cast<std::size_t>(v) * W;
-    const T* x = x_.data() + row;
-    const T* y = y_.data() + row;
-    for (int u = 0; u < W; ++u) {
-      if (!s[u]) continue;
-      grad[row + u] += ssim::ssimGradient(scale, acc[u], acc[W + u], acc[2 * W + u], x[u], y[u]);
-    }
-  });
+  forRows([&](int r, int thread) { addGradientRow(planes, r, scale, grad, pad_[thread].data()); });
   return mean;
 }
 

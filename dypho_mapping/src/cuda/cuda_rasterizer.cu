@@ -157,6 +157,17 @@ struct CudaRasterizer::Impl {
     if (stream != nullptr) cudaStreamDestroy(stream);
   }
 
+  /// Forward stages (forwardOnDevice). Grows the per-Gaussian, per-tile and per-pixel buffers.
+  void reserveForward(std::size_t n, std::size_t npix, int num_tiles);
+  /// Projects the n Gaussians of `params` into `view` and counts their tile entries (returned, and
+  /// kept in num_entries) and the visible ones (num_visible); events 0 and 1 around it.
+  std::uint32_t projectAndCount(std::size_t n);
+  /// Emits the (tile, depth) keys of the `total` tile entries, sorts them and finds each tile's
+  /// range; event 2 after it.
+  void binAndSort(std::size_t n, std::uint32_t total, int num_tiles);
+  /// Composites every tile of `view` into the output images; event 3 after it.
+  void composite();
+
   float elapsed(int a, int b) const {
     float ms = 0.f;
     DYPHO_CUDA_CHECK(cudaEventElapsedTime(&ms, events[a], events[b]));
@@ -200,15 +211,102 @@ const RasterStageTimes& CudaRasterizer::stageTimes() const {
   return m.times;
 }
 
-DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view) {
+namespace {
+
+/// Throws std::invalid_argument for a camera without size or focal length, a negative Gaussian
+/// count or an unsupported SH degree.
+void checkForwardInputs(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view) {
   if (view.width <= 0 || view.height <= 0 || !(view.fx > 0) || !(view.fy > 0)) {
     throw std::invalid_argument("CudaRasterizer::forward: invalid camera (size and focal lengths must be > 0)");
   }
   if (params.count < 0 || params.sh_degree < 0 || params.sh_degree > gs::kMaxShDegree) {
     throw std::invalid_argument("CudaRasterizer::forward: bad Gaussian count or SH degree");
   }
+}
+
+}  // namespace
+
+void CudaRasterizer::Impl::reserveForward(std::size_t n, std::size_t npix, int num_tiles) {
+  packed.reserve(n);
+  tiles_touched.reserve(n);
+  offsets.reserve(n);
+  counter.reserve(1);
+  ranges.reserve(num_tiles);
+  color.reserve(3 * npix);
+  depth.reserve(npix);
+  alpha.reserve(npix);
+  final_T.reserve(npix);
+  last_entry.reserve(npix);
+}
+
+std::uint32_t CudaRasterizer::Impl::projectAndCount(std::size_t n) {
+  cudaStream_t st = stream;
+  DYPHO_CUDA_CHECK(cudaEventRecord(events[0], st));
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(counter.get(), 0, sizeof(unsigned int), st));
+  std::uint32_t total = 0;
+  unsigned int visible = 0;
+  if (n > 0) {
+    preprocessKernel<<<blocksFor(n), kThreads, 0, st>>>(params, view, static_cast<float>(settings.radius_sigma),
+                                                        static_cast<float>(settings.min_alpha), tiles_x, tiles_y,
+                                                        packed.get(), tiles_touched.get(), counter.get());
+    DYPHO_CUDA_CHECK_LAUNCH("preprocessKernel");
+    std::size_t temp_bytes = 0;
+    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(nullptr, temp_bytes, tiles_touched.get(), offsets.get(),
+                                                   static_cast<int>(n), st));
+    scan_temp.reserve(temp_bytes);
+    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(scan_temp.get(), temp_bytes, tiles_touched.get(), offsets.get(),
+                                                   static_cast<int>(n), st));
+    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&total, offsets.get() + n - 1, sizeof(total), cudaMemcpyDeviceToHost, st));
+    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&visible, counter.get(), sizeof(visible), cudaMemcpyDeviceToHost, st));
+    DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
+  }
+  num_entries = total;
+  num_visible = visible;
+  DYPHO_CUDA_CHECK(cudaEventRecord(events[1], st));
+  return total;
+}
+
+void CudaRasterizer::Impl::binAndSort(std::size_t n, std::uint32_t total, int num_tiles) {
+  cudaStream_t st = stream;
+  DYPHO_CUDA_CHECK(cudaMemsetAsync(ranges.get(), 0, num_tiles * sizeof(TileRange), st));
+  if (total > 0) {
+    keys.reserve(total);
+    keys_sorted.reserve(total);
+    values.reserve(total);
+    values_sorted.reserve(total);
+    emitKeysKernel<<<blocksFor(n), kThreads, 0, st>>>(static_cast<int>(n), packed.get(), tiles_touched.get(),
+                                                      offsets.get(), tiles_x, keys.get(), values.get());
+    DYPHO_CUDA_CHECK_LAUNCH("emitKeysKernel");
+    int tile_bits = 0;
+    while ((1 << tile_bits) < num_tiles) ++tile_bits;
+    std::size_t temp_bytes = 0;
+    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, keys.get(), keys_sorted.get(), values.get(),
+                                                     values_sorted.get(), static_cast<int>(total), 0, 32 + tile_bits,
+                                                     st));
+    sort_temp.reserve(temp_bytes);
+    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(sort_temp.get(), temp_bytes, keys.get(), keys_sorted.get(),
+                                                     values.get(), values_sorted.get(), static_cast<int>(total), 0,
+                                                     32 + tile_bits, st));
+    tileRangesKernel<<<blocksFor(total), kThreads, 0, st>>>(total, keys_sorted.get(), ranges.get());
+    DYPHO_CUDA_CHECK_LAUNCH("tileRangesKernel");
+  }
+  DYPHO_CUDA_CHECK(cudaEventRecord(events[2], st));
+}
+
+void CudaRasterizer::Impl::composite() {
+  cudaStream_t st = stream;
+  const dim3 grid(tiles_x, tiles_y), block(S, S);
+  const cuda_body::ForwardOut out{color.get(), depth.get(), alpha.get(), final_T.get(), last_entry.get()};
+  forwardKernel<<<grid, block, 0, st>>>(view.width, view.height, tiles_x, ranges.get(), values_sorted.reserve(1),
+                                        packed.get(), static_cast<float>(settings.min_alpha),
+                                        static_cast<float>(settings.min_transmittance), out);
+  DYPHO_CUDA_CHECK_LAUNCH("forwardKernel");
+  DYPHO_CUDA_CHECK(cudaEventRecord(events[3], st));
+}
+
+DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view) {
+  checkForwardInputs(params, view);
   Impl& m = *impl_;
-  cudaStream_t st = m.stream;
   m.params = params;
   m.view = view;
   m.tiles_x = (view.width + S - 1) / S;
@@ -216,69 +314,10 @@ DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& pa
   const int num_tiles = m.tiles_x * m.tiles_y;
   const std::size_t n = static_cast<std::size_t>(params.count);
   const std::size_t npix = static_cast<std::size_t>(view.width) * view.height;
-  m.packed.reserve(n);
-  m.tiles_touched.reserve(n);
-  m.offsets.reserve(n);
-  m.counter.reserve(1);
-  m.ranges.reserve(num_tiles);
-  m.color.reserve(3 * npix);
-  m.depth.reserve(npix);
-  m.alpha.reserve(npix);
-  m.final_T.reserve(npix);
-  m.last_entry.reserve(npix);
-
-  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[0], st));
-  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.counter.get(), 0, sizeof(unsigned int), st));
-  std::uint32_t total = 0;
-  unsigned int visible = 0;
-  if (n > 0) {
-    preprocessKernel<<<blocksFor(n), kThreads, 0, st>>>(params, view, static_cast<float>(m.settings.radius_sigma),
-                                                        static_cast<float>(m.settings.min_alpha), m.tiles_x, m.tiles_y,
-                                                        m.packed.get(), m.tiles_touched.get(), m.counter.get());
-    DYPHO_CUDA_CHECK_LAUNCH("preprocessKernel");
-    std::size_t temp_bytes = 0;
-    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(nullptr, temp_bytes, m.tiles_touched.get(), m.offsets.get(),
-                                                   static_cast<int>(n), st));
-    m.scan_temp.reserve(temp_bytes);
-    DYPHO_CUDA_CHECK(cub::DeviceScan::InclusiveSum(m.scan_temp.get(), temp_bytes, m.tiles_touched.get(),
-                                                   m.offsets.get(), static_cast<int>(n), st));
-    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&total, m.offsets.get() + n - 1, sizeof(total), cudaMemcpyDeviceToHost, st));
-    DYPHO_CUDA_CHECK(cudaMemcpyAsync(&visible, m.counter.get(), sizeof(visible), cudaMemcpyDeviceToHost, st));
-    DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
-  }
-  m.num_entries = total;
-  m.num_visible = visible;
-  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[1], st));
-  DYPHO_CUDA_CHECK(cudaMemsetAsync(m.ranges.get(), 0, num_tiles * sizeof(TileRange), st));
-  if (total > 0) {
-    m.keys.reserve(total);
-    m.keys_sorted.reserve(total);
-    m.values.reserve(total);
-    m.values_sorted.reserve(total);
-    emitKeysKernel<<<blocksFor(n), kThreads, 0, st>>>(static_cast<int>(n), m.packed.get(), m.tiles_touched.get(),
-                                                      m.offsets.get(), m.tiles_x, m.keys.get(), m.values.get());
-    DYPHO_CUDA_CHECK_LAUNCH("emitKeysKernel");
-    int tile_bits = 0;
-    while ((1 << tile_bits) < num_tiles) ++tile_bits;
-    std::size_t temp_bytes = 0;
-    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, m.keys.get(), m.keys_sorted.get(),
-                                                     m.values.get(), m.values_sorted.get(), static_cast<int>(total), 0,
-                                                     32 + tile_bits, st));
-    m.sort_temp.reserve(temp_bytes);
-    DYPHO_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(m.sort_temp.get(), temp_bytes, m.keys.get(), m.keys_sorted.get(),
-                                                     m.values.get(), m.values_sorted.get(), static_cast<int>(total), 0,
-                                                     32 + tile_bits, st));
-    tileRangesKernel<<<blocksFor(total), kThreads, 0, st>>>(total, m.keys_sorted.get(), m.ranges.get());
-    DYPHO_CUDA_CHECK_LAUNCH("tileRangesKernel");
-  }
-  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[2], st));
-  const dim3 grid(m.tiles_x, m.tiles_y), block(S, S);
-  const cuda_body::ForwardOut out{m.color.get(), m.depth.get(), m.alpha.get(), m.final_T.get(), m.last_entry.get()};
-  forwardKernel<<<grid, block, 0, st>>>(view.width, view.height, m.tiles_x, m.ranges.get(), m.values_sorted.reserve(1),
-                                        m.packed.get(), static_cast<float>(m.settings.min_alpha),
-                                        static_cast<float>(m.settings.min_transmittance), out);
-  DYPHO_CUDA_CHECK_LAUNCH("forwardKernel");
-  DYPHO_CUDA_CHECK(cudaEventRecord(m.events[3], st));
+  m.reserveForward(n, npix, num_tiles);
+  const std::uint32_t total = m.projectAndCount(n);
+  m.binAndSort(n, total, num_tiles);
+  m.composite();
   m.forward_timed = true;
   m.have_forward = true;
   DeviceImages images;

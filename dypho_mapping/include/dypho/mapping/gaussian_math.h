@@ -364,21 +364,27 @@ struct ParamGrad {
   T pose[6];
 };
 
-/// Backward of projectGaussian: chains the screen-space gradient to the Gaussian's parameters
-/// and to the camera pose.
+/// p_camera = R_cw p_world + t_cw.
 template <typename T>
-DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam, const T* pos, const T* log_scale,
-                                                      const T* quat, T opacity_logit, const T* sh, int degree,
-                                                      const ScreenGrad<T>& g, ParamGrad<T>& out) {
-  T pc[3];
+DYPHO_HOST_DEVICE inline void worldToCamera(const PinholeView<T>& cam, const T* pos, T* pc) {
   for (int i = 0; i < 3; ++i)
     pc[i] = cam.R_cw[i][0] * pos[0] + cam.R_cw[i][1] * pos[1] + cam.R_cw[i][2] * pos[2] + cam.t_cw[i];
-  const ProjectionJacobian<T> J = projectionJacobian(cam, pc);
-  T A[2][3];
+}
+
+/// A = J R_cw (2x3): the screen Jacobian w.r.t. the world point.
+template <typename T>
+DYPHO_HOST_DEVICE inline void screenJacobianWorld(const PinholeView<T>& cam, const ProjectionJacobian<T>& J, T A[2][3]) {
   for (int j = 0; j < 3; ++j) {
     A[0][j] = J.J00 * cam.R_cw[0][j] + J.J02 * cam.R_cw[2][j];
     A[1][j] = J.J11 * cam.R_cw[1][j] + J.J12 * cam.R_cw[2][j];
   }
+}
+
+/// Backward of the conic C = (A Sigma A^T + low-pass)^-1 with Sigma = covariance3d(log_scale,
+/// quat): writes dL/dlog_scale and dL/dquat to `out` and dL/dA to GA, from the screen gradient.
+template <typename T>
+DYPHO_HOST_DEVICE inline void screenCovarianceBackward(const T A[2][3], const T* log_scale, const T* quat,
+                                                       const ScreenGrad<T>& g, ParamGrad<T>& out, T GA[2][3]) {
   const Mat3<T> Rq = quatToRotation(quat);  // once for the covariance and its backward
   const T sc[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
   const Mat3<T> S = covarianceFromRotationScale(Rq, sc);
@@ -406,46 +412,70 @@ DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam,
         for (int l = 0; l < 2; ++l) acc += A[k][i] * GS2[k][l] * A[l][j];
       GS3.m[i][j] = acc;
     }
-  T GA[2][3];
   for (int i = 0; i < 2; ++i)
     for (int j = 0; j < 3; ++j) GA[i][j] = T(2) * (GS2[i][0] * AS[0][j] + GS2[i][1] * AS[1][j]);
   covariance3dBackward(Rq, sc, quat, GS3, out.log_scale, out.quat);
-  // A = J R_cw: dL/dJ = GA R^T (only the four non-zero entries), dL/dR_cw = J^T GA.
-  T gJ00 = T(0), gJ02 = T(0), gJ11 = T(0), gJ12 = T(0);
+}
+
+/// Gradients of A = J R_cw's factors.
+template <typename T>
+struct ScreenJacobianGrad {
+  T gJ00, gJ02, gJ11, gJ12;  ///< dL/dJ = GA R^T (only the four non-zero entries)
+  T GW[3][3];                ///< dL/dR_cw = J^T GA
+};
+
+/// Backward of A = J R_cw from dL/dA.
+template <typename T>
+DYPHO_HOST_DEVICE inline ScreenJacobianGrad<T> screenJacobianBackward(const PinholeView<T>& cam,
+                                                                      const ProjectionJacobian<T>& J, const T GA[2][3]) {
+  ScreenJacobianGrad<T> out;
+  out.gJ00 = T(0), out.gJ02 = T(0), out.gJ11 = T(0), out.gJ12 = T(0);
   for (int j = 0; j < 3; ++j) {
-    gJ00 += GA[0][j] * cam.R_cw[0][j];
-    gJ02 += GA[0][j] * cam.R_cw[2][j];
-    gJ11 += GA[1][j] * cam.R_cw[1][j];
-    gJ12 += GA[1][j] * cam.R_cw[2][j];
+    out.gJ00 += GA[0][j] * cam.R_cw[0][j];
+    out.gJ02 += GA[0][j] * cam.R_cw[2][j];
+    out.gJ11 += GA[1][j] * cam.R_cw[1][j];
+    out.gJ12 += GA[1][j] * cam.R_cw[2][j];
   }
-  T GW[3][3];
   for (int j = 0; j < 3; ++j) {
-    GW[0][j] = J.J00 * GA[0][j];
-    GW[1][j] = J.J11 * GA[1][j];
-    GW[2][j] = J.J02 * GA[0][j] + J.J12 * GA[1][j];
+    out.GW[0][j] = J.J00 * GA[0][j];
+    out.GW[1][j] = J.J11 * GA[1][j];
+    out.GW[2][j] = J.J02 * GA[0][j] + J.J12 * GA[1][j];
   }
-  // dL/dp_c from J, the mean and the depth.
+  return out;
+}
+
+/// dL/dp_c (gpc) from J's gradient `gj`, the screen mean's and the depth's.
+template <typename T>
+DYPHO_HOST_DEVICE inline void cameraPointBackward(const PinholeView<T>& cam, const ProjectionJacobian<T>& J,
+                                                  const T* pc, const ScreenJacobianGrad<T>& gj, const ScreenGrad<T>& g,
+                                                  T* gpc) {
   const T z = pc[2], iz = T(1) / z, iz2 = iz * iz;
-  T gpc[3] = {T(0), T(0), T(0)};
-  gpc[2] += -cam.fx * iz2 * gJ00 - cam.fy * iz2 * gJ11;
+  gpc[0] = T(0), gpc[1] = T(0), gpc[2] = T(0);
+  gpc[2] += -cam.fx * iz2 * gj.gJ00 - cam.fy * iz2 * gj.gJ11;
   if (J.clamp_x) {
-    gpc[2] += cam.fx * J.lim_x * iz2 * gJ02;
+    gpc[2] += cam.fx * J.lim_x * iz2 * gj.gJ02;
   } else {
-    gpc[0] += -cam.fx * iz2 * gJ02;
-    gpc[2] += T(2) * cam.fx * pc[0] * iz2 * iz * gJ02;
+    gpc[0] += -cam.fx * iz2 * gj.gJ02;
+    gpc[2] += T(2) * cam.fx * pc[0] * iz2 * iz * gj.gJ02;
   }
   if (J.clamp_y) {
-    gpc[2] += cam.fy * J.lim_y * iz2 * gJ12;
+    gpc[2] += cam.fy * J.lim_y * iz2 * gj.gJ12;
   } else {
-    gpc[1] += -cam.fy * iz2 * gJ12;
-    gpc[2] += T(2) * cam.fy * pc[1] * iz2 * iz * gJ12;
+    gpc[1] += -cam.fy * iz2 * gj.gJ12;
+    gpc[2] += T(2) * cam.fy * pc[1] * iz2 * iz * gj.gJ12;
   }
   gpc[0] += cam.fx * iz * g.mean_u;
   gpc[2] += -cam.fx * pc[0] * iz2 * g.mean_u;
   gpc[1] += cam.fy * iz * g.mean_v;
   gpc[2] += -cam.fy * pc[1] * iz2 * g.mean_v;
   gpc[2] += g.depth;
-  // Colour: SH coefficients and the viewing direction.
+}
+
+/// Backward of the SH colour (clamped at 0) along the viewing direction: writes dL/dsh to
+/// out.sh and dL/dpos through the direction to gv.
+template <typename T>
+DYPHO_HOST_DEVICE inline void shColorBackward(const PinholeView<T>& cam, const T* pos, const T* sh, int degree,
+                                              const ScreenGrad<T>& g, ParamGrad<T>& out, T* gv) {
   T v[3] = {pos[0] - cam.center_w[0], pos[1] - cam.center_w[1], pos[2] - cam.center_w[2]};
   const T n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
   const T dir[3] = {v[0] / n, v[1] / n, v[2] / n};
@@ -465,13 +495,14 @@ DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam,
     }
   }
   const T ddot = dir[0] * gdir[0] + dir[1] * gdir[1] + dir[2] * gdir[2];
-  T gv[3];
   for (int i = 0; i < 3; ++i) gv[i] = (gdir[i] - dir[i] * ddot) / n;
-  // World position.
-  for (int j = 0; j < 3; ++j)
-    out.pos[j] = cam.R_cw[0][j] * gpc[0] + cam.R_cw[1][j] * gpc[1] + cam.R_cw[2][j] * gpc[2] + gv[j];
-  const T o = sigmoid(opacity_logit);
-  out.opacity_logit = g.opacity * o * (T(1) - o);
+}
+
+/// The Gaussian's share of the camera-pose gradient (out.pose) from dL/dp_c, the direction's
+/// dL/dpos and dL/dR_cw.
+template <typename T>
+DYPHO_HOST_DEVICE inline void poseBackward(const PinholeView<T>& cam, const T* pc, const T* gpc, const T* gv,
+                                           const T GW[3][3], ParamGrad<T>& out) {
   // Pose: p_c <- p_c + rho + phi x p_c; R_cw <- (I + [phi]x) R_cw; centre <- centre - R_cw^T rho.
   for (int i = 0; i < 3; ++i) out.pose[i] = gpc[i] + (cam.R_cw[i][0] * gv[0] + cam.R_cw[i][1] * gv[1] + cam.R_cw[i][2] * gv[2]);
   out.pose[3] = pc[1] * gpc[2] - pc[2] * gpc[1];
@@ -483,6 +514,34 @@ DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam,
   out.pose[3] += B[2][1] - B[1][2];
   out.pose[4] += B[0][2] - B[2][0];
   out.pose[5] += B[1][0] - B[0][1];
+}
+
+/// Backward of projectGaussian: chains the screen-space gradient to the Gaussian's parameters
+/// and to the camera pose.
+template <typename T>
+DYPHO_HOST_DEVICE inline void projectGaussianBackward(const PinholeView<T>& cam, const T* pos, const T* log_scale,
+                                                      const T* quat, T opacity_logit, const T* sh, int degree,
+                                                      const ScreenGrad<T>& g, ParamGrad<T>& out) {
+  T pc[3];
+  worldToCamera(cam, pos, pc);
+  const ProjectionJacobian<T> J = projectionJacobian(cam, pc);
+  T A[2][3];
+  screenJacobianWorld(cam, J, A);
+  T GA[2][3];
+  screenCovarianceBackward(A, log_scale, quat, g, out, GA);
+  const ScreenJacobianGrad<T> gj = screenJacobianBackward(cam, J, GA);
+  // dL/dp_c from J, the mean and the depth.
+  T gpc[3];
+  cameraPointBackward(cam, J, pc, gj, g, gpc);
+  // Colour: SH coefficients and the viewing direction.
+  T gv[3];
+  shColorBackward(cam, pos, sh, degree, g, out, gv);
+  // World position.
+  for (int j = 0; j < 3; ++j)
+    out.pos[j] = cam.R_cw[0][j] * gpc[0] + cam.R_cw[1][j] * gpc[1] + cam.R_cw[2][j] * gpc[2] + gv[j];
+  const T o = sigmoid(opacity_logit);
+  out.opacity_logit = g.opacity * o * (T(1) - o);
+  poseBackward(cam, pc, gpc, gv, gj.GW, out);
 }
 
 }  // namespace dypho::mapping::gs
