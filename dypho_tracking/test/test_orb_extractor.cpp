@@ -2,13 +2,16 @@
 #include <array>
 #include <iostream>
 #include <cmath>
+#include <optional>
 #include <set>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "dypho/tracking/orb_extractor.h"
 #include "dypho/tracking/relaxed_feature_test.h"
 #include "synthetic_scene.h"
+#include "../src/core/orb_grid.h"
 
 namespace dypho {
 namespace tracking {
@@ -189,6 +192,47 @@ TEST(OrbExtractor, RelaxedFeaturesFillTheBudgetOnMaskedFrames) {
   std::cout << "keypoints on the unmasked half: FAST only " << masked_off.keypoints.size()
             << ", with relaxed features " << masked_on.keypoints.size() << " (" << masked_on.num_relaxed
             << " relaxed)\n";
+}
+
+cv::KeyPoint withResponse(float response) { return cv::KeyPoint(0.f, 0.f, 7.f, -1.f, response); }
+
+std::vector<float> responses(const std::vector<cv::KeyPoint>& keypoints) {
+  std::vector<float> out;
+  for (const cv::KeyPoint& kp : keypoints) out.push_back(kp.response);
+  return out;
+}
+
+// The grid step alone: every cell's best keypoint comes before any cell's second; the round that
+// overflows the budget keeps its best.
+TEST(OrbGrid, DistributeOverCellsServesCellsRoundRobin) {
+  std::vector<std::vector<cv::KeyPoint>> cells = {
+      {withResponse(1.f), withResponse(5.f), withResponse(0.5f)}, {withResponse(3.f)},
+      {withResponse(2.f), withResponse(4.f)}};
+  EXPECT_EQ(responses(distributeOverCells(cells, 4)), (std::vector<float>{5.f, 3.f, 4.f, 2.f}));
+  EXPECT_EQ(responses(cells[0]), (std::vector<float>{5.f, 1.f, 0.5f}));  // sorted in place, best first
+  EXPECT_EQ(responses(distributeOverCells(cells, 2)), (std::vector<float>{5.f, 4.f}));
+  EXPECT_EQ(distributeOverCells(cells, 100).size(), 6u);
+  EXPECT_TRUE(distributeOverCells(cells, 0).empty());
+}
+
+// A VGA level-0 grid: 15 x 11 cells of about 40 px inside the 19-px border, tiling the usable
+// area; a level too small for a patch has none.
+TEST(OrbGrid, LevelGridTilesTheUsableArea) {
+  const std::optional<LevelGrid> grid = levelGrid(cv::Size(640, 480), OrbExtractor::kEdgePx, 40);
+  ASSERT_TRUE(grid.has_value());
+  EXPECT_EQ(grid->ncols, 15);
+  EXPECT_EQ(grid->nrows, 11);
+  const cv::Rect usable(19, 19, 602, 442);
+  int covered_px = 0;
+  for (std::size_t i = 0; i < static_cast<std::size_t>(grid->ncols * grid->nrows); ++i) {
+    const cv::Rect cell = grid->cellRect(i);
+    EXPECT_EQ(cell & usable, cell);
+    EXPECT_GE(cell.width, 40);
+    covered_px += cell.area();
+  }
+  EXPECT_GE(covered_px, usable.area());  // cells overlap by under a pixel, never leave a gap
+  EXPECT_EQ(grid->cellRect(0), cv::Rect(19, 19, 41, 41));
+  EXPECT_FALSE(levelGrid(cv::Size(45, 480), OrbExtractor::kEdgePx, 40).has_value());
 }
 
 }  // namespace

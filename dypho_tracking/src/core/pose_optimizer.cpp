@@ -48,6 +48,94 @@ bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector
   return chi2 < (with_depth ? options_.chi2_threshold_depth : options_.chi2_threshold);
 }
 
+std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
+    const std::vector<PoseObservation>& observations, const Pinhole& pinhole) const {
+  const size_t n = observations.size();
+  const double bf = options_.depth_baseline_m * pinhole.fx;
+  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
+  for (size_t i = 0; i < n; ++i) {
+    const PoseObservation& o = observations[i];
+    if (has_depth(o)) {
+      costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m,
+                                                         options_.depth_baseline_m, sigma(o.level), pinhole);
+    } else {
+      costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
+    }
+  }
+  return costs;
+}
+
+int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
+                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
+                            bool accept_all_in_front, std::vector<bool>* inliers) const {
+  int count = 0;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+    const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
+    (*inliers)[i] = inlier;
+    count += inlier ? 1 : 0;
+  }
+  return count;
+}
+
+namespace {
+
+/// What the outlier rounds share: the solver settings, and the loss and the manifold, which the
+/// rounds' problems do not own.
+struct RoundSetup {
+  RoundSetup(double huber_px, int iterations) : loss(huber_px) {
+    solver_options.minimizer_type = ceres::TRUST_REGION;
+    solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    solver_options.max_num_iterations = iterations;
+    solver_options.num_threads = 1;
+    solver_options.logging_type = ceres::SILENT;
+    solver_options.minimizer_progress_to_stdout = false;
+    problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  }
+  ceres::Solver::Options solver_options;
+  ceres::HuberLoss loss;
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::Problem::Options problem_options;
+};
+
+/// One round: Levenberg-Marquardt on the residuals of the current inliers, from (q_cw, t_cw) in
+/// place. False, with Ceres's message, when the solution is unusable or not finite.
+bool solveRound(const std::vector<std::unique_ptr<ceres::CostFunction>>& costs, const std::vector<bool>& inliers,
+                RoundSetup* setup, Eigen::Quaterniond* q_cw, Eigen::Vector3d* t_cw, std::string* failure) {
+  ceres::Problem problem(setup->problem_options);
+  problem.AddParameterBlock(q_cw->coeffs().data(), 4, &setup->quaternion_manifold);
+  problem.AddParameterBlock(t_cw->data(), 3);
+  for (size_t i = 0; i < costs.size(); ++i) {
+    if (!inliers[i]) continue;
+    problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data());
+  }
+  ceres::Solver::Summary summary;
+  ceres::Solve(setup->solver_options, &problem, &summary);
+  if (!summary.IsSolutionUsable() || !q_cw->coeffs().allFinite() || !t_cw->allFinite()) {
+    *failure = "Ceres failed: " + summary.message;
+    return false;
+  }
+  return true;
+}
+
+/// RMS reprojection error of the inliers at (q_cw, t_cw), not whitened [px]; 0 without inliers.
+double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::vector<bool>& inliers, int active,
+                   const Pinhole& pinhole, const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw) {
+  double sum_sq = 0;
+  for (size_t i = 0; i < observations.size(); ++i) {
+    if (!inliers[i]) continue;
+    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+    sum_sq += (pinhole.project(p_c) - observations[i].uv_px).squaredNorm();
+  }
+  return active > 0 ? std::sqrt(sum_sq / active) : 0.0;
+}
+
+}  // namespace
+
 PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations,
                                             const Pinhole& pinhole,
                                             const Eigen::Isometry3d& T_camera_world_init) const {
@@ -63,51 +151,14 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
     result.message = "initial pose is not finite";
     return result;
   }
-  // Classifies every observation at the current pose; returns the number of inliers.
-  const auto classify = [&](bool accept_all_in_front) {
-    int count = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
-      const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
-      result.inliers[i] = inlier;
-      count += inlier ? 1 : 0;
-    }
-    return count;
-  };
-  const double bf = options_.depth_baseline_m * pinhole.fx;
-  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
-
-  ceres::Solver::Options solver_options;
-  solver_options.minimizer_type = ceres::TRUST_REGION;
-  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  solver_options.max_num_iterations = options_.refine_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-
   // The residuals, the loss and the manifold are built once and shared by the rounds' problems,
   // which do not own them: a round only chooses which residuals take part. (Allocating them again
   // each round cost more than the solve on a small problem.)
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
-  for (size_t i = 0; i < n; ++i) {
-    const PoseObservation& o = observations[i];
-    if (has_depth(o)) {
-      costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m,
-                                                         options_.depth_baseline_m, sigma(o.level), pinhole);
-    } else {
-      costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
-    }
-  }
-  ceres::HuberLoss loss(options_.huber_px);
-  ceres::EigenQuaternionManifold quaternion_manifold;
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  const std::vector<std::unique_ptr<ceres::CostFunction>> costs = makeCosts(observations, pinhole);
+  RoundSetup setup(options_.huber_px, options_.refine_iterations);
 
   // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
-  int active = classify(true);
+  int active = classify(observations, pinhole, q_cw, t_cw, /*accept_all_in_front=*/true, &result.inliers);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
     if (active < 3) {
       result.message = "only " + std::to_string(active) +
@@ -116,24 +167,14 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
       result.num_inliers = 0;
       return result;
     }
-    ceres::Problem problem(problem_options);
-    problem.AddParameterBlock(q_cw.coeffs().data(), 4, &quaternion_manifold);
-    problem.AddParameterBlock(t_cw.data(), 3);
-    for (size_t i = 0; i < n; ++i) {
-      if (!result.inliers[i]) continue;
-      problem.AddResidualBlock(costs[i].get(), &loss, q_cw.coeffs().data(), t_cw.data());
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
-    if (!summary.IsSolutionUsable() || !q_cw.coeffs().allFinite() || !t_cw.allFinite()) {
-      result.message = "Ceres failed: " + summary.message;
+    if (!solveRound(costs, result.inliers, &setup, &q_cw, &t_cw, &result.message)) {
       result.T_camera_world = T_camera_world_init;
       result.inliers.assign(n, false);
       result.num_inliers = 0;
       return result;
     }
     q_cw.normalize();
-    active = classify(false);
+    active = classify(observations, pinhole, q_cw, t_cw, /*accept_all_in_front=*/false, &result.inliers);
   }
 
   result.num_inliers = active;
@@ -142,13 +183,7 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   result.T_camera_world = Eigen::Isometry3d::Identity();
   result.T_camera_world.linear() = q_cw.toRotationMatrix();
   result.T_camera_world.translation() = t_cw;
-  double sum_sq = 0;
-  for (size_t i = 0; i < n; ++i) {
-    if (!result.inliers[i]) continue;
-    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
-    sum_sq += (pinhole.project(p_c) - observations[i].uv_px).squaredNorm();
-  }
-  result.rms_inlier_px = active > 0 ? std::sqrt(sum_sq / active) : 0.0;
+  result.rms_inlier_px = rmsInlierPx(observations, result.inliers, active, pinhole, q_cw, t_cw);
   return result;
 }
 

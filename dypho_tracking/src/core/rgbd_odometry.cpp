@@ -8,6 +8,7 @@
 
 
 #include "dypho/tracking/pinhole.h"
+#include "rgbd_odometry_frame.h"
 
 namespace dypho {
 namespace tracking {
@@ -15,44 +16,11 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
 /// A still camera (RgbdOdometry::cameraStill): the last tracked frame-to-frame motion under these
 /// [m], [deg]. The mask's still test (cameraStill in dynamic_masker.h) allows 5 mm per frame too;
 /// 0.2 deg moves the image by under 2 px at a 525 px focal length, its median-flow bound.
 constexpr double kStillMaxStepM = 0.005;
 constexpr double kStillMaxStepDeg = 0.2;
-
-/// A first keyframe nothing judged has its points verified (first_keyframe_moving_hits). Unsaid,
-/// a mask that calls nothing dynamic counts as unjudged: the flow needs a previous frame, and a
-/// mask that found people judged the frame.
-bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
-  if (judgement != MaskJudgement::kUnknown) return judgement == MaskJudgement::kUnjudged;
-  return mask.empty() || cv::countNonZero(mask) == 0;
-}
-
-/// How far the camera turned between the reference keyframe and this frame, judged by the image
-/// alone [deg]: the median displacement of the matches from where the reference keyframe saw
-/// their points, as an angle. Independent of the tracked pose, which moving matches may carry;
-/// -1 without matches.
-double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoints& reference_points,
-                    const FrameFeatures& features, const Pinhole& pinhole,
-                    const Eigen::Isometry3d& T_world_reference) {
-  const Eigen::Isometry3d T_reference_world = T_world_reference.inverse();
-  std::vector<double> displacement_px;
-  displacement_px.reserve(matches.size());
-  for (const FeatureMatch& m : matches) {
-    const Eigen::Vector3d p_reference = T_reference_world * reference_points.p_world_m[static_cast<std::size_t>(m.reference_index)];
-    if (p_reference.z() < 1e-3) continue;
-    displacement_px.push_back((pinhole.project(p_reference) - features.uv_undistorted_px[static_cast<std::size_t>(m.frame_index)]).norm());
-  }
-  if (displacement_px.empty()) return -1.0;
-  auto median = displacement_px.begin() + static_cast<std::ptrdiff_t>(displacement_px.size() / 2);
-  std::nth_element(displacement_px.begin(), median, displacement_px.end());
-  return std::atan(*median / pinhole.fx) * 180.0 / M_PI;
-}
 
 StaticSceneCheckSettings staticCheckSettings(const TrackingOptions& o) {
   StaticSceneCheckSettings s;
@@ -347,201 +315,6 @@ void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const P
   // The views must not offer removed points to the next frame; this frame's matches still index
   // the current views (keyframe creation below), so they are refreshed before the next frame.
   if (!moving.empty()) views_stale_ = true;
-}
-
-TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
-                                   const PreparedFeatures* prepared, int frames_waiting) {
-  const auto t_start = Clock::now();
-  TrackingResult result;
-  catching_up_ = options_.catch_up_frames_waiting > 0 && frames_waiting >= options_.catch_up_frames_waiting;
-  result.caught_up = catching_up_;
-  result.stamp_ns = frame.stamp_ns;
-  result.T_world_camera = T_world_last_;
-  result.state = reference_id_ >= 0 ? TrackingState::kLost : TrackingState::kNotInitialized;
-  const auto finish = [&]() -> TrackingResult {
-    result.T_world_odom = T_world_odom_;
-    if (const MapKeyframe* reference = reference_id_ >= 0 ? map_.keyframe(reference_id_) : nullptr) {
-      result.reference_keyframe_id = reference_id_;
-      result.T_reference_camera = reference->T_world_camera.inverse() * result.T_world_camera;
-    }
-    result.anchored = unanchored_from_keyframe_id_ < 0;
-    result.num_map_points = static_cast<int>(map_.points().size());
-    result.num_keyframes = static_cast<int>(map_.keyframes().size());
-    result.times.total = msSince(t_start);
-    return result;
-  };
-
-  const std::string problem = checkTrackingInput(frame, mask);
-  if (!problem.empty()) {
-    result.message = "bad input: " + problem;
-    if (reference_id_ >= 0) {
-      ++lost_frames_;
-      motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
-    }
-    return finish();
-  }
-  if (has_stamp_ && frame.stamp_ns <= last_stamp_ns_) {
-    result.discontinuous = true;
-    std::ostringstream os;
-    os << "stamp " << frame.stamp_ns << " ns is not after the previous " << last_stamp_ns_
-       << " ns (time jumped backwards or repeated, e.g. a bag restarted): tracker reset, the next "
-          "frame starts a new world at identity";
-    reset();
-    result.message = os.str();
-    result.state = TrackingState::kNotInitialized;
-    result.T_world_camera.setIdentity();
-    has_stamp_ = true;
-    last_stamp_ns_ = frame.stamp_ns;
-    return finish();
-  }
-  has_stamp_ = true;
-  last_stamp_ns_ = frame.stamp_ns;
-  const Pinhole pinhole = Pinhole::fromIntrinsics(frame.camera);
-  // The local BA in flight is applied at its frame, before this frame is matched against the map.
-  if (pending_ba_.valid() && --pending_ba_frames_left_ <= 0) finishLocalBa(pinhole, &result);
-
-  // Features with depth.
-  // (input checked above, so a valid preparation exists for this frame)
-  PreparedFeatures prepared_here;
-  if (prepared == nullptr || !prepared->valid || prepared->stamp_ns != frame.stamp_ns) {
-    prepared_here = preparer_.prepare(frame, mask);
-    prepared = &prepared_here;
-  }
-  const OrbFeatures& orb = prepared->orb;
-  const FrameFeatures& features = prepared->features;
-  result.times.features = prepared->ms;
-  result.num_features = static_cast<int>(features.size());
-  result.masked_fraction = orb.masked_fraction;
-  const bool enough_to_start = result.num_features >= options_.min_init_features;
-
-  if (reference_id_ < 0) {
-    if (!enough_to_start) {
-      result.message = explainFewFeatures(frame, orb, features);
-      return finish();
-    }
-    addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
-    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask, judgement)) unverified_keyframe_id_ = reference_id_;
-    result.state = TrackingState::kOk;
-    result.discontinuous = true;  // a new world starts here
-    motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
-    return finish();
-  }
-
-  if (views_stale_) setReference(reference_id_);
-  AlignmentResult aligned;
-  if (result.num_features >= options_.min_inliers) {
-    const Eigen::Isometry3d T_world_predicted = motion_.predict(frame.stamp_ns).value_or(T_world_last_);
-    aligned = aligner_.align(local_view_, features, pinhole, T_world_predicted.inverse(),
-                             &result.times, &own_view_, !cameraStill());
-  } else {
-    aligned.message = explainFewFeatures(frame, orb, features);
-  }
-  // The photometric comparison needs sharp images: no motion blur or rolling-shutter skew. The
-  // camera's turn per frame is the motion model's last step. Without one (the frame after a start
-  // or a relocalisation) it is judged by the image: the tracked pose's own turn would let moving
-  // matches that carry the pose also switch the check off.
-  double turn_deg = -1.0;
-  if (motion_.hasVelocity()) {
-    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI;
-  } else if (aligned.success && map_.keyframe(reference_id_) != nullptr) {
-    turn_deg = imageTurnDeg(aligned.matches, aligned.matches_refer_to_fallback ? own_view_ : local_view_, features,
-                            pinhole, map_.keyframe(reference_id_)->T_world_camera);
-  }
-  const bool slow = turn_deg >= 0.0 && turn_deg < options_.static_check_max_frame_rotation_deg;
-  if (aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
-    const auto t_check = Clock::now();
-    checkAgainstStaticScene(frame, mask, features, pinhole, &aligned, &result);
-    result.times.static_check = msSince(t_check);
-  }
-  const Eigen::Isometry3d T_world_camera = aligned.T_camera_world.inverse();
-  if (aligned.success && T_world_camera.matrix().allFinite()) {
-    // Velocity only from consecutive good frames (a lost frame reset the model).
-    motion_.observe({frame.stamp_ns, T_world_camera, /*trusted=*/true, /*discontinuous=*/false});
-    T_world_last_ = T_world_camera;
-    lost_frames_ = 0;
-    ++frames_since_keyframe_;
-    if (frames_since_keyframe_ == 1) reference_inliers_ = aligned.num_inliers;
-    result.state = TrackingState::kOk;
-    result.T_world_camera = T_world_camera;
-    result.num_matches = static_cast<int>(aligned.matches.size());
-    result.num_inliers = aligned.num_inliers;
-    updatePointStatistics(aligned, pinhole, features, frame, mask, &result);
-    KeyframeQuery query;
-    query.T_world_keyframe = map_.keyframe(reference_id_)->T_world_camera;
-    query.T_world_camera = T_world_camera;
-    query.num_inliers = aligned.num_inliers;
-    query.num_reference_inliers = reference_inliers_;
-    query.frames_since_keyframe = frames_since_keyframe_;
-    query.static_doubt = result.static_check_doubt;
-    // Inter-frame rotation; unknown (0) right after lost frames.
-    query.frame_rotation_deg =
-        motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI : 0.0;
-    const KeyframeDecision decision = selector_.decide(query);
-    if (decision.is_keyframe) {
-      const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
-      std::vector<std::int64_t> ids(features.size(), -1);
-      for (size_t m = 0; m < aligned.matches.size(); ++m) {
-        if (!aligned.inliers[m]) continue;
-        const std::int64_t id = ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
-        if (map_.point(id) != nullptr) ids[static_cast<size_t>(aligned.matches[m].frame_index)] = id;
-      }
-      addKeyframe(frame, mask, features, T_world_camera, ids, pinhole, &result);
-    }
-    return finish();
-  }
-
-  // Lost: relocalise against the map's keyframes.
-  if (result.num_features >= options_.relocalization_min_inliers) {
-    const auto t_reloc = Clock::now();
-    const RelocalizationResult reloc =
-        relocalizer_.relocalize(map_, features, pinhole, &result.times);
-    result.times.relocalization = msSince(t_reloc);
-    if (reloc.success) {
-      T_world_last_ = reloc.T_world_camera;
-      motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
-      lost_frames_ = 0;
-      setReference(reloc.keyframe_id);
-      // Found again on the map from before a re-initialisation: anchored again.
-      if (unanchored_from_keyframe_id_ >= 0 && reloc.keyframe_id < unanchored_from_keyframe_id_) {
-        unanchored_from_keyframe_id_ = -1;
-      }
-      frames_since_keyframe_ = 1;
-      reference_inliers_ = reloc.num_inliers;
-      result.state = TrackingState::kOk;
-      result.relocalized = true;
-      result.discontinuous = true;
-      result.T_world_camera = T_world_last_;
-      result.num_inliers = reloc.num_inliers;
-      result.message = "relocalised against keyframe " + std::to_string(reloc.keyframe_id) +
-                       " after: " + aligned.message;
-      return finish();
-    }
-    aligned.message += "; " + reloc.message;
-  }
-
-  ++lost_frames_;
-  motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
-  result.state = TrackingState::kLost;
-  result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
-                   aligned.message;
-  if (lost_frames_ >= options_.max_lost_frames && enough_to_start) {
-    const std::int64_t first_new_keyframe_id = next_keyframe_id_;
-    addKeyframe(frame, mask, features, T_world_last_, {}, pinhole, &result);
-    if (options_.first_keyframe_moving_hits > 0 && unjudged(mask, judgement)) unverified_keyframe_id_ = reference_id_;
-    // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
-    // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
-    // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.
-    if (unanchored_from_keyframe_id_ < 0) unanchored_from_keyframe_id_ = first_new_keyframe_id;
-    result.state = TrackingState::kOk;
-    result.discontinuous = true;
-    motion_.observe({frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
-    result.message += "; re-initialised after " + std::to_string(lost_frames_) +
-                      " lost frames: new keyframe at the last good pose (the motion while lost is "
-                      "unknown); poses are not anchored to the map until relocalisation or a loop "
-                      "closure";
-    lost_frames_ = 0;
-  }
-  return finish();
 }
 
 }  // namespace tracking

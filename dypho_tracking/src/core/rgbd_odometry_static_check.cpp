@@ -24,7 +24,80 @@ void addMovingPoint(const Pinhole& pinhole, const Eigen::Vector2d& uv_undistorte
                                               static_cast<float>(p.z()));
 }
 
+/// The matches that the static scene's pose T_dense explains (reprojected within the refining
+/// search radius): their pose observations and, per observation, the index of its match.
+struct ExplainedMatches {
+  std::vector<PoseObservation> observations;
+  std::vector<std::size_t> match_of;
+};
+
+/// The matches of `aligned` (into `ref`) that T_dense explains (ExplainedMatches).
+ExplainedMatches explainedMatches(const AlignmentResult& aligned, const KeyframePoints& ref,
+                                  const FrameFeatures& features, const Pinhole& pinhole,
+                                  const Eigen::Isometry3d& T_dense, const TrackingOptions& options) {
+  ExplainedMatches explained;
+  for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
+    const FeatureMatch& match = aligned.matches[m];
+    const auto f = static_cast<std::size_t>(match.frame_index);
+    PoseObservation o;
+    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(match.reference_index)];
+    o.uv_px = features.uv_undistorted_px[f];
+    o.level = features.keypoints[f].octave;
+    o.depth_m = features.depth_m[f];
+    const Eigen::Vector3d p_c = T_dense * o.p_world_m;
+    if (p_c.z() < 1e-3) continue;
+    const double radius_px = options.refine_search_radius_px * std::pow(options.scale_factor, std::max(0, o.level));
+    if ((pinhole.project(p_c) - o.uv_px).norm() > radius_px) continue;
+    explained.observations.push_back(o);
+    explained.match_of.push_back(m);
+  }
+  return explained;
+}
+
+/// Records the matches of `aligned` not in `match_of` that have a depth as moving points.
+void addUnexplainedMatches(const AlignmentResult& aligned, const std::vector<std::size_t>& match_of,
+                           const FrameFeatures& features, const Pinhole& pinhole, TrackingResult* result) {
+  std::vector<bool> explained(aligned.matches.size(), false);
+  for (const std::size_t m : match_of) explained[m] = true;
+  for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
+    const auto f = static_cast<std::size_t>(aligned.matches[m].frame_index);
+    if (!explained[m] && features.depth_m[f] > 0.f) {
+      addMovingPoint(pinhole, features.uv_undistorted_px[f], features.depth_m[f], result);
+    }
+  }
+}
+
+/// The inliers of `aligned` become the matches in `match_of` (those `refined` rejected not, when
+/// its pose is used).
+void keepExplainedInliers(const std::vector<std::size_t>& match_of, bool use_refined,
+                          const PoseOptimizerResult& refined, AlignmentResult* aligned) {
+  std::fill(aligned->inliers.begin(), aligned->inliers.end(), false);
+  for (std::size_t k = 0; k < match_of.size(); ++k) aligned->inliers[match_of[k]] = !use_refined || refined.inliers[k];
+  aligned->num_inliers = static_cast<int>(std::count(aligned->inliers.begin(), aligned->inliers.end(), true));
+}
+
 }  // namespace
+
+Eigen::Isometry3d RgbdOdometry::denseStart(const Eigen::Isometry3d& T_features, double features_agreement,
+                                           const Eigen::Isometry3d& T_world_reference) const {
+  // The refinement converges only near the pose it starts from. Moving matches can drag the
+  // feature pose out of that basin a little more on each frame, so it also may start where the
+  // camera was on the last frame or at the reference keyframe: whichever of the three explains
+  // most of the static samples.
+  Eigen::Isometry3d T_start = T_features;
+  double best_start = features_agreement;
+  const Eigen::Isometry3d T_world_other_starts[] = {T_world_last_, T_world_reference};
+  for (const Eigen::Isometry3d& T_world_candidate : T_world_other_starts) {
+    if (!options_.static_check_other_starts) break;
+    const Eigen::Isometry3d T_candidate = T_world_candidate.inverse();
+    const double agreement = static_check_.score(T_candidate * T_world_reference).ratio();
+    if (agreement > best_start) {
+      best_start = agreement;
+      T_start = T_candidate;
+    }
+  }
+  return T_start;
+}
 
 void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat& mask,
                                            const FrameFeatures& features, const Pinhole& pinhole,
@@ -36,22 +109,7 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   const Eigen::Isometry3d T_features = aligned->T_camera_world;
   const StaticAgreement by_features = static_check_.score(T_features * T_world_reference);
   result->static_agreement = by_features.ratio();
-  // The refinement converges only near the pose it starts from. Moving matches can drag the
-  // feature pose out of that basin a little more on each frame, so it also may start where the
-  // camera was on the last frame or at the reference keyframe: whichever of the three explains
-  // most of the static samples.
-  Eigen::Isometry3d T_start = T_features;
-  double best_start = by_features.ratio();
-  const Eigen::Isometry3d T_world_other_starts[] = {T_world_last_, T_world_reference};
-  for (const Eigen::Isometry3d& T_world_candidate : T_world_other_starts) {
-    if (!options_.static_check_other_starts) break;
-    const Eigen::Isometry3d T_candidate = T_world_candidate.inverse();
-    const double agreement = static_check_.score(T_candidate * T_world_reference).ratio();
-    if (agreement > best_start) {
-      best_start = agreement;
-      T_start = T_candidate;
-    }
-  }
+  const Eigen::Isometry3d T_start = denseStart(T_features, by_features.ratio(), T_world_reference);
   const Eigen::Isometry3d T_dense =
       static_check_.refine(T_start * T_world_reference) * T_world_reference.inverse();
   const StaticAgreement by_dense = static_check_.score(T_dense * T_world_reference);
@@ -65,44 +123,19 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   // Moving matches carried the feature pose. Re-estimate from the matches that the static scene's
   // pose explains (within the refining search radius), starting from that pose.
   const KeyframePoints& ref = aligned->matches_refer_to_fallback ? own_view_ : local_view_;
-  std::vector<PoseObservation> observations;
-  std::vector<std::size_t> match_of;
-  for (std::size_t m = 0; m < aligned->matches.size(); ++m) {
-    const FeatureMatch& match = aligned->matches[m];
-    const auto f = static_cast<std::size_t>(match.frame_index);
-    PoseObservation o;
-    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(match.reference_index)];
-    o.uv_px = features.uv_undistorted_px[f];
-    o.level = features.keypoints[f].octave;
-    o.depth_m = features.depth_m[f];
-    const Eigen::Vector3d p_c = T_dense * o.p_world_m;
-    if (p_c.z() < 1e-3) continue;
-    const double radius_px = options_.refine_search_radius_px * std::pow(options_.scale_factor, std::max(0, o.level));
-    if ((pinhole.project(p_c) - o.uv_px).norm() > radius_px) continue;
-    observations.push_back(o);
-    match_of.push_back(m);
-  }
-  if (static_cast<int>(observations.size()) < options_.min_inliers) return;  // the features contradict it
+  const ExplainedMatches explained = explainedMatches(*aligned, ref, features, pinhole, T_dense, options_);
+  if (static_cast<int>(explained.observations.size()) < options_.min_inliers) return;  // the features contradict it
   // Usually the re-estimate; the dense pose itself when the matches cannot tell the two apart
   // (the local map's points moved with the people while the reference keyframe's pixels did not).
-  const PoseOptimizerResult refined = pose_optimizer_.optimize(observations, pinhole, T_dense);
+  const PoseOptimizerResult refined = pose_optimizer_.optimize(explained.observations, pinhole, T_dense);
   const bool use_refined = refined.success && refined.num_inliers >= options_.min_inliers &&
                            static_check_.score(refined.T_camera_world * T_world_reference).ratio() >=
                                by_dense.ratio() - 0.5 * options_.static_check_min_gain;
   aligned->T_camera_world = use_refined ? refined.T_camera_world : T_dense;
   result->static_check_doubt = 0.0;
   // The matches the static scene's pose does not explain moved: the mask is told where they are.
-  std::vector<bool> explained(aligned->matches.size(), false);
-  for (const std::size_t m : match_of) explained[m] = true;
-  for (std::size_t m = 0; m < aligned->matches.size(); ++m) {
-    const auto f = static_cast<std::size_t>(aligned->matches[m].frame_index);
-    if (!explained[m] && features.depth_m[f] > 0.f) {
-      addMovingPoint(pinhole, features.uv_undistorted_px[f], features.depth_m[f], result);
-    }
-  }
-  std::fill(aligned->inliers.begin(), aligned->inliers.end(), false);
-  for (std::size_t k = 0; k < match_of.size(); ++k) aligned->inliers[match_of[k]] = !use_refined || refined.inliers[k];
-  aligned->num_inliers = static_cast<int>(std::count(aligned->inliers.begin(), aligned->inliers.end(), true));
+  addUnexplainedMatches(*aligned, explained.match_of, features, pinhole, result);
+  keepExplainedInliers(explained.match_of, use_refined, refined, aligned);
   const StaticAgreement by_final = static_check_.score(aligned->T_camera_world * T_world_reference);
   result->static_agreement = by_final.ratio();
   result->static_check_corrected = true;

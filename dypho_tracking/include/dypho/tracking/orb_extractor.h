@@ -55,11 +55,6 @@ class OrbExtractor {
   static constexpr int kEdgePx = 19;
 
  private:
-  /// Relaxed-test keypoints of one grid cell of a pyramid level (level pixel coordinates).
-  template <typename Allowed>
-  std::vector<cv::KeyPoint> relaxedCandidates(const cv::Mat& level_image, const cv::Rect& cell,
-                                              double sigma_dy, const Allowed& is_allowed) const;
-
   TrackingOptions options_;
   std::vector<double> level_scales_;
   std::vector<int> features_per_level_;

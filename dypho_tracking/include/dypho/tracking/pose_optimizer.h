@@ -2,6 +2,7 @@
 /// \file pose_optimizer.h
 /// Motion-only bundle adjustment of one camera pose against fixed 3D points (Ceres).
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,10 @@
 
 #include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/tracking_options.h"
+
+namespace ceres {
+class CostFunction;
+}  // namespace ceres
 
 namespace dypho {
 namespace tracking {
@@ -65,6 +70,15 @@ class PoseOptimizer {
   /// agrees() with the point already in the camera frame.
   bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m,
                       const Pinhole& pinhole) const;
+  /// One residual per observation: RgbdReprojectionError when it has a depth and
+  /// depth_baseline_m > 0, else ReprojectionError; whitened by sigma(level).
+  std::vector<std::unique_ptr<ceres::CostFunction>> makeCosts(const std::vector<PoseObservation>& observations,
+                                                              const Pinhole& pinhole) const;
+  /// Marks each observation an inlier at (q_cw, t_cw) in `inliers` (size of `observations`): in
+  /// front of the camera when `accept_all_in_front`, else agreesInCamera; returns the count.
+  int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
+               const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, bool accept_all_in_front,
+               std::vector<bool>* inliers) const;
 
   TrackingOptions options_;
   std::vector<double> level_sigma_;

@@ -93,6 +93,50 @@ class RgbdOdometry {
   const TrackerMap& map() const { return map_; }
 
  private:
+  /// One frame's working state between the steps of track() (src/core/rgbd_odometry_frame.h).
+  struct TrackingFrame;
+
+  // The steps of track(), in order (src/core/rgbd_odometry_track.cpp). Each reads the
+  // TrackingFrame fields of the steps before it and writes its own.
+  /// Catch-up mode and the result's defaults: the last pose, kLost (kNotInitialized without a map).
+  void beginFrame(int frames_waiting, TrackingFrame* work);
+  /// False, with the message, when the frame's images or camera are unusable (checkTrackingInput);
+  /// a frame after the start then counts as lost.
+  bool admitInput(TrackingFrame* work);
+  /// Records the stamp; false after a reset when it is not after the previous one.
+  bool admitStamp(TrackingFrame* work);
+  /// The frame's keypoints with depth: the caller's `prepared` when they are this frame's, else
+  /// prepared here; whether there are enough to start a map and to match.
+  void prepareFeatures(const PreparedFeatures* prepared, TrackingFrame* work);
+  /// Without a map: the frame becomes keyframe 0 of a new world (or the message says why not).
+  void startMap(TrackingFrame* work);
+  /// Predict: refreshes stale local-map views; the motion model's pose at the frame's stamp (the
+  /// last pose without a velocity).
+  void predictPose(TrackingFrame* work);
+  /// Match and optimise: the feature pose against the local map (KeyframeAligner) from the
+  /// prediction, or why there are too few features.
+  void matchAndOptimise(TrackingFrame* work);
+  /// The camera's turn since the last frame (motion model) or since the reference keyframe (image)
+  /// [deg]; -1 when unknown.
+  double frameTurnDeg(const TrackingFrame& work) const;
+  /// Verify: the static check of the feature pose on slow frames (checkAgainstStaticScene), then
+  /// the pose as T_world_camera.
+  void verifyPose(TrackingFrame* work);
+  /// A tracked frame: the motion model, the last pose and the counters take its pose.
+  void acceptPose(TrackingFrame* work);
+  /// Decide keyframe: KeyframeSelector on the tracked pose against the reference keyframe.
+  KeyframeDecision decideKeyframe(const TrackingFrame& work) const;
+  /// Local map: the tracked frame becomes a keyframe, with its inlier matches as observations.
+  void insertKeyframe(TrackingFrame* work);
+  /// Lost: relocalisation against the map's keyframes; true when it found the frame.
+  bool relocalise(TrackingFrame* work);
+  /// A lost frame: counted, the motion model told; after max_lost_frames, re-initialisation.
+  void markLost(TrackingFrame* work);
+  /// A new keyframe at the last good pose after too many lost frames (not anchored to the map).
+  void reinitialise(TrackingFrame* work);
+  /// The result's map and reference fields and the total time; returns the result.
+  TrackingResult finishFrame(TrackingFrame* work) const;
+
   /// The camera moved less than 5 mm and 0.2 deg between the last two tracked frames
   /// (TrackingOptions::moving_point_still_only).
   bool cameraStill() const;
@@ -125,12 +169,16 @@ class RgbdOdometry {
   void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
   void setReference(std::int64_t keyframe_id);
-  /// Counts visible / found map points of the local map for culling.
   /// Bookkeeping after a tracked frame: visible / found counts of the local map's points, and
   /// the moving-point test (TrackingOptions::moving_point_min_hits) with its culling.
   void updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
                              const FrameFeatures& features, const RgbdFrame& frame,
                              const cv::Mat& mask, TrackingResult* result);
+  /// Where the static check's dense refinement starts: the feature pose, or the last pose or the
+  /// reference keyframe's pose when one explains more of the static samples
+  /// (TrackingOptions::static_check_other_starts). T_camera_world poses.
+  Eigen::Isometry3d denseStart(const Eigen::Isometry3d& T_features, double features_agreement,
+                               const Eigen::Isometry3d& T_world_reference) const;
   /// TrackingOptions::static_check: compares the feature pose in `aligned` with the dense
   /// refinement against the reference keyframe's static pixels; when the refinement explains
   /// clearly more of them, re-estimates the pose from the matches that agree with it.

@@ -1,0 +1,311 @@
+/// RgbdOdometry::track as its steps: admit the frame, prepare its features, predict, match and
+/// optimise, verify, then either keep the pose (local-map bookkeeping, keyframe decision and
+/// insertion) or relocalise / count the frame lost.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/rgbd_odometry.h"
+#include "rgbd_odometry_frame.h"
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// A first keyframe nothing judged has its points verified (first_keyframe_moving_hits). Unsaid,
+/// a mask that calls nothing dynamic counts as unjudged: the flow needs a previous frame, and a
+/// mask that found people judged the frame.
+bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
+  if (judgement != MaskJudgement::kUnknown) return judgement == MaskJudgement::kUnjudged;
+  return mask.empty() || cv::countNonZero(mask) == 0;
+}
+
+/// How far the camera turned between the reference keyframe and this frame, judged by the image
+/// alone [deg]: the median displacement of the matches from where the reference keyframe saw
+/// their points, as an angle. Independent of the tracked pose, which moving matches may carry;
+/// -1 without matches.
+double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoints& reference_points,
+                    const FrameFeatures& features, const Pinhole& pinhole,
+                    const Eigen::Isometry3d& T_world_reference) {
+  const Eigen::Isometry3d T_reference_world = T_world_reference.inverse();
+  std::vector<double> displacement_px;
+  displacement_px.reserve(matches.size());
+  for (const FeatureMatch& m : matches) {
+    const Eigen::Vector3d p_reference = T_reference_world * reference_points.p_world_m[static_cast<std::size_t>(m.reference_index)];
+    if (p_reference.z() < 1e-3) continue;
+    displacement_px.push_back((pinhole.project(p_reference) - features.uv_undistorted_px[static_cast<std::size_t>(m.frame_index)]).norm());
+  }
+  if (displacement_px.empty()) return -1.0;
+  auto median = displacement_px.begin() + static_cast<std::ptrdiff_t>(displacement_px.size() / 2);
+  std::nth_element(displacement_px.begin(), median, displacement_px.end());
+  return std::atan(*median / pinhole.fx) * 180.0 / M_PI;
+}
+
+}  // namespace
+
+TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
+                                   const PreparedFeatures* prepared, int frames_waiting) {
+  TrackingFrame work(frame, mask, judgement);
+  beginFrame(frames_waiting, &work);
+  if (!admitInput(&work) || !admitStamp(&work)) return finishFrame(&work);
+  work.pinhole = Pinhole::fromIntrinsics(frame.camera);
+  // The local BA in flight is applied at its frame, before this frame is matched against the map.
+  if (pending_ba_.valid() && --pending_ba_frames_left_ <= 0) finishLocalBa(work.pinhole, &work.result);
+  prepareFeatures(prepared, &work);
+  if (reference_id_ < 0) {
+    startMap(&work);
+    return finishFrame(&work);
+  }
+
+  predictPose(&work);
+  matchAndOptimise(&work);
+  verifyPose(&work);
+  if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
+    acceptPose(&work);
+    // Local map: the points' visibility and moving-point culling, then a keyframe when due.
+    updatePointStatistics(work.aligned, work.pinhole, work.features(), frame, mask, &work.result);
+    if (decideKeyframe(work).is_keyframe) insertKeyframe(&work);
+    return finishFrame(&work);
+  }
+
+  // Lost: relocalise against the map's keyframes.
+  if (!relocalise(&work)) markLost(&work);
+  return finishFrame(&work);
+}
+
+void RgbdOdometry::beginFrame(int frames_waiting, TrackingFrame* work) {
+  TrackingResult& result = work->result;
+  catching_up_ = options_.catch_up_frames_waiting > 0 && frames_waiting >= options_.catch_up_frames_waiting;
+  result.caught_up = catching_up_;
+  result.stamp_ns = work->frame.stamp_ns;
+  result.T_world_camera = T_world_last_;
+  result.state = reference_id_ >= 0 ? TrackingState::kLost : TrackingState::kNotInitialized;
+}
+
+TrackingResult RgbdOdometry::finishFrame(TrackingFrame* work) const {
+  TrackingResult& result = work->result;
+  result.T_world_odom = T_world_odom_;
+  if (const MapKeyframe* reference = reference_id_ >= 0 ? map_.keyframe(reference_id_) : nullptr) {
+    result.reference_keyframe_id = reference_id_;
+    result.T_reference_camera = reference->T_world_camera.inverse() * result.T_world_camera;
+  }
+  result.anchored = unanchored_from_keyframe_id_ < 0;
+  result.num_map_points = static_cast<int>(map_.points().size());
+  result.num_keyframes = static_cast<int>(map_.keyframes().size());
+  result.times.total = msSince(work->t_start);
+  return result;
+}
+
+bool RgbdOdometry::admitInput(TrackingFrame* work) {
+  const std::string problem = checkTrackingInput(work->frame, work->mask);
+  if (problem.empty()) return true;
+  work->result.message = "bad input: " + problem;
+  if (reference_id_ >= 0) {
+    ++lost_frames_;
+    motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
+  }
+  return false;
+}
+
+bool RgbdOdometry::admitStamp(TrackingFrame* work) {
+  const Timestamp stamp_ns = work->frame.stamp_ns;
+  if (has_stamp_ && stamp_ns <= last_stamp_ns_) {
+    TrackingResult& result = work->result;
+    result.discontinuous = true;
+    std::ostringstream os;
+    os << "stamp " << stamp_ns << " ns is not after the previous " << last_stamp_ns_
+       << " ns (time jumped backwards or repeated, e.g. a bag restarted): tracker reset, the next "
+          "frame starts a new world at identity";
+    reset();
+    result.message = os.str();
+    result.state = TrackingState::kNotInitialized;
+    result.T_world_camera.setIdentity();
+    has_stamp_ = true;
+    last_stamp_ns_ = stamp_ns;
+    return false;
+  }
+  has_stamp_ = true;
+  last_stamp_ns_ = stamp_ns;
+  return true;
+}
+
+void RgbdOdometry::prepareFeatures(const PreparedFeatures* prepared, TrackingFrame* work) {
+  // Features with depth.
+  // (input checked above, so a valid preparation exists for this frame)
+  if (prepared == nullptr || !prepared->valid || prepared->stamp_ns != work->frame.stamp_ns) {
+    work->prepared_here = preparer_.prepare(work->frame, work->mask);
+    prepared = &work->prepared_here;
+  }
+  work->prepared = prepared;
+  TrackingResult& result = work->result;
+  result.times.features = prepared->ms;
+  result.num_features = static_cast<int>(prepared->features.size());
+  result.masked_fraction = prepared->orb.masked_fraction;
+  work->enough_to_start = result.num_features >= options_.min_init_features;
+  work->enough_to_match = result.num_features >= options_.min_inliers;
+}
+
+void RgbdOdometry::startMap(TrackingFrame* work) {
+  TrackingResult& result = work->result;
+  if (!work->enough_to_start) {
+    result.message = explainFewFeatures(work->frame, work->prepared->orb, work->features());
+    return;
+  }
+  addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
+  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement)) unverified_keyframe_id_ = reference_id_;
+  result.state = TrackingState::kOk;
+  result.discontinuous = true;  // a new world starts here
+  motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
+}
+
+void RgbdOdometry::predictPose(TrackingFrame* work) {
+  if (views_stale_) setReference(reference_id_);
+  if (!work->enough_to_match) return;
+  work->T_world_predicted = motion_.predict(work->frame.stamp_ns).value_or(T_world_last_);
+}
+
+void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
+  if (!work->enough_to_match) {
+    work->aligned.message = explainFewFeatures(work->frame, work->prepared->orb, work->features());
+    return;
+  }
+  work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
+                                 &work->result.times, &own_view_, !cameraStill());
+}
+
+double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
+  // The photometric comparison needs sharp images: no motion blur or rolling-shutter skew. The
+  // camera's turn per frame is the motion model's last step. Without one (the frame after a start
+  // or a relocalisation) it is judged by the image: the tracked pose's own turn would let moving
+  // matches that carry the pose also switch the check off.
+  double turn_deg = -1.0;
+  if (motion_.hasVelocity()) {
+    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI;
+  } else if (work.aligned.success && map_.keyframe(reference_id_) != nullptr) {
+    const AlignmentResult& aligned = work.aligned;
+    turn_deg = imageTurnDeg(aligned.matches, aligned.matches_refer_to_fallback ? own_view_ : local_view_,
+                            work.features(), work.pinhole, map_.keyframe(reference_id_)->T_world_camera);
+  }
+  return turn_deg;
+}
+
+void RgbdOdometry::verifyPose(TrackingFrame* work) {
+  const double turn_deg = frameTurnDeg(*work);
+  const bool slow = turn_deg >= 0.0 && turn_deg < options_.static_check_max_frame_rotation_deg;
+  if (work->aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
+    const auto t_check = Clock::now();
+    checkAgainstStaticScene(work->frame, work->mask, work->features(), work->pinhole, &work->aligned,
+                            &work->result);
+    work->result.times.static_check = msSince(t_check);
+  }
+  work->T_world_camera = work->aligned.T_camera_world.inverse();
+}
+
+void RgbdOdometry::acceptPose(TrackingFrame* work) {
+  const AlignmentResult& aligned = work->aligned;
+  const Eigen::Isometry3d& T_world_camera = work->T_world_camera;
+  // Velocity only from consecutive good frames (a lost frame reset the model).
+  motion_.observe({work->frame.stamp_ns, T_world_camera, /*trusted=*/true, /*discontinuous=*/false});
+  T_world_last_ = T_world_camera;
+  lost_frames_ = 0;
+  ++frames_since_keyframe_;
+  if (frames_since_keyframe_ == 1) reference_inliers_ = aligned.num_inliers;
+  TrackingResult& result = work->result;
+  result.state = TrackingState::kOk;
+  result.T_world_camera = T_world_camera;
+  result.num_matches = static_cast<int>(aligned.matches.size());
+  result.num_inliers = aligned.num_inliers;
+}
+
+KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
+  KeyframeQuery query;
+  query.T_world_keyframe = map_.keyframe(reference_id_)->T_world_camera;
+  query.T_world_camera = work.T_world_camera;
+  query.num_inliers = work.aligned.num_inliers;
+  query.num_reference_inliers = reference_inliers_;
+  query.frames_since_keyframe = frames_since_keyframe_;
+  query.static_doubt = work.result.static_check_doubt;
+  // Inter-frame rotation; unknown (0) right after lost frames.
+  query.frame_rotation_deg =
+      motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI : 0.0;
+  return selector_.decide(query);
+}
+
+void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
+  const AlignmentResult& aligned = work->aligned;
+  const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+  std::vector<std::int64_t> ids(work->features().size(), -1);
+  for (size_t m = 0; m < aligned.matches.size(); ++m) {
+    if (!aligned.inliers[m]) continue;
+    const std::int64_t id = ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
+    if (map_.point(id) != nullptr) ids[static_cast<size_t>(aligned.matches[m].frame_index)] = id;
+  }
+  addKeyframe(work->frame, work->mask, work->features(), work->T_world_camera, ids, work->pinhole, &work->result);
+}
+
+bool RgbdOdometry::relocalise(TrackingFrame* work) {
+  TrackingResult& result = work->result;
+  if (result.num_features < options_.relocalization_min_inliers) return false;
+  const auto t_reloc = Clock::now();
+  const RelocalizationResult reloc = relocalizer_.relocalize(map_, work->features(), work->pinhole, &result.times);
+  result.times.relocalization = msSince(t_reloc);
+  if (!reloc.success) {
+    work->aligned.message += "; " + reloc.message;
+    return false;
+  }
+  T_world_last_ = reloc.T_world_camera;
+  motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
+  lost_frames_ = 0;
+  setReference(reloc.keyframe_id);
+  // Found again on the map from before a re-initialisation: anchored again.
+  if (unanchored_from_keyframe_id_ >= 0 && reloc.keyframe_id < unanchored_from_keyframe_id_) {
+    unanchored_from_keyframe_id_ = -1;
+  }
+  frames_since_keyframe_ = 1;
+  reference_inliers_ = reloc.num_inliers;
+  result.state = TrackingState::kOk;
+  result.relocalized = true;
+  result.discontinuous = true;
+  result.T_world_camera = T_world_last_;
+  result.num_inliers = reloc.num_inliers;
+  result.message = "relocalised against keyframe " + std::to_string(reloc.keyframe_id) +
+                   " after: " + work->aligned.message;
+  return true;
+}
+
+void RgbdOdometry::markLost(TrackingFrame* work) {
+  ++lost_frames_;
+  motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
+  work->result.state = TrackingState::kLost;
+  work->result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
+                         work->aligned.message;
+  if (lost_frames_ >= options_.max_lost_frames && work->enough_to_start) reinitialise(work);
+}
+
+void RgbdOdometry::reinitialise(TrackingFrame* work) {
+  TrackingResult& result = work->result;
+  const std::int64_t first_new_keyframe_id = next_keyframe_id_;
+  addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
+  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement)) unverified_keyframe_id_ = reference_id_;
+  // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
+  // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
+  // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.
+  if (unanchored_from_keyframe_id_ < 0) unanchored_from_keyframe_id_ = first_new_keyframe_id;
+  result.state = TrackingState::kOk;
+  result.discontinuous = true;
+  motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
+  result.message += "; re-initialised after " + std::to_string(lost_frames_) +
+                    " lost frames: new keyframe at the last good pose (the motion while lost is "
+                    "unknown); poses are not anchored to the map until relocalisation or a loop "
+                    "closure";
+  lost_frames_ = 0;
+}
+
+}  // namespace tracking
+}  // namespace dypho
