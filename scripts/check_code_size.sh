@@ -19,8 +19,8 @@ fi
 mapfile -t FILES < <(git ls-files 'dypho_*/src/*' 'dypho_*/include/*' 'dypho_*/standalone/*' 'tools/src/*' \
   'tools/include/*' 'tools/apps/*' | grep -E '\.(cpp|h|hpp|cu|cuh)$' | grep -v -E '/test/|synthetic_')
 functions() {  # prints: lines name file:line
-  ctags -x --c++-kinds=f --fields=+ne --_xformat='%N %n %e %F' --language-force=C++ "${FILES[@]}" 2>/dev/null |
-    awk '{ print $3 - $2 + 1, $1, $4 ":" $2 }' | sort -rn
+  ctags -x --c++-kinds=f --fields=+ne --_xformat='%N	%n	%e	%F' --language-force=C++ "${FILES[@]}" 2>/dev/null |
+    awk -F'\t' '{ name = $1; gsub(/ /, "", name); print $3 - $2 + 1, name, $4 ":" $2 }' | sort -rn
 }
 if [ -n "$LIST" ]; then functions | awk -v n="$LIST" '$1 > n'; exit 0; fi
 fail=0

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <set>
 #include <unordered_map>
 #include <vector>
@@ -58,7 +59,10 @@ void addPoseBlocks(const LocalBaProblem& input, BaWindow* window) {
 /// > 0) per observation in front of its keyframe, whitened by scale_factor^level, Huber loss.
 void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, BaWindow* window) {
   const Pinhole& pinhole = input.pinhole;
-  ceres::LossFunction* loss = new ceres::HuberLoss(options.huber_px);
+  // The problem takes ownership of the loss with its first residual block; without one it is
+  // freed here.
+  auto owned_loss = std::make_unique<ceres::HuberLoss>(options.huber_px);
+  ceres::LossFunction* loss = owned_loss.get();
   std::vector<double> level_sigma(static_cast<size_t>(options.num_levels));
   for (int l = 0; l < options.num_levels; ++l) {
     level_sigma[static_cast<size_t>(l)] = std::pow(options.scale_factor, l);
@@ -82,6 +86,7 @@ void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, B
     window->observations.push_back({o.keyframe_id, o.point_id, o.feature_index, block, depth_block});
     window->source.push_back(k);
   }
+  if (window->problem.NumResidualBlocks() > 0) owned_loss.release();
 }
 
 /// Quaternion manifolds on the poses in the problem; the fixed ones held constant.
