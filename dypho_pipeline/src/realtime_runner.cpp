@@ -4,8 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
-#include <deque>
+#include <memory>
 #include <exception>
 #include <mutex>
 #include <optional>
@@ -19,19 +18,28 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// A frame on its way: released at `released`.
-struct Released {
+/// A frame read ahead of its release.
+struct Loaded {
   std::size_t index = 0;
-  Clock::time_point released;
   RealtimeInput input;
 };
 
-/// A masked frame on its way to tracking.
-struct Masked {
+/// A released frame on its way to the mask stage.
+struct ToMask {
+  std::size_t index = 0;
+  RealtimeInput input;
+};
+
+/// A released frame as the live tracker holds it (the tracking nodelet holds message pointers).
+struct LiveInput {
   std::size_t index = 0;
   Clock::time_point released;
-  MaskedFrame masked;
+  RgbdFrame frame;
 };
+
+/// A finished mask, shared by the frames it is carried to.
+using MaskPtr = std::shared_ptr<const MaskedFrame>;
+using Live = tracking::LiveTracker<LiveInput, MaskPtr>;
 
 /// Longest single sleep while waiting for a frame's due time, so that `stop` is seen [ms].
 constexpr int kStopPollMs = 20;
@@ -39,53 +47,28 @@ constexpr int kStopPollMs = 20;
 /// is not) [ms].
 constexpr std::chrono::milliseconds kLateTolerance{5};
 
-/// A frame read ahead of its release.
-struct Loaded {
-  std::size_t index = 0;
-  RealtimeInput input;
-};
+/// The live tracker's conversion: the frame and the mask it was paired with, as the mask stage
+/// judged it.
+tracking::LiveFrame toLiveFrame(const Live::Ready& ready) {
+  tracking::LiveFrame out;
+  out.frame = ready.frame.frame;
+  if (ready.mask) {
+    out.mask = ready.mask->mask;
+    out.own_mask_judgement = ready.mask->judgement;
+  }
+  return out;
+}
 
-/// Frames read ahead: the loader waits while `capacity` are ready (nothing is dropped here).
-class PrefetchQueue {
- public:
-  explicit PrefetchQueue(std::size_t capacity) : capacity_(capacity) {}
-  /// Waits for room; false when closed (the item is discarded).
-  bool push(Loaded item) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    room_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
-    if (closed_) return false;
-    items_.push_back(std::move(item));
-    lock.unlock();
-    ready_.notify_one();
-    return true;
-  }
-  /// Waits for the next frame; nullopt once closed and empty.
-  std::optional<Loaded> pop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    ready_.wait(lock, [&] { return closed_ || !items_.empty(); });
-    if (items_.empty()) return std::nullopt;
-    std::optional<Loaded> item(std::move(items_.front()));
-    items_.pop_front();
-    lock.unlock();
-    room_.notify_one();
-    return item;
-  }
-  void close() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      closed_ = true;
-    }
-    ready_.notify_all();
-    room_.notify_all();
-  }
-
- private:
-  const std::size_t capacity_;
-  std::mutex mutex_;
-  std::condition_variable ready_, room_;
-  std::deque<Loaded> items_;
-  bool closed_ = false;
-};
+/// The report of a tracked frame before its hand-on: the mask stage's fields of its own mask;
+/// a carried mask's degradation and masked share (the work was another frame's).
+FrameReport maskReportOf(const Live::Ready& ready) {
+  FrameReport report;
+  if (!ready.mask) return report;
+  if (ready.source == tracking::MaskSource::kMatched) return ready.mask->report;
+  report.masked_fraction = ready.mask->report.masked_fraction;
+  report.mask_degraded = ready.mask->report.mask_degraded;
+  return report;
+}
 
 }  // namespace
 
@@ -117,6 +100,11 @@ double percentile(std::vector<double> values, double q) {
   return values[k];
 }
 
+std::size_t RealtimeResult::framesWithMask(tracking::MaskSource source) const {
+  return static_cast<std::size_t>(std::count_if(processed.begin(), processed.end(),
+                                                [&](const RealtimeProcessedFrame& f) { return f.mask_source == source; }));
+}
+
 double RealtimeResult::latencyPercentileMs(double q) const {
   std::vector<double> latencies;
   for (const RealtimeProcessedFrame& f : processed) {
@@ -142,17 +130,37 @@ RealtimeRunner::RealtimeRunner(SlamPipeline& pipeline, const RealtimeOptions& op
 
 RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLoader& load,
                                    const std::atomic<bool>* stop) {
-  const std::size_t capacity = static_cast<std::size_t>(options_.queue_capacity_frames);
-  BoundedHandOver<Released> camera_to_mask(capacity);
-  BoundedHandOver<Masked> mask_to_tracking(capacity);
   RealtimeResult result;
-  std::mutex result_mutex;  // the producer and the mask thread record drops
+  std::mutex result_mutex;  // the camera, the mask and the tracking threads record
   std::atomic<bool> aborted{false};  // a stage threw: release nothing more
+  std::exception_ptr error;          // the first one (under result_mutex)
+  auto fail = [&](std::exception_ptr e) {
+    std::lock_guard<std::mutex> lock(result_mutex);
+    if (!error) error = std::move(e);
+    aborted = true;
+  };
   auto stopped = [&] { return aborted.load() || (stop != nullptr && stop->load()); };
+  const bool expect_masks = pipeline_.options().mask_source != MaskSource::kNone;
+
+  // Tracking: the tracking nodelet's live code; after each frame the pipeline hands its pose on.
+  Live::Callbacks callbacks;
+  callbacks.convert = toLiveFrame;
+  callbacks.sink = [&](Live::Tracked& t) {
+    RealtimeProcessedFrame f;
+    f.index = t.ready.frame.index;
+    f.mask_source = t.ready.source;
+    f.mask_wait_ms = t.live.mask_wait_ms;
+    f.report = pipeline_.handOnTracked(std::move(t.output), maskReportOf(t.ready));
+    f.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t.ready.frame.released).count();
+    std::lock_guard<std::mutex> lock(result_mutex);
+    result.processed.push_back(std::move(f));
+  };
+  callbacks.failure = [&](const tracking::LiveFailure& f) { fail(f.error); };
+  Live live(pipeline_.tracking(), pipeline_.options().mask_pairing, expect_masks, std::move(callbacks));
 
   // Loader: reads frames ahead of their release (at most prefetch_frames waiting), so that a slow
   // read delays no release while the reads keep ahead.
-  PrefetchQueue prefetched(static_cast<std::size_t>(options_.prefetch_frames));
+  BoundedHandOver<Loaded> prefetched(static_cast<std::size_t>(options_.prefetch_frames));
   auto loader = [&] {
     for (std::size_t i = 0; i < num_frames && !stopped(); ++i) {
       std::optional<RealtimeInput> input;
@@ -163,14 +171,26 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
         result.unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
         continue;
       }
-      if (!prefetched.push({i, std::move(*input)})) break;  // closed: the release stopped
+      if (!prefetched.pushWhenRoom({i, std::move(*input)})) break;  // closed: the release stopped
     }
     prefetched.close();
   };
 
-  // Camera: releases each frame at its due time; never waits for the pipeline.
+  // Camera: releases each frame at its due time to the mask stage and to tracking; never waits
+  // for either.
+  BoundedHandOver<ToMask> camera_to_mask(static_cast<std::size_t>(options_.queue_capacity_frames));
   std::optional<Clock::time_point> first_release;
-  auto producer = [&] {
+  auto release = [&](Loaded next, Clock::time_point now) {
+    const Timestamp stamp_ns = next.input.frame.stamp_ns;
+    std::optional<LiveInput> dropped = live.addFrame(stamp_ns, LiveInput{next.index, now, next.input.frame});
+    std::optional<ToMask> skipped;
+    if (expect_masks) skipped = camera_to_mask.push({next.index, std::move(next.input)});
+    std::lock_guard<std::mutex> lock(result_mutex);
+    ++result.frames_in;
+    if (dropped) result.dropped_before_tracking.push_back(dropped->index);
+    if (skipped) result.masks_skipped.push_back(skipped->index);
+  };
+  auto camera = [&] {
     std::optional<Timestamp> first_stamp;
     while (!stopped()) {
       std::optional<Loaded> next = prefetched.pop();
@@ -193,76 +213,40 @@ RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLo
         }
         if (stopped()) break;
       }
-      std::optional<Released> dropped = camera_to_mask.push({next->index, now, std::move(next->input)});
-      std::lock_guard<std::mutex> lock(result_mutex);
-      ++result.frames_in;
-      if (dropped) result.dropped_before_mask.push_back(dropped->index);
+      release(std::move(*next), now);
     }
     prefetched.close();  // lets the loader end
     camera_to_mask.close();
   };
 
-  std::exception_ptr mask_error;
+  // Mask stage (the mask nodelet): masks the oldest waiting frame; tracking gets each mask as it
+  // is done. A frame the stage rejects for its stamp gets no mask (tracking rejects it too).
   auto mask_worker = [&] {
-    try {
-      while (std::optional<Released> r = camera_to_mask.pop()) {
-        Masked m{r->index, r->released, pipeline_.maskFrame(r->input.frame, r->input.external_mask)};
-        std::optional<Masked> dropped = mask_to_tracking.push(std::move(m));
-        if (dropped) {
-          std::lock_guard<std::mutex> lock(result_mutex);
-          result.dropped_before_tracking.push_back(dropped->index);
-        }
+    while (std::optional<ToMask> m = camera_to_mask.pop()) {
+      if (aborted) continue;  // drain: the run ends
+      try {
+        auto masked = std::make_shared<MaskedFrame>(pipeline_.maskFrame(m->input.frame, m->input.external_mask));
+        if (!masked->report.dropped) live.addMask(masked->frame.stamp_ns, std::move(masked));
+      } catch (...) {
+        fail(std::current_exception());
+        prefetched.close();
       }
-    } catch (...) {
-      mask_error = std::current_exception();
-      aborted = true;
-      prefetched.close();
-      camera_to_mask.close();
     }
-    mask_to_tracking.close();
-  };
-
-  auto track = [&](std::size_t index, Clock::time_point released, MaskedFrame masked) {
-    RealtimeProcessedFrame f;
-    f.index = index;
-    f.report = pipeline_.trackFrame(std::move(masked));
-    f.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - released).count();
-    std::lock_guard<std::mutex> lock(result_mutex);
-    result.processed.push_back(std::move(f));
   };
 
   std::thread loader_thread(loader);
-  std::thread producer_thread(producer);
-  std::thread mask_thread;
-  std::exception_ptr error;
-  try {
-    if (options_.pipelined) {
-      mask_thread = std::thread(mask_worker);
-      while (std::optional<Masked> m = mask_to_tracking.pop()) track(m->index, m->released, std::move(m->masked));
-    } else {
-      while (std::optional<Released> r = camera_to_mask.pop()) {
-        track(r->index, r->released, pipeline_.maskFrame(r->input.frame, r->input.external_mask));
-      }
-    }
-  } catch (...) {
-    error = std::current_exception();
-  }
-  if (error) {
-    // Let the other threads run out: nothing more is read, released or taken.
-    aborted = true;
-    prefetched.close();
-    camera_to_mask.close();
-    mask_to_tracking.close();
-  }
-  producer_thread.join();
+  std::thread camera_thread(camera);
+  std::thread mask_thread(mask_worker);
+  camera_thread.join();
   loader_thread.join();
-  if (mask_thread.joinable()) mask_thread.join();
-  if (error) std::rethrow_exception(error);
-  if (mask_error) std::rethrow_exception(mask_error);
+  mask_thread.join();
+  live.finish();  // every released frame not dropped reaches the sink
 
   std::lock_guard<std::mutex> lock(result_mutex);
+  if (error) std::rethrow_exception(error);
   if (first_release) result.wall_s = std::chrono::duration<double>(Clock::now() - *first_release).count();
   result.stopped = stopped();
+  result.live = live.counters();
   return result;
 }
 
