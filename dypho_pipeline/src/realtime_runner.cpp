@@ -70,6 +70,160 @@ FrameReport maskReportOf(const Live::Ready& ready) {
   return report;
 }
 
+/// One run: the threads (loader, camera, mask; the live tracker's two) and what they record.
+class RealtimeRun {
+ public:
+  RealtimeRun(SlamPipeline& pipeline, const RealtimeOptions& options, const std::atomic<bool>* stop)
+      : pipeline_(pipeline),
+        options_(options),
+        stop_(stop),
+        expect_masks_(pipeline.options().mask_source != MaskSource::kNone),
+        prefetched_(static_cast<std::size_t>(options.prefetch_frames)),
+        camera_to_mask_(static_cast<std::size_t>(options.queue_capacity_frames)),
+        live_(pipeline.tracking(), pipeline.options().mask_pairing, expect_masks_, liveCallbacks()) {}
+
+  RealtimeResult run(std::size_t num_frames, const RealtimeFrameLoader& load) {
+    std::thread loader_thread([&] { readAhead(num_frames, load); });
+    std::thread camera_thread([&] { releaseAtStamps(); });
+    std::thread mask_thread([&] { maskFrames(); });
+    camera_thread.join();
+    loader_thread.join();
+    mask_thread.join();
+    live_.finish();  // every released frame not dropped reaches the sink
+
+    std::lock_guard<std::mutex> lock(result_mutex_);
+    if (error_) std::rethrow_exception(error_);
+    if (first_release_) result_.wall_s = std::chrono::duration<double>(Clock::now() - *first_release_).count();
+    result_.stopped = stopped();
+    result_.live = live_.counters();
+    return std::move(result_);
+  }
+
+ private:
+  bool stopped() const { return aborted_.load() || (stop_ != nullptr && stop_->load()); }
+
+  /// A stage threw: release nothing more; run() rethrows the first error.
+  void fail(std::exception_ptr e) {
+    {
+      std::lock_guard<std::mutex> lock(result_mutex_);
+      if (!error_) error_ = std::move(e);
+    }
+    aborted_ = true;
+    prefetched_.close();
+  }
+
+  /// Tracking: the tracking nodelet's live code; after each frame the pipeline hands its pose on.
+  Live::Callbacks liveCallbacks() {
+    Live::Callbacks callbacks;
+    callbacks.convert = toLiveFrame;
+    callbacks.sink = [this](Live::Tracked& t) { onTracked(t); };
+    callbacks.failure = [this](const tracking::LiveFailure& f) { fail(f.error); };
+    return callbacks;
+  }
+
+  void onTracked(Live::Tracked& t) {
+    RealtimeProcessedFrame f;
+    f.index = t.ready.frame.index;
+    f.mask_source = t.ready.source;
+    f.mask_wait_ms = t.live.mask_wait_ms;
+    f.report = pipeline_.handOnTracked(std::move(t.output), maskReportOf(t.ready));
+    f.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t.ready.frame.released).count();
+    std::lock_guard<std::mutex> lock(result_mutex_);
+    result_.processed.push_back(std::move(f));
+  }
+
+  /// Loader: reads frames ahead of their release (at most prefetch_frames waiting), so that a
+  /// slow read delays no release while the reads keep ahead.
+  void readAhead(std::size_t num_frames, const RealtimeFrameLoader& load) {
+    for (std::size_t i = 0; i < num_frames && !stopped(); ++i) {
+      std::optional<RealtimeInput> input;
+      try {
+        input = load(i);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(result_mutex_);
+        result_.unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
+        continue;
+      }
+      if (!prefetched_.pushWhenRoom({i, std::move(*input)})) break;  // closed: the release stopped
+    }
+    prefetched_.close();
+  }
+
+  /// Camera: releases each frame at its due time; never waits for the mask or tracking.
+  void releaseAtStamps() {
+    std::optional<Timestamp> first_stamp;
+    while (!stopped()) {
+      std::optional<Loaded> next = prefetched_.pop();
+      if (!next) break;
+      Clock::time_point now = Clock::now();
+      if (!first_stamp) {
+        first_stamp = next->input.frame.stamp_ns;
+        first_release_ = now;
+      } else {
+        const double offset_s = timestampToSeconds(next->input.frame.stamp_ns - *first_stamp) / options_.speed;
+        now = waitUntil(*first_release_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(offset_s)));
+        if (stopped()) break;
+      }
+      release(std::move(*next), now);
+    }
+    prefetched_.close();  // lets the loader end
+    camera_to_mask_.close();
+  }
+
+  /// Sleeps until `due` or a stop; returns the time it woke. A frame already late is counted.
+  Clock::time_point waitUntil(Clock::time_point due) {
+    Clock::time_point now = Clock::now();
+    if (now > due + kLateTolerance) {
+      std::lock_guard<std::mutex> lock(result_mutex_);
+      ++result_.late_releases;
+    }
+    while (now < due && !stopped()) {
+      std::this_thread::sleep_for(std::min<Clock::duration>(due - now, std::chrono::milliseconds(kStopPollMs)));
+      now = Clock::now();
+    }
+    return now;
+  }
+
+  /// The frame goes to tracking and to the mask stage, as the camera's topics go to both nodelets.
+  void release(Loaded next, Clock::time_point now) {
+    const Timestamp stamp_ns = next.input.frame.stamp_ns;
+    std::optional<LiveInput> dropped = live_.addFrame(stamp_ns, LiveInput{next.index, now, next.input.frame});
+    std::optional<ToMask> skipped;
+    if (expect_masks_) skipped = camera_to_mask_.push({next.index, std::move(next.input)});
+    std::lock_guard<std::mutex> lock(result_mutex_);
+    ++result_.frames_in;
+    if (dropped) result_.dropped_before_tracking.push_back(dropped->index);
+    if (skipped) result_.masks_skipped.push_back(skipped->index);
+  }
+
+  /// Mask stage (the mask nodelet): masks the oldest waiting frame; tracking gets each mask as it
+  /// is done. A frame the stage rejects for its stamp gets no mask (tracking rejects it too).
+  void maskFrames() {
+    while (std::optional<ToMask> m = camera_to_mask_.pop()) {
+      if (aborted_) continue;  // drain: the run ends
+      try {
+        auto masked = std::make_shared<MaskedFrame>(pipeline_.maskFrame(m->input.frame, m->input.external_mask));
+        if (!masked->report.dropped) live_.addMask(masked->frame.stamp_ns, std::move(masked));
+      } catch (...) {
+        fail(std::current_exception());
+      }
+    }
+  }
+
+  SlamPipeline& pipeline_;
+  const RealtimeOptions options_;
+  const std::atomic<bool>* stop_;
+  const bool expect_masks_;
+  std::atomic<bool> aborted_{false};
+  std::mutex result_mutex_;  ///< the camera, the mask and the tracking threads record
+  RealtimeResult result_;
+  std::exception_ptr error_;  ///< the first error of a stage (under result_mutex_)
+  std::optional<Clock::time_point> first_release_;  ///< written by the camera, read after it ended
+  BoundedHandOver<Loaded> prefetched_;
+  BoundedHandOver<ToMask> camera_to_mask_;
+  Live live_;  ///< last: its threads use the members above, and its destructor stops them first
+};
+
 }  // namespace
 
 void RealtimeOptions::validate() const {
@@ -130,124 +284,8 @@ RealtimeRunner::RealtimeRunner(SlamPipeline& pipeline, const RealtimeOptions& op
 
 RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLoader& load,
                                    const std::atomic<bool>* stop) {
-  RealtimeResult result;
-  std::mutex result_mutex;  // the camera, the mask and the tracking threads record
-  std::atomic<bool> aborted{false};  // a stage threw: release nothing more
-  std::exception_ptr error;          // the first one (under result_mutex)
-  auto fail = [&](std::exception_ptr e) {
-    std::lock_guard<std::mutex> lock(result_mutex);
-    if (!error) error = std::move(e);
-    aborted = true;
-  };
-  auto stopped = [&] { return aborted.load() || (stop != nullptr && stop->load()); };
-  const bool expect_masks = pipeline_.options().mask_source != MaskSource::kNone;
-
-  // Tracking: the tracking nodelet's live code; after each frame the pipeline hands its pose on.
-  Live::Callbacks callbacks;
-  callbacks.convert = toLiveFrame;
-  callbacks.sink = [&](Live::Tracked& t) {
-    RealtimeProcessedFrame f;
-    f.index = t.ready.frame.index;
-    f.mask_source = t.ready.source;
-    f.mask_wait_ms = t.live.mask_wait_ms;
-    f.report = pipeline_.handOnTracked(std::move(t.output), maskReportOf(t.ready));
-    f.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t.ready.frame.released).count();
-    std::lock_guard<std::mutex> lock(result_mutex);
-    result.processed.push_back(std::move(f));
-  };
-  callbacks.failure = [&](const tracking::LiveFailure& f) { fail(f.error); };
-  Live live(pipeline_.tracking(), pipeline_.options().mask_pairing, expect_masks, std::move(callbacks));
-
-  // Loader: reads frames ahead of their release (at most prefetch_frames waiting), so that a slow
-  // read delays no release while the reads keep ahead.
-  BoundedHandOver<Loaded> prefetched(static_cast<std::size_t>(options_.prefetch_frames));
-  auto loader = [&] {
-    for (std::size_t i = 0; i < num_frames && !stopped(); ++i) {
-      std::optional<RealtimeInput> input;
-      try {
-        input = load(i);
-      } catch (const std::exception& e) {
-        std::lock_guard<std::mutex> lock(result_mutex);
-        result.unreadable.push_back("frame " + std::to_string(i) + ": " + e.what());
-        continue;
-      }
-      if (!prefetched.pushWhenRoom({i, std::move(*input)})) break;  // closed: the release stopped
-    }
-    prefetched.close();
-  };
-
-  // Camera: releases each frame at its due time to the mask stage and to tracking; never waits
-  // for either.
-  BoundedHandOver<ToMask> camera_to_mask(static_cast<std::size_t>(options_.queue_capacity_frames));
-  std::optional<Clock::time_point> first_release;
-  auto release = [&](Loaded next, Clock::time_point now) {
-    const Timestamp stamp_ns = next.input.frame.stamp_ns;
-    std::optional<LiveInput> dropped = live.addFrame(stamp_ns, LiveInput{next.index, now, next.input.frame});
-    std::optional<ToMask> skipped;
-    if (expect_masks) skipped = camera_to_mask.push({next.index, std::move(next.input)});
-    std::lock_guard<std::mutex> lock(result_mutex);
-    ++result.frames_in;
-    if (dropped) result.dropped_before_tracking.push_back(dropped->index);
-    if (skipped) result.masks_skipped.push_back(skipped->index);
-  };
-  auto camera = [&] {
-    std::optional<Timestamp> first_stamp;
-    while (!stopped()) {
-      std::optional<Loaded> next = prefetched.pop();
-      if (!next) break;
-      Clock::time_point now = Clock::now();
-      if (!first_stamp) {
-        first_stamp = next->input.frame.stamp_ns;
-        first_release = now;
-      } else {
-        const double offset_s = timestampToSeconds(next->input.frame.stamp_ns - *first_stamp) / options_.speed;
-        const Clock::time_point due =
-            *first_release + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(offset_s));
-        if (now > due + kLateTolerance) {
-          std::lock_guard<std::mutex> lock(result_mutex);
-          ++result.late_releases;
-        }
-        while (now < due && !stopped()) {
-          std::this_thread::sleep_for(std::min<Clock::duration>(due - now, std::chrono::milliseconds(kStopPollMs)));
-          now = Clock::now();
-        }
-        if (stopped()) break;
-      }
-      release(std::move(*next), now);
-    }
-    prefetched.close();  // lets the loader end
-    camera_to_mask.close();
-  };
-
-  // Mask stage (the mask nodelet): masks the oldest waiting frame; tracking gets each mask as it
-  // is done. A frame the stage rejects for its stamp gets no mask (tracking rejects it too).
-  auto mask_worker = [&] {
-    while (std::optional<ToMask> m = camera_to_mask.pop()) {
-      if (aborted) continue;  // drain: the run ends
-      try {
-        auto masked = std::make_shared<MaskedFrame>(pipeline_.maskFrame(m->input.frame, m->input.external_mask));
-        if (!masked->report.dropped) live.addMask(masked->frame.stamp_ns, std::move(masked));
-      } catch (...) {
-        fail(std::current_exception());
-        prefetched.close();
-      }
-    }
-  };
-
-  std::thread loader_thread(loader);
-  std::thread camera_thread(camera);
-  std::thread mask_thread(mask_worker);
-  camera_thread.join();
-  loader_thread.join();
-  mask_thread.join();
-  live.finish();  // every released frame not dropped reaches the sink
-
-  std::lock_guard<std::mutex> lock(result_mutex);
-  if (error) std::rethrow_exception(error);
-  if (first_release) result.wall_s = std::chrono::duration<double>(Clock::now() - *first_release).count();
-  result.stopped = stopped();
-  result.live = live.counters();
-  return result;
+  RealtimeRun run(pipeline_, options_, stop);
+  return run.run(num_frames, load);
 }
 
 }  // namespace dypho::pipeline
