@@ -203,7 +203,8 @@ class RealtimeRun {
       if (aborted_) continue;  // drain: the run ends
       try {
         auto masked = std::make_shared<MaskedFrame>(pipeline_.maskFrame(m->input.frame, m->input.external_mask));
-        if (!masked->report.dropped) live_.addMask(masked->frame.stamp_ns, std::move(masked));
+        const Timestamp stamp_ns = masked->frame.stamp_ns;
+        if (!masked->report.dropped) live_.addMask(stamp_ns, std::move(masked));
       } catch (...) {
         fail(std::current_exception());
       }

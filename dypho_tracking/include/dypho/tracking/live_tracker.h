@@ -294,7 +294,7 @@ class LiveTracker {
       return;
     }
     item.ready = std::move(ready);
-    prepared_.pushWhenRoom(std::move(item));  // false only when stopping
+    prepared_.pushWhenRoom(std::move(item));  // always taken: the hand-over closes after this thread ends
   }
 
   void trackLoop() {
