@@ -62,7 +62,10 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
 FrameReport SlamPipeline::trackFrame(MaskedFrame masked) {
   FrameReport report = std::move(masked.report);
   if (report.dropped) return report;
-  tracking::TrackingOutput out = tracking_.process(masked.frame, masked.mask, masked.judgement);
+  return handOnTracked(tracking_.process(masked.frame, masked.mask, masked.judgement), std::move(report));
+}
+
+FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameReport report) {
   if (out.dropped) {
     report.dropped = true;
     report.message = out.result.message;

@@ -1,6 +1,9 @@
 /// MaskPairer: every frame goes on with its own mask, a carried one or none, within the stated
 /// wait; nothing piles up; the counters add up.
 
+#include <optional>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "dypho/tracking/mask_pairing.h"
@@ -101,9 +104,13 @@ TEST(MaskPairing, FramesLeaveInStampOrder) {
 
 TEST(MaskPairing, NothingPilesUpBeyondTheBound) {
   Pairer p(options(1.0, 3));
-  for (int i = 0; i < 10; ++i) p.addFrame(stampOf(i), i, 0.0);
+  std::vector<int> dropped;
+  for (int i = 0; i < 10; ++i) {
+    if (const std::optional<int> d = p.addFrame(stampOf(i), i, 0.0)) dropped.push_back(*d);
+  }
   EXPECT_EQ(p.pending(), 3u);
   EXPECT_EQ(p.stats().dropped, 7u);
+  EXPECT_EQ(dropped, (std::vector<int>{0, 1, 2, 3, 4, 5, 6})) << "each drop hands back the oldest frame";
   for (int i = 0; i < 10; ++i) p.addMask(stampOf(i), i);
   const auto ready = p.takeReady(0.0);
   ASSERT_EQ(ready.size(), 3u);

@@ -5,7 +5,7 @@
 ///
 ///   dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML] [--config YAML]
 ///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--no-map] [--quiet]
-///                     [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]
+///                     [--realtime [--realtime-speed S] [--realtime-queue N]]
 ///   dypho_run_dataset --print-config
 ///
 /// This command line is stable: scripts depend on it.
@@ -63,7 +63,7 @@ struct Args {
   bool print_config = false;
   bool save_masks = false;
   bool realtime = false;                ///< --realtime: frames at their stamps, live policy
-  pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue, --realtime-one-thread
+  pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue
   bool realtime_option_given = false;   ///< one of those was given (needs --realtime)
 };
 
@@ -71,7 +71,7 @@ void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
         "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
         "                         [--no-eval] [--no-map] [--quiet]\n"
-        "                         [--realtime [--realtime-speed S] [--realtime-queue N] [--realtime-one-thread]]\n"
+        "                         [--realtime [--realtime-speed S] [--realtime-queue N]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
         "              /camera/rgb/image_color, /camera/depth/image, /camera/rgb/camera_info\n"
@@ -90,12 +90,14 @@ void usage(std::ostream& os) {
         "              255 = dynamic) and OUT/mask.txt (the dypho_synth layout: --mask gt reads it back)\n"
         "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
         "              live policy runs: live mapping, the network asynchronous (yolo_async forced on),\n"
-        "              mask and tracking on two threads; a frame not taken in time is dropped and\n"
-        "              counted (no pose). Adds realtime.csv. Not repeatable. Default: deterministic,\n"
+        "              mask and tracking on their own threads as in the graph (the tracking nodelet's\n"
+        "              live code: a frame waits for its mask at most 0.1 s, then takes the nearest one);\n"
+        "              a frame not taken in time is dropped and counted (no pose). Adds realtime.csv.\n"
+        "              Not repeatable. Default: deterministic,\n"
         "              every frame processed as fast as possible.\n"
         "  --realtime-speed S     playback speed factor, > 0 (default 1.0)\n"
-        "  --realtime-queue N     frames waiting per hand-over before the oldest is dropped, >= 1 (default 2)\n"
-        "  --realtime-one-thread  mask and tracking one after the other on one thread (default: pipelined)\n";
+        "  --realtime-queue N     frames waiting for the mask before the oldest is skipped (it is tracked\n"
+        "                         with the nearest mask), >= 1 (default 2)\n";
 }
 
 /// A whole-string number for option `key`; a clear error otherwise.
@@ -145,7 +147,6 @@ Args parseArgs(int argc, char** argv) {
       a.realtime_options.queue_capacity_frames = static_cast<int>(frames);
       a.realtime_option_given = true;
     }
-    else if (k == "--realtime-one-thread") { a.realtime_options.pipelined = false; a.realtime_option_given = true; }
     else if (k == "-h" || k == "--help") { usage(std::cout); std::exit(0); }
     else throw std::runtime_error("unknown argument '" + k + "'");
   }
@@ -154,7 +155,7 @@ Args parseArgs(int argc, char** argv) {
   }
   if (a.save_masks && a.realtime) throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
   if (a.realtime_option_given && !a.realtime) {
-    throw std::runtime_error("--realtime-speed, --realtime-queue and --realtime-one-thread need --realtime");
+    throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
   }
   try {
     a.realtime_options.validate();
@@ -252,13 +253,11 @@ void writeRealtimeCsv(const std::string& path, const RealtimeResult& r, std::siz
     fate[f.index] = f.report.dropped ? "rejected_stamp" : "posed";
     if (!f.report.dropped) latency_ms[f.index] = f.latency_ms;
   }
-  for (std::size_t i : r.dropped_before_mask) fate[i] = "dropped_before_mask";
   for (std::size_t i : r.dropped_before_tracking) fate[i] = "dropped_before_tracking";
   if (r.stopped) {
     // Frames after a stop were never released.
     std::vector<bool> released(num_frames, false);
     for (const RealtimeProcessedFrame& f : r.processed) released[f.index] = true;
-    for (std::size_t i : r.dropped_before_mask) released[i] = true;
     for (std::size_t i : r.dropped_before_tracking) released[i] = true;
     for (std::size_t i = 0; i < num_frames; ++i) {
       if (!released[i] && fate[i] == "unreadable") fate[i] = "not_released";
@@ -276,12 +275,13 @@ std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, con
   os << std::fixed << "realtime:     " << r.frames_in << " frames in, " << r.processed.size() << " processed ("
      << r.framesPosed() << " posed, " << std::setprecision(3)
      << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
-     << " of the sequence), " << r.framesDropped() << " dropped, no pose (" << r.dropped_before_mask.size()
-     << " before the mask, " << r.dropped_before_tracking.size() << " before tracking), " << r.late_releases
+     << " of the sequence), " << r.framesDropped() << " dropped, no pose; "
+     << r.framesWithMask(tracking::MaskSource::kCarried) << " with a carried mask, "
+     << r.masks_skipped.size() << " skipped by the mask; " << r.late_releases
      << " released late (reading fell behind)\n"
      << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
      << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
-     << ", hand-overs of " << o.queue_capacity_frames << ", " << (o.pipelined ? "pipelined" : "one thread")
+     << ", mask queue " << o.queue_capacity_frames
      << ", " << std::setprecision(1) << r.wall_s << " s wall; per frame: realtime.csv";
   return os.str();
 }
@@ -358,8 +358,8 @@ void tallyPosedFrame(RunTally& tally, std::size_t index, double stamp_s, double 
 void runRealtimeFrames(const Args& args, const FrameSource& source, SlamPipeline& pipeline, RunTally& tally) {
   const std::size_t n = tally.num_frames;
   std::cerr << "dypho_run_dataset: realtime: frames released at their stamps x" << args.realtime_options.speed
-            << ", hand-overs of " << args.realtime_options.queue_capacity_frames << " frames (oldest dropped), "
-            << (args.realtime_options.pipelined ? "mask and tracking pipelined on two threads" : "mask and tracking on one thread")
+            << ", mask queue of " << args.realtime_options.queue_capacity_frames << " frames (oldest skipped), "
+            << "mask and tracking on their own threads (the tracking nodelet's live code)"
             << ", live mapping\n";
   std::vector<double> load_ms(n, 0.0);  // written by the producer thread, read after run()
   const RealtimeFrameLoader load = [&](std::size_t i) {

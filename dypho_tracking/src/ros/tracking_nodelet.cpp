@@ -4,18 +4,14 @@
 /// keyframe correction batches, timing and /diagnostics out. All the tracking and its policy are
 /// in dypho::tracking::TrackingStage (the same stage the in-process pipeline runs).
 ///
-/// Threads: the callbacks only store message pointers; a preparing thread pairs each frame with its
-/// mask (MaskPairer: a bounded wait, then a carried mask or none, said in the status), converts it
-/// once and extracts its features (FeaturePreparer); the tracking thread tracks it meanwhile the
-/// next one is prepared (one prepared frame waits at most). Frames beyond ~mask_max_pending_frames
-/// are dropped and counted.
+/// Threads: the live tracking itself, pairing each frame with its mask, preparing features and
+/// tracking on threads of their own, dropping and counting, is dypho::tracking::LiveTracker (the
+/// same code dypho_run_dataset --realtime runs); the callbacks only hand it message pointers, and
+/// its sink publishes here.
 
-#include <chrono>
-#include <condition_variable>
 #include <filesystem>
 #include <memory>
 #include <mutex>
-#include <thread>
 
 #include <dypho_slam/Keyframe.h>
 #include <dypho_slam/KeyframeCorrections.h>
@@ -25,7 +21,6 @@
 #include <dypho_slam/TrackingStatus.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseStamped.h>
-#include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
@@ -35,13 +30,10 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include "dypho/common/bounded_hand_over.h"
 #include "dypho/common/frame_allocator.h"
 #include "dypho/common/output_path.h"
 #include "dypho/common/rolling_stats.h"
-#include "dypho/common/thread_budget.h"
-#include "dypho/tracking/feature_preparer.h"
-#include "dypho/tracking/mask_pairing.h"
+#include "dypho/tracking/live_tracker.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
@@ -49,6 +41,7 @@
 #include "dypho_ros/path_publisher.h"
 #include "dypho_ros/sync_watchdog.h"
 #include "dypho_ros/throttled_log.h"
+#include "tracking_conversions.h"
 
 namespace dypho::tracking_ros {
 
@@ -75,22 +68,6 @@ struct TrackingRosParams {
   tracking::MaskPairingOptions mask_pairing;  ///< ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s
 };
 
-std::uint8_t toStatusMaskSource(tracking::MaskSource source) {
-  switch (source) {
-    case tracking::MaskSource::kMatched: return dypho_slam::TrackingStatus::MASK_MATCHED;
-    case tracking::MaskSource::kCarried: return dypho_slam::TrackingStatus::MASK_CARRIED;
-    default: return dypho_slam::TrackingStatus::MASK_NONE;
-  }
-}
-
-std::uint8_t toStatusState(tracking::TrackingState state) {
-  switch (state) {
-    case tracking::TrackingState::kOk: return dypho_slam::TrackingStatus::OK;
-    case tracking::TrackingState::kLost: return dypho_slam::TrackingStatus::LOST;
-    default: return dypho_slam::TrackingStatus::NOT_INITIALIZED;
-  }
-}
-
 class TrackingNodelet : public nodelet::Nodelet {
   using Policy3 = message_filters::sync_policies::ApproximateTime<Image, Image, CameraInfo>;
 
@@ -99,7 +76,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     sensor_msgs::ImageConstPtr rgb, depth;
     sensor_msgs::CameraInfoConstPtr info;
   };
-  using Pairer = tracking::MaskPairer<FrameMsgs, sensor_msgs::ImageConstPtr>;
+  using Live = tracking::LiveTracker<FrameMsgs, sensor_msgs::ImageConstPtr>;
 
  public:
   /// A bad parameter must not take the manager down, nor vanish: it is logged as FATAL
@@ -149,8 +126,6 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 2. Core.
     stage_ = std::make_unique<tracking::TrackingStage>(options);
-    preparer_ = std::make_unique<tracking::FeaturePreparer>(options);
-    pairer_ = std::make_unique<Pairer>(params_.mask_pairing, params_.use_mask);
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
@@ -170,9 +145,14 @@ class TrackingNodelet : public nodelet::Nodelet {
     diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
                                             [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
 
-    // 4. Worker, then inputs.
-    worker_ = std::thread([this] { workerLoop(); });
-    tracker_ = std::thread([this] { trackLoop(); });
+    // 4. The live tracker's threads, then inputs.
+    Live::Callbacks callbacks;
+    callbacks.convert = &TrackingNodelet::toLiveFrame;
+    callbacks.sink = [this](Live::Tracked& tracked) { onTracked(tracked); };
+    callbacks.failure = [this](const tracking::LiveFailure& failure) {
+      if (input_log_.pass(failure.message)) NODELET_ERROR_STREAM(failure.message);
+    };
+    live_ = std::make_unique<Live>(*stage_, params_.mask_pairing, params_.use_mask, std::move(callbacks));
     it_ = std::make_unique<image_transport::ImageTransport>(nh);
     const int q = params_.queue_size;
     rgb_sub_.subscribe(*it_, "rgb/image", q);
@@ -190,14 +170,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   ~TrackingNodelet() override {
     if (path_) path_->stopPublishing();
     diagnostics_timer_.stop();
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      stop_ = true;
-    }
-    queue_cv_.notify_all();
-    prepared_.close();
-    if (worker_.joinable()) worker_.join();
-    if (tracker_.joinable()) tracker_.join();
+    if (live_) live_->stop();  // joins its threads: the frames already prepared are still published
     if (params_.output_dir.empty() || !stage_) return;  // empty only when start() failed before it
     if (stage_->numFrames() == 0) {  // never replace the last run's trajectory with nothing
       NODELET_INFO_STREAM("no frame tracked: nothing written to " << params_.output_dir);
@@ -211,160 +184,50 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
  private:
-  // --- callbacks: store pointers, wake the worker -------------------------------------------
+  // --- callbacks: hand the pointers to the live tracker ----------------------------------------
   void frameCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                      const sensor_msgs::CameraInfoConstPtr& info) {
     watchdog_->tick();
-    const double now = steadyClockSeconds();
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      pairer_->addFrame(rc::toTimestamp(rgb->header.stamp), FrameMsgs{rgb, depth, info}, now);
-      input_rate_.add(now);
-    }
-    queue_cv_.notify_one();
+    live_->addFrame(rc::toTimestamp(rgb->header.stamp), FrameMsgs{rgb, depth, info});
   }
 
   void maskCallback(const sensor_msgs::ImageConstPtr& mask) {
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      pairer_->addMask(rc::toTimestamp(mask->header.stamp), mask);
-    }
-    queue_cv_.notify_one();
+    live_->addMask(rc::toTimestamp(mask->header.stamp), mask);
   }
 
-  // --- worker ---------------------------------------------------------------------------------
-  void workerLoop() {
-    nameCurrentThread("dypho_features");
-    std::unique_lock<std::mutex> lock(queue_mutex_);
-    while (!stop_) {
-      std::vector<Pairer::Ready> ready = pairer_->takeReady(steadyClockSeconds());
-      if (ready.empty()) {
-        const std::optional<double> wait_s = pairer_->secondsUntilDeadline(steadyClockSeconds());
-        if (wait_s) {
-          queue_cv_.wait_for(lock, std::chrono::duration<double>(*wait_s + 1e-4));
-        } else {
-          queue_cv_.wait(lock);
-        }
-        continue;
-      }
-      lock.unlock();
-      for (Pairer::Ready& r : ready) prepareFrame(std::move(r));
-      lock.lock();
-    }
+  /// The live tracker's conversion (its preparing thread): throws rc::ConversionError on bad input.
+  static tracking::LiveFrame toLiveFrame(const Live::Ready& ready) {
+    tracking::LiveFrame out;
+    out.frame = rc::toRgbdFrame(*ready.frame.rgb, *ready.frame.depth, *ready.frame.info);
+    if (ready.mask) out.mask = rc::toMask(*ready.mask);
+    return out;
   }
 
-  /// A paired frame, converted, with its features: what the tracking thread takes.
-  struct PreparedFrame {
-    Pairer::Ready ready;
-    RgbdFrame frame;
-    cv::Mat mask;
-    tracking::PreparedFeatures features;
-  };
-
-  void prepareFrame(Pairer::Ready ready) {
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      ++frames_processed_;  // taken from the pairer (a frame it cannot convert is reported, not dropped silently)
-    }
-    PreparedFrame item;
-    try {
-      const FrameMsgs& msgs = ready.frame;
-      item.frame = rc::toRgbdFrame(*msgs.rgb, *msgs.depth, *msgs.info);
-      if (ready.mask) item.mask = rc::toMask(*ready.mask);
-      if (!item.mask.empty() && item.mask.size() != item.frame.bgr.size()) {
-        throw rc::ConversionError("mask is " + std::to_string(item.mask.cols) + "x" + std::to_string(item.mask.rows) +
-                                  " but the image is " + std::to_string(item.frame.bgr.cols) + "x" +
-                                  std::to_string(item.frame.bgr.rows));
-      }
-      item.features = preparer_->prepare(item.frame, item.mask);
-    } catch (const std::exception& e) {
-      const std::string message = std::string("dropping frame: ") + e.what();
-      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
-      return;
-    }
-    item.ready = std::move(ready);
-    prepared_.pushWhenRoom(std::move(item));  // false only at shutdown
-  }
-
-  void trackLoop() {
-    nameCurrentThread("dypho_tracking");
-    while (std::optional<PreparedFrame> item = prepared_.pop()) trackFrame(*item);
-  }
-
-  void trackFrame(const PreparedFrame& item) {
-    const Pairer::Ready& ready = item.ready;
-    const FrameMsgs& msgs = ready.frame;
-    tracking::TrackingOutput out;
-    const double t0 = steadyClockSeconds();
-    // Frames queued behind this one: waiting for their mask or for the feature thread, or prepared.
-    int frames_waiting = static_cast<int>(prepared_.size());
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      frames_waiting += static_cast<int>(pairer_->pending());
-    }
-    try {
-      std::lock_guard<std::mutex> lock(stage_mutex_);
-      // Only the frame's own mask judged it; a carried one (or none) leaves the safe start on.
-      const tracking::MaskJudgement judgement = !params_.use_mask ? tracking::MaskJudgement::kUnknown
-                                                : ready.source == tracking::MaskSource::kMatched
-                                                    ? tracking::MaskJudgement::kJudged
-                                                    : tracking::MaskJudgement::kUnjudged;
-      out = stage_->process(item.frame, item.mask, judgement, &item.features, frames_waiting);
-    } catch (const std::exception& e) {  // never let a core error reach the manager's thread
-      const std::string message = std::string("tracking failed on this frame, dropped: ") + e.what();
-      if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
-      return;
-    }
-    // The frame's work: its features (prepared on the other thread) and the tracker.
-    const double tracking_ms = (steadyClockSeconds() - t0) * 1e3 + item.features.ms;
+  // --- the live tracker's sink (its tracking thread): publish ---------------------------------
+  void onTracked(const Live::Tracked& tracked) {
+    const tracking::TrackingOutput& out = tracked.output;
     if (out.dropped) {  // repeated or late stamp: nothing to publish for it
       if (input_log_.pass(out.result.message)) NODELET_WARN_STREAM(out.result.message);
       return;
     }
-    if (ready.source != tracking::MaskSource::kMatched && params_.use_mask) {
+    const tracking::MaskSource source = tracked.ready.source;
+    if (source != tracking::MaskSource::kMatched && params_.use_mask) {
       const std::string message = std::string("a frame's mask did not come within mask_max_wait_s (") +
                                   std::to_string(params_.mask_pairing.max_wait_s) + " s): tracked with " +
-                                  (ready.source == tracking::MaskSource::kCarried ? "the nearest mask in time"
-                                                                                  : "no mask") +
+                                  (source == tracking::MaskSource::kCarried ? "the nearest mask in time" : "no mask") +
                                   " (counted in tracking_status; the mask nodelet is slower than the camera)";
       if (mask_log_.pass(message)) NODELET_WARN_STREAM(message);
     }
-    LiveFigures live;
-    live.caught_up = out.result.caught_up;
-    live.source = ready.source;
-    live.mask_wait_ms = ready.waited_s * 1e3;
-    live.tracking_ms = tracking_ms;
-    publish(out, msgs.rgb->header, live);
+    publish(out, tracked.ready.frame.rgb->header, source, tracked.live);
   }
 
-  /// What the status says about this frame's path through the nodelet.
-  struct LiveFigures {
-    tracking::MaskSource source = tracking::MaskSource::kNone;
-    double mask_wait_ms = 0.0;
-    double tracking_ms = 0.0;
-    bool caught_up = false;  ///< tracked in catch-up mode (frames waited behind it)
-  };
-
-  void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header, const LiveFigures& live) {
+  void publish(const tracking::TrackingOutput& out, const std_msgs::Header& header, tracking::MaskSource source,
+               const tracking::LiveFrameFigures& live) {
     const tracking::TrackingResult& result = out.result;
     const std::string camera_frame = params_.camera_frame.empty() ? header.frame_id : params_.camera_frame;
     if (out.restarted) NODELET_WARN_STREAM("time jumped backwards (bag restarted?): tracking and path restart");
-    auto status = boost::make_shared<dypho_slam::TrackingStatus>();
-    status->header = header;
-    status->header.frame_id = camera_frame;
-    status->state = toStatusState(result.state);
-    status->is_keyframe = result.is_keyframe;
-    status->num_features = result.num_features;
-    status->num_inliers = result.num_inliers;
-    status->masked_fraction = static_cast<float>(result.masked_fraction);
-    status->message = result.message;
-    status->T_world_camera = rc::toPoseMsg(out.pose.T_world_camera);
-    status->trusted = out.pose.trusted;
-    status->anchored = out.pose.anchored;
-    status->discontinuous = out.pose.discontinuous;
-    status->restarted = out.restarted;
-    status->T_correction = rc::toPoseMsg(out.pose.T_correction);
-    fillLiveFigures(*status, live);
+    auto status = boost::make_shared<dypho_slam::TrackingStatus>(toStatusMsg(out, header, camera_frame, source, live));
+    fillLiveFigures(*status);
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {
       const std::string message = std::string("tracking ") + tracking::toString(result.state) + ": " + result.message;
@@ -372,7 +235,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     } else if (result.relocalized || result.loop_closed) {
       NODELET_INFO_STREAM("tracking: " << result.message);
     }
-    publishTiming(result, header);
+    timing_pub_.publish(toTimingMsg(result, header));
     if (!result.moving_points_camera_m.empty()) {  // the mask grows them into its next masks
       std_msgs::Header points_header = header;
       points_header.frame_id = camera_frame;
@@ -387,40 +250,29 @@ class TrackingNodelet : public nodelet::Nodelet {
     pose->pose = rc::toPoseMsg(result.T_world_camera);
     pose_pub_.publish(pose);
     updatePath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
-    if (params_.publish_tf) publishTf(result, header.stamp, camera_frame);
+    if (params_.publish_tf) {
+      const auto tfs = toTfMsgs(result, header.stamp, params_.map_frame, params_.odom_frame, camera_frame);
+      if (!tfs.empty()) tf_broadcaster_->sendTransform(tfs);
+    }
     if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
   }
 
-  /// The live figures of this frame and of the last frames, into the status and the diagnostics.
-  void fillLiveFigures(dypho_slam::TrackingStatus& status, const LiveFigures& live) {
+  /// The live tracker's counters, the latency of this frame and of the last frames, into the
+  /// status and the diagnostics.
+  void fillLiveFigures(dypho_slam::TrackingStatus& status) {
     const double latency_ms = (ros::Time::now() - status.header.stamp).toSec() * 1e3;
-    std::lock_guard<std::mutex> lock(queue_mutex_);
+    fillLiveCounters(status, live_->counters(), live_->statistics());
+    std::lock_guard<std::mutex> lock(figures_mutex_);
     latency_ms_.add(latency_ms);
-    tracking_ms_.add(live.tracking_ms);
-    const tracking::MaskPairingStats& pairing = pairer_->stats();
-    status.mask_source = toStatusMaskSource(live.source);
-    status.mask_wait_ms = static_cast<float>(live.mask_wait_ms);
-    status.tracking_ms = static_cast<float>(live.tracking_ms);
     status.latency_ms = static_cast<float>(latency_ms);
     status.latency_p50_ms = static_cast<float>(latency_ms_.percentile(0.5));
     status.latency_p95_ms = static_cast<float>(latency_ms_.percentile(0.95));
-    status.tracking_p50_ms = static_cast<float>(tracking_ms_.percentile(0.5));
-    status.tracking_p95_ms = static_cast<float>(tracking_ms_.percentile(0.95));
-    status.input_rate_hz = static_cast<float>(input_rate_.rateHz(steadyClockSeconds()));
-    status.frames_in = pairing.frames_in;
-    status.frames_processed = frames_processed_;
-    status.frames_dropped = pairing.dropped;
-    status.frames_mask_carried = pairing.carried;
-    status.frames_without_mask = params_.use_mask ? pairing.without_mask : 0;
-    if (live.caught_up) ++frames_caught_up_;
-    status.caught_up = live.caught_up;
-    status.frames_caught_up = frames_caught_up_;
     last_status_ = status;
   }
 
   /// /diagnostics: the same figures, with a level a user can act on.
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
+    std::lock_guard<std::mutex> lock(figures_mutex_);
     const dypho_slam::TrackingStatus& s = last_status_;
     const std::uint64_t dropped_now = s.frames_dropped - dropped_at_last_diagnosis_;
     dropped_at_last_diagnosis_ = s.frames_dropped;
@@ -458,11 +310,7 @@ class TrackingNodelet : public nodelet::Nodelet {
       path_->append(pose);
       return;
     }
-    std::vector<std::pair<Timestamp, Eigen::Isometry3d>> redrawn;
-    {
-      std::lock_guard<std::mutex> lock(stage_mutex_);
-      redrawn = stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length));
-    }
+    const tracking::PoseList redrawn = stage_->trackedPath(static_cast<std::size_t>(params_.max_path_length));
     std::vector<geometry_msgs::PoseStamped> poses;
     poses.reserve(redrawn.size());
     for (const auto& [stamp_ns, T_world_camera] : redrawn) {
@@ -483,52 +331,9 @@ class TrackingNodelet : public nodelet::Nodelet {
     corrections_pub_.publish(rc::toCorrectionsMsg(corrections, header));
   }
 
-  static geometry_msgs::TransformStamped toTransform(const Eigen::Isometry3d& T, const ros::Time& stamp,
-                                                     const std::string& parent, const std::string& child) {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = stamp;
-    t.header.frame_id = parent;
-    t.child_frame_id = child;
-    const geometry_msgs::Pose p = rc::toPoseMsg(T);
-    t.transform.translation.x = p.position.x;
-    t.transform.translation.y = p.position.y;
-    t.transform.translation.z = p.position.z;
-    t.transform.rotation = p.orientation;
-    return t;
-  }
-
-  /// REP-105: map -> odom is the accumulated loop correction, odom -> camera the odometry.
-  void publishTf(const tracking::TrackingResult& result, const ros::Time& stamp,
-                 const std::string& camera_frame) {
-    const Eigen::Isometry3d T_odom_camera = result.T_world_odom.inverse() * result.T_world_camera;
-    if (!T_odom_camera.matrix().allFinite() || !result.T_world_odom.matrix().allFinite()) return;
-    tf_broadcaster_->sendTransform(
-        {toTransform(result.T_world_odom, stamp, params_.map_frame, params_.odom_frame),
-         toTransform(T_odom_camera, stamp, params_.odom_frame, camera_frame)});
-  }
-
-  void publishTiming(const tracking::TrackingResult& result, const std_msgs::Header& header) {
-    dypho_slam::StageTiming timing;
-    timing.header = header;
-    timing.node = "tracking";
-    timing.stages = {"features", "matching", "pnp", "refine", "local_ba", "loop", "relocalization"};
-    timing.ms = {static_cast<float>(result.times.features), static_cast<float>(result.times.matching),
-                 static_cast<float>(result.times.pnp), static_cast<float>(result.times.refine),
-                 static_cast<float>(result.times.local_ba), static_cast<float>(result.times.loop),
-                 static_cast<float>(result.times.relocalization)};
-    timing.total_ms = static_cast<float>(result.times.total);
-    timing_pub_.publish(timing);
-  }
-
   bool onReset(dypho_slam::Reset::Request&, dypho_slam::Reset::Response& res) {
-    {
-      std::lock_guard<std::mutex> lock(stage_mutex_);
-      stage_->reset();
-    }
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      pairer_->clear();
-    }
+    stage_->reset();
+    live_->clearWaiting();
     path_->clear();
     res.success = true;
     res.message = "tracking reset";
@@ -553,7 +358,6 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::string saveTrajectory(const std::string& dir) {
     // trajectory.txt: tracked frames following the final poses of their keyframes (after local BA
     // and loop closure); trajectory_online.txt: the poses as published; keyframes.txt.
-    std::lock_guard<std::mutex> lock(stage_mutex_);
     const std::vector<std::string> paths = stage_->saveTrajectories(dir);
     NODELET_INFO_STREAM("wrote " << stage_->numFrames() << " poses to " << paths.front()
                                  << " (and trajectory_online.txt, keyframes.txt)");
@@ -561,24 +365,15 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   TrackingRosParams params_;
-  std::mutex stage_mutex_;  ///< guards stage_ (worker, services, shutdown)
-  std::unique_ptr<tracking::TrackingStage> stage_;
+  std::unique_ptr<tracking::TrackingStage> stage_;  ///< thread-safe: the live tracker's thread, services, shutdown
   rc::ThrottledLog input_log_, state_log_, mask_log_;  ///< each kind of problem is named at once, then every 5 s
-
-  std::mutex queue_mutex_;  ///< guards the pairer, the live figures and stop_
-  std::condition_variable queue_cv_;
-  std::unique_ptr<Pairer> pairer_;
-  bool stop_ = false;
-  RollingSamples latency_ms_, tracking_ms_;
-  EventRate input_rate_;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_caught_up_ = 0;  ///< frames tracked in catch-up mode
+  std::mutex figures_mutex_;  ///< guards the latencies and the last status (tracking thread, diagnostics)
+  RollingSamples latency_ms_;
   dypho_slam::TrackingStatus last_status_;
   std::uint64_t dropped_at_last_diagnosis_ = 0;
-  std::thread worker_;   ///< pairs, converts and prepares frames
-  std::thread tracker_;  ///< tracks prepared frames
-  std::unique_ptr<tracking::FeaturePreparer> preparer_;  ///< the worker's
-  BoundedHandOver<PreparedFrame> prepared_{1};           ///< worker -> tracker: one frame waits at most
+  /// Pairs, prepares, tracks and calls onTracked(); stopped in the destructor before anything its
+  /// sink uses goes, destroyed after the subscriptions that feed it.
+  std::unique_ptr<Live> live_;
 
   std::unique_ptr<rc::ThrottledPathPublisher> path_;
 

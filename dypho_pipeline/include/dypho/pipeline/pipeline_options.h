@@ -10,6 +10,7 @@
 #include "dypho/mapping/mapping_stage.h"
 #include "dypho/mask/dynamic_mask_options.h"
 #include "dypho/mask/mask_stage.h"
+#include "dypho/tracking/mask_pairing.h"
 #include "dypho/tracking/tracking_options.h"
 
 namespace dypho::pipeline {
@@ -36,6 +37,10 @@ struct PipelineOptions {
   /// and tracking only: trajectory benchmarks). R_d then has no map to render and the mask runs
   /// without it. Default true.
   bool build_map = true;
+  /// Live runs only (RealtimeRunner): how tracking pairs each frame with its mask, the tracking
+  /// nodelet's ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s with their
+  /// defaults (0.1 s, 30 frames, 0.2 s; mask_pairing.h).
+  tracking::MaskPairingOptions mask_pairing;
 };
 
 /// Loads `<config_dir>/{mask,tracking,mapping}.yaml`, then applies `override_yaml` (a file with

@@ -1,23 +1,28 @@
 #pragma once
 /// \file realtime_runner.h
-/// Runs a recorded sequence through SlamPipeline as a live camera would deliver it, so that the
-/// offline numbers predict the graph's (dypho_run_dataset --realtime).
+/// Runs a recorded sequence through SlamPipeline as a live camera would deliver it, through the
+/// same live code as the ROS graph, so that the offline numbers predict the graph's
+/// (dypho_run_dataset --realtime).
 ///
 ///  - A loader thread reads frames ahead (at most `prefetch_frames`), and a camera thread releases
 ///    frame i at its stamp on the wall clock, counted from the first frame's release:
 ///    due(i) = t_0 + (stamp_i - stamp_0) / speed. The camera never waits for the pipeline; a frame
 ///    not read by its due time is released as soon as it is (counted as late).
-///  - Released frames go into a bounded hand-over (BoundedHandOver, `queue_capacity_frames`);
-///    when the pipeline has not taken them in time the oldest is dropped and counted. Dropped
-///    frames are never processed and have no pose in the trajectory.
-///  - Pipelined (default): the mask stage runs on its own thread and hands masked frames through
-///    a second hand-over of the same capacity to tracking on the calling thread, so frame k is
-///    tracked while frame k+1 is masked (the graph's mask and tracking nodelets). Not pipelined:
-///    one thread masks and tracks each frame in turn.
+///  - Each released frame goes, as the camera's topics go to both nodelets, (a) to the mask
+///    stage's thread through a bounded hand-over (`queue_capacity_frames`; when full the oldest
+///    frame is skipped by the mask, as the mask nodelet's ~max_waiting_frames does), and (b) to a
+///    tracking::LiveTracker, the tracking nodelet's own live code: it pairs each frame with its
+///    mask (waits at most mask_pairing.max_wait_s, then carries the nearest mask or none), drops
+///    the oldest frame beyond mask_pairing.max_pending_frames (counted), prepares features on one
+///    thread and tracks on another. The mask thread gives each mask to the live tracker as it
+///    finishes it. Dropped frames are never tracked and have no pose in the trajectory.
+///  - After tracking, the pipeline hands the pose on (SlamPipeline::handOnTracked: mask and
+///    mapping stages, keyframes and corrections to mapping), on the tracking thread.
 ///  - Latency of a frame: from its release to the end of its tracking (the pose).
 /// The policy of the stages belongs to the caller: build the SlamPipeline with
-/// MappingMode::kLive and the options passed through applyLivePolicy() for the graph's policy.
-/// Not deterministic: which frames are dropped depends on the machine's load.
+/// MappingMode::kLive and the options passed through applyLivePolicy() for the graph's policy;
+/// PipelineOptions::mask_pairing holds the tracking nodelet's pairing parameters.
+/// Not deterministic: which frames are dropped or carried depends on the machine's load.
 
 #include <atomic>
 #include <cstddef>
@@ -30,6 +35,7 @@
 #include "dypho/common/types.h"
 #include "dypho/pipeline/pipeline_options.h"
 #include "dypho/pipeline/slam_pipeline.h"
+#include "dypho/tracking/live_tracker.h"
 
 namespace dypho::pipeline {
 
@@ -38,15 +44,13 @@ struct RealtimeOptions {
   /// Playback speed: the stamps' time passes this many times faster than wall time [factor];
   /// default 1.0 (the camera's rate), > 0 and finite.
   double speed = 1.0;
-  /// Frames each hand-over holds (camera -> mask, mask -> tracking) before the oldest is dropped
-  /// [count]; default 2, >= 1. With 1 the pipeline always takes the newest frame.
+  /// Frames waiting for the mask stage before the oldest is skipped (the mask nodelet's
+  /// ~max_waiting_frames) [count]; default 2, >= 1. A skipped frame is still tracked, with the
+  /// nearest mask in time or none (PipelineOptions::mask_pairing).
   int queue_capacity_frames = 2;
   /// Frames read ahead of their release, so that a slow read does not delay one [count];
   /// default 8, >= 1.
   int prefetch_frames = 8;
-  /// Mask and tracking on two threads, overlapping consecutive frames (the graph's nodelets);
-  /// default true. false: mask then tracking on one thread per frame.
-  bool pipelined = true;
 
   /// Throws std::invalid_argument naming the bad field and its accepted range.
   void validate() const;
@@ -64,25 +68,38 @@ using RealtimeFrameLoader = std::function<RealtimeInput(std::size_t index)>;
 /// A frame that went through the pipeline.
 struct RealtimeProcessedFrame {
   std::size_t index = 0;    ///< position in the sequence
-  FrameReport report;       ///< as SlamPipeline::process() reports it (report.dropped: stamp rejected)
+  /// As SlamPipeline::process() reports it (report.dropped: stamp rejected). The render and
+  /// mask fields are those of the frame's own mask; zero when it was tracked with a carried
+  /// mask or none.
+  FrameReport report;
   double latency_ms = 0.0;  ///< release to pose (end of tracking) [ms]
+  tracking::MaskSource mask_source = tracking::MaskSource::kNone;  ///< the mask it was tracked with
+  double mask_wait_ms = 0.0;  ///< its wait for that mask [ms]
 };
 
 /// Outcome of RealtimeRunner::run().
 struct RealtimeResult {
-  std::size_t frames_in = 0;  ///< frames released by the producer
-  /// In the order tracking finished them. Invariant: frames_in == processed.size() + framesDropped().
+  std::size_t frames_in = 0;  ///< frames released by the camera
+  /// In the order tracking finished them (stamp order).
+  /// Invariant: frames_in == processed.size() + framesDropped().
   std::vector<RealtimeProcessedFrame> processed;
-  std::vector<std::size_t> dropped_before_mask;      ///< indices dropped at the camera -> mask hand-over
-  std::vector<std::size_t> dropped_before_tracking;  ///< indices dropped at the mask -> tracking hand-over
+  /// Indices dropped while waiting for their mask or for tracking (beyond
+  /// mask_pairing.max_pending_frames): never tracked, no pose.
+  std::vector<std::size_t> dropped_before_tracking;
+  /// Indices of frames the mask stage skipped (its hand-over was full): tracked all the same,
+  /// with a carried mask or none (or dropped, then also listed above).
+  std::vector<std::size_t> masks_skipped;
   std::vector<std::string> unreadable;  ///< frames the loader could not read ("frame i: why"), never released
   std::size_t late_releases = 0;  ///< frames released over 5 ms after their due time (reading fell behind)
   double wall_s = 0.0;            ///< from the first release to the last frame's pose [s]
   bool stopped = false;           ///< the stop flag ended the run early
+  tracking::LiveCounters live;    ///< the live tracker's counters (the tracking nodelet's status figures)
 
-  std::size_t framesDropped() const { return dropped_before_mask.size() + dropped_before_tracking.size(); }
+  std::size_t framesDropped() const { return dropped_before_tracking.size(); }
   /// Processed frames with a pose (not rejected for their stamp).
   std::size_t framesPosed() const;
+  /// Processed frames tracked with the given mask source.
+  std::size_t framesWithMask(tracking::MaskSource source) const;
   /// Latency percentile of the processed frames with a pose, `q` in [0, 1] [ms]; 0 when none.
   double latencyPercentileMs(double q) const;
 };
@@ -101,7 +118,8 @@ class RealtimeRunner {
 
   /// Plays frames [0, num_frames) through the pipeline at their stamps. `stop` (optional, e.g.
   /// set by a signal handler): no frame is released after it is set; frames already released
-  /// finish. Does not call SlamPipeline::finish().
+  /// finish. Does not call SlamPipeline::finish(). A stage that throws ends the run: nothing more
+  /// is released, the threads end, and the first exception is rethrown.
   RealtimeResult run(std::size_t num_frames, const RealtimeFrameLoader& load,
                      const std::atomic<bool>* stop = nullptr);
 

@@ -17,7 +17,7 @@
 ///     keyframe_corrections, keyframe).
 /// R_d is rendered only when MaskStage::wantsRenderedDepth() (background model on, tau > 0).
 ///
-/// process() is maskFrame() (steps 1-2) then trackFrame() (steps 3-5). Threads: process() from
+/// process() is maskFrame() (steps 1-2) then trackFrame() (steps 3-5, handOnTracked() for 4-5). Threads: process() from
 /// one thread; or, pipelined like the graph's mask and tracking nodelets, maskFrame() on one
 /// thread and trackFrame() on another, so that frame k is tracked while frame k+1 is masked (the
 /// stages' shared state is thread-safe: MaskStage's prior, MappingStage). Frame k+1's ego-motion
@@ -81,6 +81,11 @@ class SlamPipeline {
   /// and its corrections and keyframe to mapping. A frame already dropped by the mask stage is
   /// returned as it is.
   FrameReport trackFrame(MaskedFrame masked);
+  /// Steps 4-5 of process() alone, for a frame tracked by the caller (RealtimeRunner's live
+  /// tracker runs the tracking stage itself): a frame the stage dropped comes back dropped;
+  /// otherwise its pose goes to the mask and mapping stages, its corrections and keyframe to
+  /// mapping. `report`: the frame's render/mask fields; returned with the tracking ones filled.
+  FrameReport handOnTracked(tracking::TrackingOutput out, FrameReport report);
 
   /// End of the sequence: the mapping stage finishes its queue and runs the final refinement.
   void finish() { mapping_.finish(); }

@@ -97,8 +97,9 @@ class MaskPairer {
     options_.validate();
   }
 
-  /// A new frame, arrived at `now_s` (a monotonic clock [s]).
-  void addFrame(Timestamp stamp_ns, Frame frame, double now_s) {
+  /// A new frame, arrived at `now_s` (a monotonic clock [s]). Returns the oldest waiting frame
+  /// when it was dropped to make room (counted in stats().dropped), else nothing.
+  std::optional<Frame> addFrame(Timestamp stamp_ns, Frame frame, double now_s) {
     ++stats_.frames_in;
     if (last_released_ns_ && stamp_ns < *last_released_ns_) {  // time went back: a new run
       masks_.erase(masks_.upper_bound(stamp_ns), masks_.end());
@@ -107,10 +108,13 @@ class MaskPairer {
       if (!masks_.empty()) newest_mask_ns_ = masks_.rbegin()->first;
     }
     pending_.push_back(Pending{stamp_ns, std::move(frame), now_s});
-    while (static_cast<int>(pending_.size()) > options_.max_pending_frames) {
+    std::optional<Frame> dropped;
+    if (static_cast<int>(pending_.size()) > options_.max_pending_frames) {  // one frame added: one over at most
+      dropped.emplace(std::move(pending_.front().frame));
       pending_.pop_front();
       ++stats_.dropped;
     }
+    return dropped;
   }
 
   /// The mask of the frame stamped `stamp_ns`.
