@@ -122,3 +122,23 @@ function(dypho_add_rostest name)
   catkin_run_tests_target("rostest" ${name} "rostest-${name}.xml" COMMAND "${_command}"
     DEPENDENCIES ${ARG_DEPENDENCIES})
 endfunction()
+
+# dypho_add_core_library(<module> SOURCES <files...> LIBS <public libraries...>)
+# A module's ROS-free core: the library dypho_<module>_core (alias dypho::<module>_core) with the
+# module's include/ folder, C++17, the project's warnings, installed.
+function(dypho_add_core_library module)
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  set(_name dypho_${module}_core)
+  add_library(${_name} ${ARG_SOURCES})
+  add_library(dypho::${module}_core ALIAS ${_name})
+  target_include_directories(${_name} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:include>)
+  target_link_libraries(${_name} PUBLIC ${ARG_LIBS})
+  target_compile_features(${_name} PUBLIC cxx_std_17)
+  dypho_set_warnings(${_name})
+  install(TARGETS ${_name}
+    ARCHIVE DESTINATION ${DYPHO_LIB_DEST}
+    LIBRARY DESTINATION ${DYPHO_LIB_DEST}
+    RUNTIME DESTINATION ${DYPHO_BIN_DEST})
+endfunction()

@@ -36,7 +36,7 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # single-threaded, and under the sanitizers they took 15 of the suite's 50 minutes one at a time
 # on 2 cores. The realtime runs of test_dypho_pipeline (they play frames at their stamps) run
 # alone after the others; GTEST_FILTER names them, and no other test has tests of that name.
-REALTIME='Threads/RealtimeRun.*'
+REALTIME='RealtimeRunner.*'
 # Left out here, run only in the optimised build (scripts/test.sh): GaussianMapper's 100-frame
 # ghost check took 158 of the mapper test's 182 s under ASan. What it runs does run here: training
 # on keyframes with people masked in SlamPipeline.* (synthetic sequences with people, flow mask,

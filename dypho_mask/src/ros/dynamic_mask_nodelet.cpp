@@ -33,12 +33,12 @@
 
 #include "dypho/common/bounded_hand_over.h"
 #include "dypho/common/rolling_stats.h"
-#include "dypho/common/frame_allocator.h"
 #include "dypho/common/thread_budget.h"
 
 #include "dypho/mask/mask_options_fields.h"
 #include "dypho/mask/mask_stage.h"
 #include "dypho_ros/conversions.h"
+#include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
 #include "dypho_ros/throttled_log.h"
@@ -54,17 +54,10 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   using ExactPolicy = message_filters::sync_policies::ExactTime<Image, Image, CameraInfo>;
 
  public:
-  /// A bad parameter must not take the manager down, nor vanish (a missing model is only a
-  /// warning, below): it is logged as FATAL with the reason and this nodelet stays idle (nothing
-  /// advertised or subscribed) until it is restarted with a fixed configuration.
+  /// A bad parameter leaves this nodelet idle with a FATAL reason (rc::startOrStayIdle); a
+  /// missing model is only a warning, below.
   void onInit() override {
-    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
-    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
-    try {
-      start();
-    } catch (const std::exception& e) {
-      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
-    }
+    rc::startOrStayIdle(getName(), [this] { start(); });
   }
 
   /// onInit()'s work, in order: parameters, core, outputs, inputs.
@@ -75,8 +68,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     subscribe(params);
   }
 
- ~DynamicMaskNodelet() override {
-    diagnostics_timer_.stop();
+  /// Shutdown order (nodelet_runtime.h): diagnostics, then the worker; the mask writes no file.
+  ~DynamicMaskNodelet() override {
+    if (diagnostics_) diagnostics_->stop();
     stopping_ = true;  // the frames still waiting are not masked
     if (waiting_) waiting_->close();
     if (worker_.joinable()) worker_.join();
@@ -139,11 +133,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     consistency_pub_ = it_->advertise("mask/raw_consistency", 2);
     timing_pub_ = nh.advertise<dypho_slam::StageTiming>("mask/timing", 10);
     status_pub_ = nh.advertise<dypho_slam::MaskStatus>("mask/status", 10);
-    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, getPrivateNodeHandle(), getName());
-    diagnostics_->setHardwareID("dypho_slam");
-    diagnostics_->add("mask", this, &DynamicMaskNodelet::diagnose);
-    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
-                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
+        nh, getPrivateNodeHandle(), getName(), "mask",
+        [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
     waiting_ = std::make_unique<BoundedHandOver<FrameMsgs>>(static_cast<std::size_t>(max_waiting_frames_));
     worker_ = std::thread([this] { workerLoop(); });
   }
@@ -351,8 +343,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
   EventRate input_rate_;
   dypho_slam::MaskStatus last_status_;
   std::thread worker_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
+  std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;
   rc::ThrottledLog input_log_, degraded_log_;  ///< each kind of problem is named at once, then every 5 s
   ros::Subscriber tracking_sub_;
   ros::Subscriber moving_points_sub_;  ///< tracking's moving points (DynamicMaskOptions::moving_point_seeds)

@@ -30,13 +30,13 @@
 #include <pluginlib/class_list_macros.hpp>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include "dypho/common/frame_allocator.h"
 #include "dypho/common/output_path.h"
 #include "dypho/common/rolling_stats.h"
 #include "dypho/tracking/live_tracker.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
+#include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/path_publisher.h"
 #include "dypho_ros/sync_watchdog.h"
@@ -79,17 +79,9 @@ class TrackingNodelet : public nodelet::Nodelet {
   using Live = tracking::LiveTracker<FrameMsgs, sensor_msgs::ImageConstPtr>;
 
  public:
-  /// A bad parameter must not take the manager down, nor vanish: it is logged as FATAL
-  /// with the reason and this nodelet stays idle (nothing advertised or subscribed) until it is
-  /// restarted with a fixed configuration.
+  /// A bad parameter leaves this nodelet idle with a FATAL reason (rc::startOrStayIdle).
   void onInit() override {
-    // Per-frame buffers stay in the manager's heaps instead of being faulted in every frame.
-    if (const std::string why = keepFrameBuffersInProcess(); !why.empty()) NODELET_DEBUG_STREAM(why);
-    try {
-      start();
-    } catch (const std::exception& e) {
-      NODELET_FATAL_STREAM("not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
-    }
+    rc::startOrStayIdle(getName(), [this] { start(); });
   }
 
   void start() {
@@ -139,11 +131,8 @@ class TrackingNodelet : public nodelet::Nodelet {
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
-    diagnostics_->setHardwareID("dypho_slam");
-    diagnostics_->add("tracking", this, &TrackingNodelet::diagnose);
-    diagnostics_timer_ = nh.createWallTimer(ros::WallDuration(0.5),
-                                            [this](const ros::WallTimerEvent&) { diagnostics_->update(); });
+    diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
+        nh, pnh, getName(), "tracking", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
 
     // 4. The live tracker's threads, then inputs.
     Live::Callbacks callbacks;
@@ -167,20 +156,15 @@ class TrackingNodelet : public nodelet::Nodelet {
                                                    /*has_approx_sync=*/false);
   }
 
+  /// Shutdown order (nodelet_runtime.h): the path, diagnostics, the live tracker's threads (the
+  /// frames already prepared are still published), then the trajectory is written.
   ~TrackingNodelet() override {
     if (path_) path_->stopPublishing();
-    diagnostics_timer_.stop();
-    if (live_) live_->stop();  // joins its threads: the frames already prepared are still published
-    if (params_.output_dir.empty() || !stage_) return;  // empty only when start() failed before it
-    if (stage_->numFrames() == 0) {  // never replace the last run's trajectory with nothing
-      NODELET_INFO_STREAM("no frame tracked: nothing written to " << params_.output_dir);
-      return;
-    }
-    try {
-      saveTrajectory(params_.output_dir);
-    } catch (const std::exception& e) {
-      NODELET_ERROR_STREAM("could not write the trajectory on shutdown: " << e.what());
-    }
+    if (diagnostics_) diagnostics_->stop();
+    if (live_) live_->stop();
+    if (!stage_) return;
+    rc::saveOnShutdown(getName(), params_.output_dir, stage_->numFrames() == 0, "no frame tracked",
+                       [this] { saveTrajectory(params_.output_dir); });
   }
 
  private:
@@ -380,8 +364,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   ros::Publisher pose_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::Publisher moving_points_pub_;  ///< features seen moving (sensor_msgs/PointCloud2, camera optical frame)
   ros::ServiceServer reset_srv_, save_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;  ///< after what its callback uses: destroyed first
+  std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< after what its task uses: destroyed first
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::SubscriberFilter rgb_sub_, depth_sub_;

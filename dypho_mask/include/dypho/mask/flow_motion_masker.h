@@ -4,13 +4,11 @@
 ///
 /// The paper (Sec. "Dynamic Process", motion mask) thresholds the raw flow magnitude
 /// ||(u, v)||^2 > T. As soon as the camera moves, every pixel has a large flow and that rule masks
-/// the whole image. This milestone's answer is global-motion compensation: a homography is fitted
-/// robustly (RANSAC on a grid of flow samples) to the flow field and only the residual flow is
-/// thresholded. A homography is exact for a rotating camera and a good approximation for small
-/// translations or distant scenes; for a translating camera close to a deep scene parallax remains
-/// and may show up as residual. Depth-based ego-motion compensation (using the tracked pose and
-/// the depth image) replaces the homography in a later milestone, together with the YOLO segment
-/// mask and the static background model of the paper.
+/// the whole image. The masker removes the camera's own motion first and thresholds only the
+/// residual flow: the motion is fitted robustly to the flow field (RANSAC on a grid of flow
+/// samples), from depth and the tracked pose where they exist (ego_motion.h), else as a
+/// homography, exact for a rotating camera and close for small translations or distant scenes.
+/// The YOLO segment mask and the background model B_i are fused with this mask by DynamicMasker.
 ///
 /// Pipeline per frame: grey -> resize by flow_scale -> DIS flow current->previous (so the mask
 /// lies on the objects' current positions) -> correspondences in full-resolution pixels

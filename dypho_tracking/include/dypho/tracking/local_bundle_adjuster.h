@@ -68,7 +68,7 @@ struct LocalBaSolution {
 /// always fixed: when none is, the oldest of the window is fixed, which fixes the gauge).
 /// Cost: BaReprojectionError plus BaDepthError where the keyframe measured a depth (when
 /// local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
-/// Huber (huber_px); two rounds of local_ba_iterations LM steps (sparse Schur); after the first,
+/// Huber (huber_px); two rounds of local_ba_iterations LM steps (dense Schur); after the first,
 /// observations with chi2 > chi2_threshold (chi2_threshold_depth with the depth term) are
 /// removed from the map (a point's last observation is kept). Writes poses and points back into the map. adjust() does it at once
 /// (~40-80 ms per keyframe at 1000 features on one core of the 2-core VM); prepare(), solve()

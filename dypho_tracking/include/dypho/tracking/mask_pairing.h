@@ -65,7 +65,7 @@ struct MaskPairingOptions {
     if (!(max_wait_s >= 0)) throw std::invalid_argument("mask_max_wait_s must be >= 0");
     if (max_pending_frames < 1) throw std::invalid_argument("mask_max_pending_frames must be >= 1");
     if (!(max_carry_age_s >= 0)) throw std::invalid_argument("mask_max_carry_age_s must be >= 0");
-    if (!(same_stamp_tolerance_s >= 0)) throw std::invalid_argument("mask_same_stamp_tolerance_s must be >= 0");
+    if (!(same_stamp_tolerance_s >= 0)) throw std::invalid_argument("MaskPairingOptions::same_stamp_tolerance_s must be >= 0");
   }
 };
 
