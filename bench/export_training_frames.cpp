@@ -5,10 +5,10 @@
 ///                          [--bonn-correction]
 ///
 /// Poses come from a TUM trajectory (T_world_camera; e.g. dypho_run_dataset's output, or ground
-/// truth; --bonn-correction applies the Bonn marker-to-camera correction to it): each of --frames frames spread evenly over the
-/// sequence takes the pose nearest in time (within 20 ms; frames without one are skipped).
-/// Distortion is ignored (the shared sequences' colour images are undistorted pinholes or close).
-/// No mask: every pixel counts as static.
+/// truth; --bonn-correction applies the Bonn marker-to-camera correction to it): each of --frames frames spread evenly
+/// over the sequence takes the pose nearest in time (within 20 ms; frames without one are skipped). Distortion is
+/// ignored (the shared sequences' colour images are undistorted pinholes or close). No mask: every pixel counts as
+/// static.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -43,18 +43,30 @@ int main(int argc, char** argv) {
       --i;
       continue;
     }
-    if (i + 1 >= argc) { std::fprintf(stderr, "%s needs a value\n", k.c_str()); return 2; }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "%s needs a value\n", k.c_str());
+      return 2;
+    }
     const std::string v = argv[i + 1];
-    if (k == "--dataset") dataset_dir = v;
-    else if (k == "--trajectory") trajectory = v;
-    else if (k == "--out") out = v;
-    else if (k == "--frames") count = std::stoi(v);
-    else if (k == "--downsample") downsample = std::stoi(v);
-    else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 2; }
+    if (k == "--dataset")
+      dataset_dir = v;
+    else if (k == "--trajectory")
+      trajectory = v;
+    else if (k == "--out")
+      out = v;
+    else if (k == "--frames")
+      count = std::stoi(v);
+    else if (k == "--downsample")
+      downsample = std::stoi(v);
+    else {
+      std::fprintf(stderr, "unknown argument %s\n", k.c_str());
+      return 2;
+    }
   }
   if (dataset_dir.empty() || trajectory.empty() || out.empty() || count < 1 || downsample < 1) {
-    std::fprintf(stderr, "usage: export_training_frames --dataset DIR --trajectory T.txt --out FILE [--frames 20] "
-                         "[--downsample 2] [--bonn-correction]\n");
+    std::fprintf(stderr,
+                 "usage: export_training_frames --dataset DIR --trajectory T.txt --out FILE [--frames 20] "
+                 "[--downsample 2] [--bonn-correction]\n");
     return 2;
   }
   try {

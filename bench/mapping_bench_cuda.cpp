@@ -42,13 +42,13 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-#define CHECK(call)                                                                          \
-  do {                                                                                       \
-    const cudaError_t e = (call);                                                            \
-    if (e != cudaSuccess) {                                                                  \
-      std::fprintf(stderr, "%s: %s\n", #call, cudaGetErrorString(e));                        \
-      std::exit(1);                                                                          \
-    }                                                                                        \
+#define CHECK(call)                                                   \
+  do {                                                                \
+    const cudaError_t e = (call);                                     \
+    if (e != cudaSuccess) {                                           \
+      std::fprintf(stderr, "%s: %s\n", #call, cudaGetErrorString(e)); \
+      std::exit(1);                                                   \
+    }                                                                 \
   } while (0)
 
 std::vector<std::string> split(const std::string& s) {
@@ -98,10 +98,27 @@ Scene room(int n, int width, double fx, std::mt19937& rng) {
     const int face = static_cast<int>(u(rng) * 4.f) % 4;
     const float a = u(rng), b = u(rng);
     float p[3], l[3] = {ls, ls, ls};
-    if (face == 0) { p[0] = -3.f + 6.f * a; p[1] = -1.5f + 3.f * b; p[2] = 4.f; l[2] = thin; }
-    else if (face == 1) { p[0] = -3.f + 6.f * a; p[1] = 1.5f; p[2] = -1.f + 5.f * b; l[1] = thin; }
-    else if (face == 2) { p[0] = -3.f; p[1] = -1.5f + 3.f * b; p[2] = -1.f + 5.f * a; l[0] = thin; }
-    else { p[0] = 3.f; p[1] = -1.5f + 3.f * b; p[2] = -1.f + 5.f * a; l[0] = thin; }
+    if (face == 0) {
+      p[0] = -3.f + 6.f * a;
+      p[1] = -1.5f + 3.f * b;
+      p[2] = 4.f;
+      l[2] = thin;
+    } else if (face == 1) {
+      p[0] = -3.f + 6.f * a;
+      p[1] = 1.5f;
+      p[2] = -1.f + 5.f * b;
+      l[1] = thin;
+    } else if (face == 2) {
+      p[0] = -3.f;
+      p[1] = -1.5f + 3.f * b;
+      p[2] = -1.f + 5.f * a;
+      l[0] = thin;
+    } else {
+      p[0] = 3.f;
+      p[1] = -1.5f + 3.f * b;
+      p[2] = -1.f + 5.f * a;
+      l[0] = thin;
+    }
     s.block[0].insert(s.block[0].end(), p, p + 3);
     s.block[1].insert(s.block[1].end(), l, l + 3);
     s.block[2].insert(s.block[2].end(), {1.f, 0.f, 0.f, 0.f});
@@ -238,7 +255,8 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
         if (!(d > 0.f)) continue;
         const double pc[3] = {(u - tf.cx) / tf.fx * d, (v - tf.cy) / tf.fy * d, d};
         for (int i = 0; i < 3; ++i)
-          start.block[0].push_back(static_cast<float>(T[4 * i] * pc[0] + T[4 * i + 1] * pc[1] + T[4 * i + 2] * pc[2] + T[4 * i + 3]));
+          start.block[0].push_back(
+              static_cast<float>(T[4 * i] * pc[0] + T[4 * i + 1] * pc[1] + T[4 * i + 2] * pc[2] + T[4 * i + 3]));
         const float ls = std::log(static_cast<float>(d / tf.fx * stride * 0.5));
         start.block[1].insert(start.block[1].end(), {ls, ls, ls});
         start.block[2].insert(start.block[2].end(), {1.f, 0.f, 0.f, 0.f});
@@ -270,7 +288,8 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
   std::vector<float> gc(3 * npix), gd(npix), ga(npix);
   RenderResult<float> out;
   GaussianGrads<float> grads;
-  const double psnr_start = meanPsnr([&](std::size_t k, RenderResult<float>& o) { cpu.forward(start.view(), views[k], o); });
+  const double psnr_start =
+      meanPsnr([&](std::size_t k, RenderResult<float>& o) { cpu.forward(start.view(), views[k], o); });
   int cpu_iters = 0;
   const auto c0 = Clock::now();
   while (std::chrono::duration<double>(Clock::now() - c0).count() < seconds) {
@@ -284,7 +303,8 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
                          ga.data(), sums);
     cpu.backward(PixelGrads<float>{gc.data(), gd.data(), ga.data()}, grads);
     const AdamStepSizes s = stepSizes(++cpu_iters);
-    const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit, &grads.sh};
+    const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit,
+                                       &grads.sh};
     for (int p = 0; p < 5; ++p)
       for (std::size_t i = 0; i < c.block[p].size(); ++i)
         adamUpdate((*gb[p])[i], s.step[p], s.inv_c2, c.block[p][i], m[p][i], v[p][i]);
@@ -292,9 +312,10 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
   const double cpu_s = std::chrono::duration<double>(Clock::now() - c0).count();
   const double cpu_psnr = meanPsnr([&](std::size_t k, RenderResult<float>& o) { cpu.forward(c.view(), views[k], o); });
   if (!with_gpu) {
-    std::printf("frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s: "
-                "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU not measured (no device)\n",
-                path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr);
+    std::printf(
+        "frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s: "
+        "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU not measured (no device)\n",
+        path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr);
     return;
   }
   // GPU: CudaTrainer.
@@ -318,7 +339,8 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
   state.grad_count = count.data();
   trainer.upload(state);
   for (std::size_t k = 0; k < nf; ++k)
-    trainer.setTarget(static_cast<std::int64_t>(k), W, H, tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(), mask.data());
+    trainer.setTarget(static_cast<std::int64_t>(k), W, H, tf.frames[k].rgb.data(), tf.frames[k].depth_m.data(),
+                      mask.data());
   int gpu_iters = 0;
   const auto g0 = Clock::now();
   while (std::chrono::duration<double>(Clock::now() - g0).count() < seconds) {
@@ -333,10 +355,11 @@ void trainOnFrames(const std::string& path, double seconds, Rasterizer<float>& c
     trainer.render(views[k]);
     trainer.downloadRender(o);
   });
-  std::printf("frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s each: "
-              "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU %d iterations (%.1f it/s) -> %.2f dB; ratio %.1fx\n",
-              path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr,
-              gpu_iters, gpu_iters / gpu_s, gpu_psnr, (gpu_iters / gpu_s) / std::max(cpu_iters / cpu_s, 1e-9));
+  std::printf(
+      "frames %s: %zu frames %dx%d, %d Gaussians (seed stride %d), PSNR at start %.2f dB; %.1f s each: "
+      "CPU %d iterations (%.1f it/s) -> %.2f dB; GPU %d iterations (%.1f it/s) -> %.2f dB; ratio %.1fx\n",
+      path.c_str(), nf, W, H, start.n, stride, psnr_start, seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr, gpu_iters,
+      gpu_iters / gpu_s, gpu_psnr, (gpu_iters / gpu_s) / std::max(cpu_iters / cpu_s, 1e-9));
 }
 
 }  // namespace
@@ -357,14 +380,24 @@ int main(int argc, char** argv) {
   std::string frames;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--counts") counts = v;
-    else if (k == "--size") size = v;
-    else if (k == "--repeats") repeats = std::stoi(v);
-    else if (k == "--threads") threads = std::stoi(v);
-    else if (k == "--cpu-max") cpu_max = std::stoi(v);
-    else if (k == "--train-seconds") train_seconds = std::stod(v);
-    else if (k == "--frames") frames = v;
-    else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 1; }
+    if (k == "--counts")
+      counts = v;
+    else if (k == "--size")
+      size = v;
+    else if (k == "--repeats")
+      repeats = std::stoi(v);
+    else if (k == "--threads")
+      threads = std::stoi(v);
+    else if (k == "--cpu-max")
+      cpu_max = std::stoi(v);
+    else if (k == "--train-seconds")
+      train_seconds = std::stod(v);
+    else if (k == "--frames")
+      frames = v;
+    else {
+      std::fprintf(stderr, "unknown argument %s\n", k.c_str());
+      return 1;
+    }
   }
   const int W = std::stoi(size.substr(0, size.find('x'))), H = std::stoi(size.substr(size.find('x') + 1));
   const std::size_t npix = static_cast<std::size_t>(W) * H;
@@ -408,7 +441,8 @@ int main(int argc, char** argv) {
     DeviceScene ds;
     for (int p = 0; p < 5; ++p) {
       CHECK(cudaMalloc(&ds.block[p], scene.block[p].size() * sizeof(float)));
-      CHECK(cudaMemcpy(ds.block[p], scene.block[p].data(), scene.block[p].size() * sizeof(float), cudaMemcpyHostToDevice));
+      CHECK(cudaMemcpy(ds.block[p], scene.block[p].data(), scene.block[p].size() * sizeof(float),
+                       cudaMemcpyHostToDevice));
     }
     std::vector<double> gf, gb, cf, cb, st[5];
     const PixelGrads<float> dgrads{d_gc, d_gd, nullptr};
@@ -463,7 +497,8 @@ int main(int argc, char** argv) {
     // CPU: forward + L1 + backward + Adam.
     Scene cpu_scene = start;
     std::vector<float> m[5], v[5];
-    for (int p = 0; p < 5; ++p) m[p].assign(cpu_scene.block[p].size(), 0.f), v[p].assign(cpu_scene.block[p].size(), 0.f);
+    for (int p = 0; p < 5; ++p)
+      m[p].assign(cpu_scene.block[p].size(), 0.f), v[p].assign(cpu_scene.block[p].size(), 0.f);
     RenderResult<float> out;
     GaussianGrads<float> grads;
     std::vector<float> g;
@@ -474,7 +509,8 @@ int main(int argc, char** argv) {
       l1Grad(out.color, target, g);
       cpu.backward(PixelGrads<float>{g.data(), nullptr, nullptr}, grads);
       const AdamStepSizes s = stepSizes(++cpu_iters);
-      const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit, &grads.sh};
+      const std::vector<float>* gb[5] = {&grads.position, &grads.log_scale, &grads.rotation, &grads.opacity_logit,
+                                         &grads.sh};
       for (int p = 0; p < 5; ++p)
         for (std::size_t i = 0; i < cpu_scene.block[p].size(); ++i) {
           const float step = (p == 4 && i % 12 >= 3) ? s.step_sh_rest : s.step[p];
@@ -521,10 +557,11 @@ int main(int argc, char** argv) {
     RenderResult<float> gout;
     trainer.downloadRender(gout);
     const double gpu_psnr = psnr(gout.color, target);
-    std::printf("training, 100k Gaussians, %dx%d, %.1f s each: CPU %d iterations (%.1f it/s) -> PSNR %.2f dB; "
-                "GPU %d iterations (%.1f it/s) -> PSNR %.2f dB; ratio %.1fx\n",
-                W, H, train_seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr, gpu_iters, gpu_iters / gpu_s, gpu_psnr,
-                (gpu_iters / gpu_s) / std::max(cpu_iters / cpu_s, 1e-9));
+    std::printf(
+        "training, 100k Gaussians, %dx%d, %.1f s each: CPU %d iterations (%.1f it/s) -> PSNR %.2f dB; "
+        "GPU %d iterations (%.1f it/s) -> PSNR %.2f dB; ratio %.1fx\n",
+        W, H, train_seconds, cpu_iters, cpu_iters / cpu_s, cpu_psnr, gpu_iters, gpu_iters / gpu_s, gpu_psnr,
+        (gpu_iters / gpu_s) / std::max(cpu_iters / cpu_s, 1e-9));
     // What densify/prune on the host costs the GPU path: one download and one upload of the
     // training state (parameters, Adam moments, statistics) per densify_interval iterations.
     std::vector<double> round_trip;

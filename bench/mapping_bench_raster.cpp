@@ -45,10 +45,22 @@ void fillRoom(GaussianMap& map, int n, double sigma_m, std::mt19937& rng) {
     const int face = static_cast<int>(u(rng) * 4.f) % 4;
     const float a = u(rng), b = u(rng);
     Eigen::Vector3f p, normal;
-    if (face == 0) { p = {-3.f + 6.f * a, -1.5f + 3.f * b, 4.f}; normal = {0, 0, 1}; }       // back wall
-    else if (face == 1) { p = {-3.f + 6.f * a, 1.5f, -1.f + 5.f * b}; normal = {0, 1, 0}; }  // floor
-    else if (face == 2) { p = {-3.f, -1.5f + 3.f * b, -1.f + 5.f * a}; normal = {1, 0, 0}; }  // left
-    else { p = {3.f, -1.5f + 3.f * b, -1.f + 5.f * a}; normal = {1, 0, 0}; }                 // right
+    if (face == 0) {
+      p = {-3.f + 6.f * a, -1.5f + 3.f * b, 4.f};
+      normal = {0, 0, 1};
+    }  // back wall
+    else if (face == 1) {
+      p = {-3.f + 6.f * a, 1.5f, -1.f + 5.f * b};
+      normal = {0, 1, 0};
+    }  // floor
+    else if (face == 2) {
+      p = {-3.f, -1.5f + 3.f * b, -1.f + 5.f * a};
+      normal = {1, 0, 0};
+    }  // left
+    else {
+      p = {3.f, -1.5f + 3.f * b, -1.f + 5.f * a};
+      normal = {1, 0, 0};
+    }  // right
     g.position_w = p;
     const float s = static_cast<float>(std::log(sigma_m));
     g.log_scale = {s, s, s};
@@ -82,22 +94,35 @@ int main(int argc, char** argv) {
   RasterSettings settings;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--threads") threads = std::stoi(v);
-    else if (k == "--repeats") repeats = std::stoi(v);
-    else if (k == "--counts") counts = v;
-    else if (k == "--sizes") sizes = v;
-    else if (k == "--sh-degree") degree = std::stoi(v);
-    else if (k == "--stages") stages = std::stoi(v);
-    else if (k == "--isa" && v == "auto") settings.isa = RasterIsa::kAuto;
-    else if (k == "--isa" && v == "generic") settings.isa = RasterIsa::kGeneric;
-    else if (k == "--isa" && v == "avx2") settings.isa = RasterIsa::kAvx2;
-    else { std::fprintf(stderr, "unknown argument %s\n", k.c_str()); return 1; }
+    if (k == "--threads")
+      threads = std::stoi(v);
+    else if (k == "--repeats")
+      repeats = std::stoi(v);
+    else if (k == "--counts")
+      counts = v;
+    else if (k == "--sizes")
+      sizes = v;
+    else if (k == "--sh-degree")
+      degree = std::stoi(v);
+    else if (k == "--stages")
+      stages = std::stoi(v);
+    else if (k == "--isa" && v == "auto")
+      settings.isa = RasterIsa::kAuto;
+    else if (k == "--isa" && v == "generic")
+      settings.isa = RasterIsa::kGeneric;
+    else if (k == "--isa" && v == "avx2")
+      settings.isa = RasterIsa::kAvx2;
+    else {
+      std::fprintf(stderr, "unknown argument %s\n", k.c_str());
+      return 1;
+    }
   }
   ThreadPool pool(threads);
   Rasterizer<float> raster(&pool, settings);
   std::printf("threads %d, SH degree %d, %d repeats (median), tile kernels %s\n", threads, degree, repeats,
               rasterIsaName(raster.isa()));
-  std::printf("%9s %9s %9s %11s %10s %10s %10s\n", "gaussians", "size", "visible", "tile_pairs", "fwd_ms", "bwd_ms", "total_ms");
+  std::printf("%9s %9s %9s %11s %10s %10s %10s\n", "gaussians", "size", "visible", "tile_pairs", "fwd_ms", "bwd_ms",
+              "total_ms");
   for (const std::string& cs : split(counts)) {
     const int n = std::stoi(cs);
     for (const std::string& ss : split(sizes)) {

@@ -65,7 +65,10 @@ int runDataset(const std::string& dataset, const std::string& out, int every, bo
                const mapping::GaussianMapperOptions& mo) {
   const auto source = tools::openFrameSource(dataset, "", tools::defaultConfigDir());
   std::vector<dypho::StampedPose> gt = source->groundtruth();
-  if (gt.empty()) { std::cerr << dataset << " has no groundtruth.txt\n"; return 1; }
+  if (gt.empty()) {
+    std::cerr << dataset << " has no groundtruth.txt\n";
+    return 1;
+  }
   if (source->cameraName() == "bonn") gt = tools::applyBonnCorrection(gt);
   mapping::GaussianMapper mapper(mo);
   mapper.setMessageSink([](const std::string& m) { std::cerr << "mapper: " << m << "\n"; });
@@ -96,8 +99,10 @@ int runDataset(const std::string& dataset, const std::string& out, int every, bo
               source->hasMasks() ? "dataset masks" : "no mask (all pixels static)");
   std::printf("keyframes %zu (every %d frames), %lld iterations, %zu Gaussians, %.1f s\n", used, every,
               static_cast<long long>(s.iterations), s.num_gaussians, total_s);
-  std::printf("PSNR on static keyframe pixels: %.2f dB (%zu keyframes, %dx downsampled; %.2f dB without the keyframes' exposure), depth L1 %.2f cm\n",
-              ev.psnr_db, ev.num_keyframes, mo.train_downsample, ev.psnr_without_exposure_db, ev.depth_l1_m * 100.0);
+  std::printf(
+      "PSNR on static keyframe pixels: %.2f dB (%zu keyframes, %dx downsampled; %.2f dB without the keyframes' "
+      "exposure), depth L1 %.2f cm\n",
+      ev.psnr_db, ev.num_keyframes, mo.train_downsample, ev.psnr_without_exposure_db, ev.depth_l1_m * 100.0);
   std::printf("memory: RSS %.0f MB\n", rssMb());
   return 0;
 }
@@ -129,14 +134,22 @@ int main(int argc, char** argv) {
       if (i + 1 >= argc) throw std::runtime_error(k + " needs a value");
       return argv[++i];
     };
-    if (k == "--out") out = val();
-    else if (k == "--frames") so.frames = std::stoi(val());
-    else if (k == "--motion") so.motion = tools::parseSynthMotion(val());
-    else if (k == "--people") so.people = std::stoi(val());
-    else if (k == "--seed") so.seed = static_cast<std::uint32_t>(std::stoul(val()));
-    else if (k == "--keyframe-every") every = std::stoi(val());
-    else if (k == "--iterations") mo.iterations_per_keyframe = std::stoi(val());
-    else if (k == "--final-iterations") mo.final_refine_iterations = std::stoi(val());
+    if (k == "--out")
+      out = val();
+    else if (k == "--frames")
+      so.frames = std::stoi(val());
+    else if (k == "--motion")
+      so.motion = tools::parseSynthMotion(val());
+    else if (k == "--people")
+      so.people = std::stoi(val());
+    else if (k == "--seed")
+      so.seed = static_cast<std::uint32_t>(std::stoul(val()));
+    else if (k == "--keyframe-every")
+      every = std::stoi(val());
+    else if (k == "--iterations")
+      mo.iterations_per_keyframe = std::stoi(val());
+    else if (k == "--final-iterations")
+      mo.final_refine_iterations = std::stoi(val());
     else if (k == "--set") {  // any GaussianMapperOptions key (config/mapping.yaml), e.g. --set ssim_weight=0.2
       const std::string kv = val();
       const std::size_t eq = kv.find('=');
@@ -146,17 +159,31 @@ int main(int argc, char** argv) {
         std::istringstream is(kv.substr(eq + 1));
         found = static_cast<bool>(is >> field);
       });
-      if (!found) { std::cerr << "--set " << kv << ": not KEY=VALUE with a Gaussian mapper key\n"; return 1; }
+      if (!found) {
+        std::cerr << "--set " << kv << ": not KEY=VALUE with a Gaussian mapper key\n";
+        return 1;
+      }
+    } else if (k == "--threads")
+      mo.num_threads = std::stoi(val());
+    else if (k == "--downsample")
+      mo.train_downsample = std::stoi(val());
+    else if (k == "--sh-degree")
+      mo.sh_degree = std::stoi(val());
+    else if (k == "--max-gaussians")
+      mo.max_gaussians = std::stoul(val());
+    else if (k == "--no-pngs")
+      pngs = false;
+    else if (k == "--dataset")
+      dataset = val();
+    else {
+      std::cerr << "unknown argument " << k << "\n";
+      return 1;
     }
-    else if (k == "--threads") mo.num_threads = std::stoi(val());
-    else if (k == "--downsample") mo.train_downsample = std::stoi(val());
-    else if (k == "--sh-degree") mo.sh_degree = std::stoi(val());
-    else if (k == "--max-gaussians") mo.max_gaussians = std::stoul(val());
-    else if (k == "--no-pngs") pngs = false;
-    else if (k == "--dataset") dataset = val();
-    else { std::cerr << "unknown argument " << k << "\n"; return 1; }
   }
-  if (out.empty()) { std::cerr << "--out DIR is required (PNGs and map.ply go there)\n"; return 1; }
+  if (out.empty()) {
+    std::cerr << "--out DIR is required (PNGs and map.ply go there)\n";
+    return 1;
+  }
   ::mkdir(out.c_str(), 0755);
   if (!dataset.empty()) return runDataset(dataset, out, every, pngs, mo);
   const std::string png_dir = out + "/side_by_side";
@@ -201,7 +228,10 @@ int main(int argc, char** argv) {
       for (int x = 0; x < f.mask_gt.cols; ++x) {
         if (f.mask_gt.at<std::uint8_t>(y, x) == 0) continue;
         const float d = v.depth_m.at<float>(y, x);
-        if (!(d > 0.f)) { ++ghost_uncovered; continue; }
+        if (!(d > 0.f)) {
+          ++ghost_uncovered;
+          continue;
+        }
         ++ghost_px;
         if (std::abs(d - f.static_depth_m.at<float>(y, x)) <= 0.05f) ++ghost_ok;
       }
@@ -213,8 +243,10 @@ int main(int argc, char** argv) {
               mo.final_refine_iterations, s.num_gaussians);
   std::printf("time: %.1f s total (incl. rendering the synthetic frames), producer waited %.1f ms per keyframe\n",
               total_s, mapping_wait_ms / std::max<std::size_t>(1, keyframe_indices.size()));
-  std::printf("PSNR on static keyframe pixels: %.2f dB (%zu keyframes, %dx downsampled; %.2f dB without the keyframes' exposure), depth L1 %.2f cm\n",
-              ev.psnr_db, ev.num_keyframes, mo.train_downsample, ev.psnr_without_exposure_db, ev.depth_l1_m * 100.0);
+  std::printf(
+      "PSNR on static keyframe pixels: %.2f dB (%zu keyframes, %dx downsampled; %.2f dB without the keyframes' "
+      "exposure), depth L1 %.2f cm\n",
+      ev.psnr_db, ev.num_keyframes, mo.train_downsample, ev.psnr_without_exposure_db, ev.depth_l1_m * 100.0);
   std::printf("ghost check: %.2f %% of %zu covered dynamic pixels within 5 cm of the static depth (%zu uncovered)\n",
               ghost_px ? 100.0 * ghost_ok / ghost_px : 100.0, ghost_px, ghost_uncovered);
   std::printf("memory: %zu Gaussians, RSS %.0f MB\n", s.num_gaussians, rssMb());

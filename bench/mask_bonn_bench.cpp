@@ -82,8 +82,8 @@ bool insideAny(const cv::Point2f& p, const std::vector<cv::Rect>& boxes) {
 }
 
 struct VariantStats {
-  double kp_all = 0, kp_people_all = 0;        // all frames
-  double kp_with = 0, kp_people_with = 0;      // frames with a person box
+  double kp_all = 0, kp_people_all = 0;    // all frames
+  double kp_with = 0, kp_people_with = 0;  // frames with a person box
   int frames = 0, frames_with = 0, degraded = 0;
   std::vector<double> masked, masked_empty_room, mask_ms, net_ms_calls, net_ms_frames;
 };
@@ -110,27 +110,46 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     auto value = [&]() -> std::string {
-      if (i + 1 >= argc) { std::cerr << k << " needs a value\n"; std::exit(2); }
+      if (i + 1 >= argc) {
+        std::cerr << k << " needs a value\n";
+        std::exit(2);
+      }
       return argv[++i];
     };
     try {
-      if (k == "--data") data = value();
-      else if (k == "--model") model = value();
-      else if (k == "--frames") max_frames = std::stoi(value());
-      else if (k == "--variants") variants_arg = value();
-      else if (k == "--pose") pose = value();
-      else if (k == "--every-n") every_n = std::stoi(value());
-      else if (k == "--async") async = true;
-      else if (k == "--rate-hz") rate_hz = std::stod(value());
-      else if (k == "--threads") threads = std::stoi(value());
-      else if (k == "--verbose") verbose = true;
-      else { std::cerr << "unknown argument " << k << " (see the file comment)\n"; return 2; }
+      if (k == "--data")
+        data = value();
+      else if (k == "--model")
+        model = value();
+      else if (k == "--frames")
+        max_frames = std::stoi(value());
+      else if (k == "--variants")
+        variants_arg = value();
+      else if (k == "--pose")
+        pose = value();
+      else if (k == "--every-n")
+        every_n = std::stoi(value());
+      else if (k == "--async")
+        async = true;
+      else if (k == "--rate-hz")
+        rate_hz = std::stod(value());
+      else if (k == "--threads")
+        threads = std::stoi(value());
+      else if (k == "--verbose")
+        verbose = true;
+      else {
+        std::cerr << "unknown argument " << k << " (see the file comment)\n";
+        return 2;
+      }
     } catch (const std::exception&) {
       std::cerr << k << ": not a number\n";
       return 2;
     }
   }
-  if (pose != "cv" && pose != "none") { std::cerr << "--pose cv|none\n"; return 2; }
+  if (pose != "cv" && pose != "none") {
+    std::cerr << "--pose cv|none\n";
+    return 2;
+  }
   std::vector<std::string> variants;
   {
     std::stringstream s(variants_arg);
@@ -147,17 +166,21 @@ int main(int argc, char** argv) {
 
   std::optional<tools::TumDataset> opened;
   try {
-    const tools::CameraConfig camera = tools::loadCameraConfig(tools::resolveCameraConfig("bonn", tools::defaultConfigDir()));
+    const tools::CameraConfig camera =
+        tools::loadCameraConfig(tools::resolveCameraConfig("bonn", tools::defaultConfigDir()));
     opened.emplace(tools::TumDataset::open(data, camera));
   } catch (const std::exception& e) {
     std::cerr << "cannot open " << data << ": " << e.what() << "\n";
     return 1;
   }
   const tools::TumDataset& dataset = *opened;
-  const int n = max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(dataset.size())) : static_cast<int>(dataset.size());
+  const int n =
+      max_frames > 0 ? std::min<int>(max_frames, static_cast<int>(dataset.size())) : static_cast<int>(dataset.size());
   const std::vector<dypho::StampedPose> gt = tools::applyBonnCorrection(dataset.groundtruth());
   std::vector<std::optional<Eigen::Isometry3d>> T_world_cam(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) T_world_cam[static_cast<size_t>(i)] = tools::interpolatePose(gt, dataset.entry(static_cast<size_t>(i)).stamp_s, 0.1);
+  for (int i = 0; i < n; ++i)
+    T_world_cam[static_cast<size_t>(i)] =
+        tools::interpolatePose(gt, dataset.entry(static_cast<size_t>(i)).stamp_s, 0.1);
 
   // Pass 0: reference person boxes on the unmasked images.
   mask::YoloOptions ref_options;
@@ -195,10 +218,11 @@ int main(int argc, char** argv) {
       box_area_with += share;
     }
   }
-  std::printf("reference: %d of %d scored frames have a person box; person boxes cover %.1f %% of the image "
-              "(%.1f %% on frames with people); detector %.1f ms/call median (%.1f mean)\n",
-              with_people, n - 2, 100.0 * box_area / std::max(1, n - 2), 100.0 * box_area_with / std::max(1, with_people),
-              percentile(ref_ms, 0.5), mean(ref_ms));
+  std::printf(
+      "reference: %d of %d scored frames have a person box; person boxes cover %.1f %% of the image "
+      "(%.1f %% on frames with people); detector %.1f ms/call median (%.1f mean)\n",
+      with_people, n - 2, 100.0 * box_area / std::max(1, n - 2), 100.0 * box_area_with / std::max(1, with_people),
+      percentile(ref_ms, 0.5), mean(ref_ms));
 
   for (const std::string& variant : variants) {
     mask::DynamicMaskOptions mo;
@@ -258,9 +282,9 @@ int main(int argc, char** argv) {
         if (r.segment_fresh) st.net_ms_calls.push_back(r.segment_ms);
       }
       if (verbose) {
-        std::printf("%-7s frame %3d  boxes %d  keypoints %4zu  on people %4d  masked %.3f  %.1f ms%s\n", variant.c_str(),
-                    i, static_cast<int>(bx.size()), feats.keypoints.size(), on_people, masked, r.total_ms,
-                    r.degraded ? ("  degraded: " + r.message).c_str() : "");
+        std::printf("%-7s frame %3d  boxes %d  keypoints %4zu  on people %4d  masked %.3f  %.1f ms%s\n",
+                    variant.c_str(), i, static_cast<int>(bx.size()), feats.keypoints.size(), on_people, masked,
+                    r.total_ms, r.degraded ? ("  degraded: " + r.message).c_str() : "");
       }
     }
     std::printf(

@@ -60,27 +60,51 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     auto value = [&]() -> std::string {
-      if (i + 1 >= argc) { std::cerr << k << " needs a value\n"; std::exit(2); }
+      if (i + 1 >= argc) {
+        std::cerr << k << " needs a value\n";
+        std::exit(2);
+      }
       return argv[++i];
     };
-    if (k == "--motion") so.motion = tools::parseSynthMotion(value());
-    else if (k == "--frames") so.frames = std::stoi(value());
-    else if (k == "--people") so.people = std::stoi(value());
-    else if (k == "--seed") so.seed = static_cast<std::uint32_t>(std::stoul(value()));
-    else if (k == "--pose") pose = value();
-    else if (k == "--model") mo.yolo.model_path = value();
-    else if (k == "--every-n") mo.yolo.every_n_frames = std::stoi(value());
-    else if (k == "--async") mo.yolo.async = true;
-    else if (k == "--threads") threads = std::stoi(value());
-    else if (k == "--no-background") mo.background.enabled = false;
-    else if (k == "--no-grow") mo.background.grow_in_depth = false;
-    else if (k == "--no-aperture") mo.flow.aperture_aware = false;
-    else if (k == "--margin") mo.margin_px = std::stoi(value());
-    else if (k == "--dump") dump = value();
-    else if (k == "--verbose") verbose = true;
-    else { std::cerr << "unknown argument " << k << " (see the file comment)\n"; return 2; }
+    if (k == "--motion")
+      so.motion = tools::parseSynthMotion(value());
+    else if (k == "--frames")
+      so.frames = std::stoi(value());
+    else if (k == "--people")
+      so.people = std::stoi(value());
+    else if (k == "--seed")
+      so.seed = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--pose")
+      pose = value();
+    else if (k == "--model")
+      mo.yolo.model_path = value();
+    else if (k == "--every-n")
+      mo.yolo.every_n_frames = std::stoi(value());
+    else if (k == "--async")
+      mo.yolo.async = true;
+    else if (k == "--threads")
+      threads = std::stoi(value());
+    else if (k == "--no-background")
+      mo.background.enabled = false;
+    else if (k == "--no-grow")
+      mo.background.grow_in_depth = false;
+    else if (k == "--no-aperture")
+      mo.flow.aperture_aware = false;
+    else if (k == "--margin")
+      mo.margin_px = std::stoi(value());
+    else if (k == "--dump")
+      dump = value();
+    else if (k == "--verbose")
+      verbose = true;
+    else {
+      std::cerr << "unknown argument " << k << " (see the file comment)\n";
+      return 2;
+    }
   }
-  if (pose != "cv" && pose != "gt" && pose != "none") { std::cerr << "--pose cv|gt|none\n"; return 2; }
+  if (pose != "cv" && pose != "gt" && pose != "none") {
+    std::cerr << "--pose cv|gt|none\n";
+    return 2;
+  }
   cv::setNumThreads(threads);
   const tools::SyntheticScene scene(so);
   mask::DynamicMasker masker(mo);
@@ -97,7 +121,7 @@ int main(int argc, char** argv) {
     if (pose == "gt" && i >= 1) prior.T_prev_cur = poses[i - 1].inverse() * poses[i];
     if (pose == "cv" && i >= 2) prior.T_prev_cur = poses[i - 2].inverse() * poses[i - 1];
     const mask::MaskResult r = masker.compute(f.frame, prior);
-    if (i < 2) continue;  // no flow yet / no constant-velocity prediction yet
+    if (i < 2) continue;                              // no flow yet / no constant-velocity prediction yet
     flow_bg_ms.push_back(r.total_ms - r.segment_ms);  // wall time: the background test runs beside the flow
     seg_ms.push_back(r.segment_ms);
     flow_ms.push_back(r.flow_ms);
@@ -112,7 +136,8 @@ int main(int argc, char** argv) {
     dyn_px += cv::countNonZero(gt);
     if (!dump.empty() && (i % 10 == 0 || i == 2)) {
       cv::Mat vis;
-      cv::Mat ch[3] = {r.mask, f.mask_gt, r.raw_flow_mask.empty() ? cv::Mat::zeros(gt.size(), CV_8UC1) : r.raw_flow_mask};
+      cv::Mat ch[3] = {r.mask, f.mask_gt,
+                       r.raw_flow_mask.empty() ? cv::Mat::zeros(gt.size(), CV_8UC1) : r.raw_flow_mask};
       cv::merge(ch, 3, vis);
       cv::imwrite(dump + "/mask_" + std::to_string(i) + ".png", vis);
       const cv::Mat none = cv::Mat::zeros(gt.size(), CV_8UC1);
@@ -129,11 +154,17 @@ int main(int argc, char** argv) {
   std::printf("frames %zu  IoU %.3f  false-dynamic %.2f %% of static px  missed %.2f %% of dynamic px\n",
               total_ms.size(), uni > 0 ? inter / uni : 1.0, 100.0 * false_dyn / std::max(1.0, static_px),
               100.0 * missed / std::max(1.0, dyn_px));
-  std::printf("time/frame [ms] flow+background median %.2f p90 %.2f | segment (network+carry) median %.2f mean %.2f | total median %.2f\n",
-              percentile(flow_bg_ms, 0.5), percentile(flow_bg_ms, 0.9), percentile(seg_ms, 0.5),
-              [&] { double s = 0; for (double v : seg_ms) s += v; return seg_ms.empty() ? 0.0 : s / seg_ms.size(); }(),
-              percentile(total_ms, 0.5));
-  std::printf("  flow alone median %.2f, background+combination alone median %.2f (partly run beside the flow)\n", percentile(flow_ms, 0.5),
-              percentile(bg_ms, 0.5));
+  std::printf(
+      "time/frame [ms] flow+background median %.2f p90 %.2f | segment (network+carry) median %.2f mean %.2f | total "
+      "median %.2f\n",
+      percentile(flow_bg_ms, 0.5), percentile(flow_bg_ms, 0.9), percentile(seg_ms, 0.5),
+      [&] {
+        double s = 0;
+        for (double v : seg_ms) s += v;
+        return seg_ms.empty() ? 0.0 : s / seg_ms.size();
+      }(),
+      percentile(total_ms, 0.5));
+  std::printf("  flow alone median %.2f, background+combination alone median %.2f (partly run beside the flow)\n",
+              percentile(flow_ms, 0.5), percentile(bg_ms, 0.5));
   return 0;
 }

@@ -49,15 +49,26 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     auto value = [&]() -> std::string {
-      if (i + 1 >= argc) { std::cerr << k << " needs a value\n"; std::exit(2); }
+      if (i + 1 >= argc) {
+        std::cerr << k << " needs a value\n";
+        std::exit(2);
+      }
       return argv[++i];
     };
-    if (k == "--video") video = value();
-    else if (k == "--model") model = value();
-    else if (k == "--frames") max_frames = std::stoi(value());
-    else if (k == "--threads") threads = std::stoi(value());
-    else if (k == "--background") background = true;
-    else { std::cerr << "unknown argument " << k << " (see the file comment)\n"; return 2; }
+    if (k == "--video")
+      video = value();
+    else if (k == "--model")
+      model = value();
+    else if (k == "--frames")
+      max_frames = std::stoi(value());
+    else if (k == "--threads")
+      threads = std::stoi(value());
+    else if (k == "--background")
+      background = true;
+    else {
+      std::cerr << "unknown argument " << k << " (see the file comment)\n";
+      return 2;
+    }
   }
   cv::setNumThreads(threads);
   cv::VideoCapture capture(video);
@@ -129,11 +140,12 @@ int main(int argc, char** argv) {
   std::sort(sorted.begin(), sorted.end());
   double mean_ms = 0;
   for (double v : ms) mean_ms += v / ms.size();
-  std::printf("vtest frames %d  person boxes %d  recall %.1f %% of box px  boxes >= 30 %% covered %.1f %%  "
-              "false-dynamic %.2f %% of px outside boxes  mask ms/frame median %.2f mean %.2f  "
-              "(background %s, threads %d)\n",
-              scored, boxes, 100.0 * box_covered / std::max(1.0, box_px),
-              100.0 * boxes_covered / std::max(1, boxes), 100.0 * outside_dyn / std::max(1.0, outside_px),
-              sorted[sorted.size() / 2], mean_ms, background ? "on" : "off", threads);
+  std::printf(
+      "vtest frames %d  person boxes %d  recall %.1f %% of box px  boxes >= 30 %% covered %.1f %%  "
+      "false-dynamic %.2f %% of px outside boxes  mask ms/frame median %.2f mean %.2f  "
+      "(background %s, threads %d)\n",
+      scored, boxes, 100.0 * box_covered / std::max(1.0, box_px), 100.0 * boxes_covered / std::max(1, boxes),
+      100.0 * outside_dyn / std::max(1.0, outside_px), sorted[sorted.size() / 2], mean_ms, background ? "on" : "off",
+      threads);
   return 0;
 }

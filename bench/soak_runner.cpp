@@ -8,8 +8,8 @@
 ///
 /// One CSV row per `every` frames: frame, rss_mb, gaussians, keyframes (mapper), queued, latency
 /// p50/p95 [ms] of the frames in that window (mask + tracking + hand-over to mapping, not the
-/// rendering of the synthetic input), then the tracker's keyframes and map points. The plot shows the same over the frames. The CSV is rewritten after
-/// every row, so a run stopped early keeps what it measured.
+/// rendering of the synthetic input), then the tracker's keyframes and map points. The plot shows the same over the
+/// frames. The CSV is rewritten after every row, so a run stopped early keeps what it measured.
 ///
 /// --mapping-mode: `deterministic` (default, the runner's policy: a keyframe waits for the previous
 /// keyframe's training) or `live` (the graph's policy: mapping runs beside the frames and drops
@@ -33,7 +33,6 @@
 #include "help_flag.h"
 
 namespace {
-
 
 struct Row {
   int frame;
@@ -60,21 +59,29 @@ void plot(const std::vector<Row>& rows, const std::string& path) {
                        y0 + h - 25 - static_cast<int>((h - 45) * v / top));
     };
     for (std::size_t i = 1; i < rows.size(); ++i) {
-      cv::line(img, to_px(rows[i - 1].frame, value(rows[i - 1])), to_px(rows[i].frame, value(rows[i])), cv::Scalar(200, 60, 0), 2);
-      if (value2) cv::line(img, to_px(rows[i - 1].frame, value2(rows[i - 1])), to_px(rows[i].frame, value2(rows[i])), cv::Scalar(0, 0, 200), 1);
+      cv::line(img, to_px(rows[i - 1].frame, value(rows[i - 1])), to_px(rows[i].frame, value(rows[i])),
+               cv::Scalar(200, 60, 0), 2);
+      if (value2)
+        cv::line(img, to_px(rows[i - 1].frame, value2(rows[i - 1])), to_px(rows[i].frame, value2(rows[i])),
+                 cv::Scalar(0, 0, 200), 1);
     }
     cv::putText(img, "0", {margin - 15, y0 + h - 25}, cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
     cv::putText(img, "frame " + std::to_string(static_cast<long>(max_frame)), {w - 110, y0 + h - 8},
                 cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0));
   };
   using F = double (*)(const Row&);
-  panel(0, "resident memory [MB]", [](const Row& r) { return r.rss_mb; }, F(nullptr));
-  panel(1, "Gaussians", [](const Row& r) { return r.gaussians; }, F(nullptr));
-  panel(2, "mapping jobs queued", [](const Row& r) { return r.queued; }, F(nullptr));
-  panel(3, "latency per frame [ms]: p50 blue, p95 red", [](const Row& r) { return r.p50_ms; },
-        F([](const Row& r) { return r.p95_ms; }));
-  panel(4, "keyframes: mapping blue, tracking red", [](const Row& r) { return r.keyframes; },
-        F([](const Row& r) { return r.tracker_keyframes; }));
+  panel(
+      0, "resident memory [MB]", [](const Row& r) { return r.rss_mb; }, F(nullptr));
+  panel(
+      1, "Gaussians", [](const Row& r) { return r.gaussians; }, F(nullptr));
+  panel(
+      2, "mapping jobs queued", [](const Row& r) { return r.queued; }, F(nullptr));
+  panel(
+      3, "latency per frame [ms]: p50 blue, p95 red", [](const Row& r) { return r.p50_ms; },
+      F([](const Row& r) { return r.p95_ms; }));
+  panel(
+      4, "keyframes: mapping blue, tracking red", [](const Row& r) { return r.keyframes; },
+      F([](const Row& r) { return r.tracker_keyframes; }));
   cv::imwrite(path, img);
 }
 
@@ -96,14 +103,22 @@ int main(int argc, char** argv) {
   mapping::MappingMode mode = mapping::MappingMode::kDeterministic;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--frames") frames = std::stoi(v);
-    else if (k == "--every") every = std::stoi(v);
-    else if (k == "--out") out = v;
-    else if (k == "--plot") plot_path = v;
-    else if (k == "--plot-csv") plot_csv = v;
+    if (k == "--frames")
+      frames = std::stoi(v);
+    else if (k == "--every")
+      every = std::stoi(v);
+    else if (k == "--out")
+      out = v;
+    else if (k == "--plot")
+      plot_path = v;
+    else if (k == "--plot-csv")
+      plot_csv = v;
     else if (k == "--mapping-mode" && (v == "deterministic" || v == "live"))
       mode = v == "live" ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic;
-    else { std::cerr << "unknown argument " << k << "\n"; return 2; }
+    else {
+      std::cerr << "unknown argument " << k << "\n";
+      return 2;
+    }
   }
   if (!plot_csv.empty()) {
     std::ifstream in(plot_csv);
@@ -115,7 +130,8 @@ int main(int argc, char** argv) {
       std::istringstream ss(line);
       if (ss >> r.frame >> comma >> r.rss_mb >> comma >> r.gaussians >> comma >> r.keyframes >> comma >> r.queued >>
           comma >> r.p50_ms >> comma >> r.p95_ms) {
-        if (ss >> comma >> r.tracker_keyframes >> comma >> r.tracker_points) {}  // older CSVs lack them
+        if (ss >> comma >> r.tracker_keyframes >> comma >> r.tracker_points) {
+        }  // older CSVs lack them
         rows.push_back(r);
       }
     }
@@ -156,9 +172,8 @@ int main(int argc, char** argv) {
       window.clear();
       const Row& r = rows.back();
       std::cerr << "frame " << r.frame << ": rss " << r.rss_mb << " MB, " << r.gaussians << " Gaussians, "
-                << r.keyframes << " keyframes, queued " << r.queued << ", p50 " << r.p50_ms << " ms, p95 "
-                << r.p95_ms << " ms, tracker " << r.tracker_keyframes << " keyframes / " << r.tracker_points
-                << " points\n";
+                << r.keyframes << " keyframes, queued " << r.queued << ", p50 " << r.p50_ms << " ms, p95 " << r.p95_ms
+                << " ms, tracker " << r.tracker_keyframes << " keyframes / " << r.tracker_points << " points\n";
       writeCsv();
     }
   }

@@ -93,8 +93,7 @@ int main(int argc, char** argv) {
       if (!detected) throw std::runtime_error("cannot detect the camera; pass --camera");
       camera_name = *detected;
     }
-    const dt::CameraConfig camera =
-        dt::loadCameraConfig(dt::resolveCameraConfig(camera_name, dt::defaultConfigDir()));
+    const dt::CameraConfig camera = dt::loadCameraConfig(dt::resolveCameraConfig(camera_name, dt::defaultConfigDir()));
     const dt::TumDataset data = dt::TumDataset::open(dataset, camera);
     dypho::tracking::RgbdOdometry odometry(options);
     std::map<std::string, std::vector<double>> stages;
@@ -118,8 +117,7 @@ int main(int argc, char** argv) {
     }
     // Final trajectory: each tracked frame follows the later local-BA / loop corrections of its
     // reference keyframe (what ORB-SLAM saves); `trajectory` holds the poses at frame time.
-    const std::vector<dypho::StampedPose> final_trajectory =
-        dypho::toStampedPoses(recorder.finalPoses(odometry.map()));
+    const std::vector<dypho::StampedPose> final_trajectory = dypho::toStampedPoses(recorder.finalPoses(odometry.map()));
     const std::vector<dypho::StampedPose> trajectory = dypho::toStampedPoses(recorder.onlinePoses());
     if (!out.empty()) dypho::writeTumTrajectory(out, final_trajectory);
     double ate_cm = -1, ate_online_cm = -1, end_drift_cm = -1;
@@ -142,16 +140,16 @@ int main(int argc, char** argv) {
         const auto gt_first = nearest(first.stamp_s);
         const auto gt_last = nearest(last.stamp_s);
         if (gt_first && gt_last) {
-          const Eigen::Isometry3d error = (gt_first->inverse() * *gt_last).inverse() *
-                                          (first.T_world_camera.inverse() * last.T_world_camera);
+          const Eigen::Isometry3d error =
+              (gt_first->inverse() * *gt_last).inverse() * (first.T_world_camera.inverse() * last.T_world_camera);
           end_drift_cm = 100.0 * error.translation().norm();
         }
       }
     }
     const auto& total = stages["total"];
-    std::cout << "frames " << data.size() << " ok " << ok << " lost " << lost << " keyframes "
-              << keyframes << " loops " << loops << " ate_cm " << ate_cm << " (online " << ate_online_cm
-              << ") end_drift_cm " << end_drift_cm << " | median_ms";
+    std::cout << "frames " << data.size() << " ok " << ok << " lost " << lost << " keyframes " << keyframes << " loops "
+              << loops << " ate_cm " << ate_cm << " (online " << ate_online_cm << ") end_drift_cm " << end_drift_cm
+              << " | median_ms";
     for (const char* s : {"features", "matching", "pnp", "refine", "local_ba", "loop", "total"}) {
       std::cout << " " << s << " " << median(stages[s]);
     }

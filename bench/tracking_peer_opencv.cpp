@@ -36,9 +36,12 @@ int main(int argc, char** argv) {
   std::string dataset, out, camera_name;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i];
-    if (key == "--dataset") dataset = argv[i + 1];
-    else if (key == "--out") out = argv[i + 1];
-    else if (key == "--camera") camera_name = argv[i + 1];
+    if (key == "--dataset")
+      dataset = argv[i + 1];
+    else if (key == "--out")
+      out = argv[i + 1];
+    else if (key == "--camera")
+      camera_name = argv[i + 1];
     else {
       std::cerr << "unknown argument " << key << "\n";
       return 2;
@@ -56,11 +59,10 @@ int main(int argc, char** argv) {
       if (!detected) throw std::runtime_error("cannot detect the camera of " + dataset + "; pass --camera");
       camera_name = *detected;
     }
-    const dt::CameraConfig camera =
-        dt::loadCameraConfig(dt::resolveCameraConfig(camera_name, config_dir));
+    const dt::CameraConfig camera = dt::loadCameraConfig(dt::resolveCameraConfig(camera_name, config_dir));
     const dt::TumDataset data = dt::TumDataset::open(dataset, camera);
-    const cv::Mat K = (cv::Mat_<float>(3, 3) << camera.camera.fx, 0, camera.camera.cx, 0,
-                       camera.camera.fy, camera.camera.cy, 0, 0, 1);
+    const cv::Mat K = (cv::Mat_<float>(3, 3) << camera.camera.fx, 0, camera.camera.cx, 0, camera.camera.fy,
+                       camera.camera.cy, 0, 0, 1);
     cv::rgbd::RgbdOdometry odometry(K);  // default parameters
     std::vector<dypho::StampedPose> trajectory;
     std::vector<double> ms;
@@ -98,9 +100,8 @@ int main(int argc, char** argv) {
     }
     dypho::writeTumTrajectory(out, trajectory);
     std::sort(ms.begin(), ms.end());
-    std::cout << "opencv_rgbd_odometry frames " << trajectory.size() << " failures " << failures
-              << " median_ms " << (ms.empty() ? 0.0 : ms[ms.size() / 2]) << " trajectory " << out
-              << "\n";
+    std::cout << "opencv_rgbd_odometry frames " << trajectory.size() << " failures " << failures << " median_ms "
+              << (ms.empty() ? 0.0 : ms[ms.size() / 2]) << " trajectory " << out << "\n";
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -18,9 +18,9 @@
 namespace dypho::bench {
 
 struct TrainingFrame {
-  double T_world_camera[16];  ///< row-major 4x4
-  std::vector<float> rgb;     ///< [3, H, W]
-  std::vector<float> depth_m; ///< [H, W]
+  double T_world_camera[16];   ///< row-major 4x4
+  std::vector<float> rgb;      ///< [3, H, W]
+  std::vector<float> depth_m;  ///< [H, W]
 };
 
 struct TrainingFrames {
@@ -53,7 +53,8 @@ inline TrainingFrames readTrainingFrames(const std::string& path) {
   t.fy = k[1];
   t.cx = k[2];
   t.cy = k[3];
-  if (t.width <= 0 || t.height <= 0 || t.width > 8192 || t.height > 8192 || count > 100000 || !(t.fx > 0) || !(t.fy > 0)) {
+  if (t.width <= 0 || t.height <= 0 || t.width > 8192 || t.height > 8192 || count > 100000 || !(t.fx > 0) ||
+      !(t.fy > 0)) {
     throw std::runtime_error("'" + path + "' has an implausible header");
   }
   const std::size_t npix = static_cast<std::size_t>(t.width) * t.height;

@@ -26,9 +26,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     const YAML::Node root = YAML::Load(std::string(reinterpret_cast<const char*>(data), size));
     if (!root.IsMap()) return 0;
-    try { readAndValidate<dypho::mask::DynamicMaskOptions>(root["mask"]); } catch (const std::exception&) {}
-    try { readAndValidate<dypho::tracking::TrackingOptions>(root["tracking"]); } catch (const std::exception&) {}
-    try { readAndValidate<dypho::mapping::MappingOptions>(root["mapping"]); } catch (const std::exception&) {}
+    try {
+      readAndValidate<dypho::mask::DynamicMaskOptions>(root["mask"]);
+    } catch (const std::exception&) {
+    }
+    try {
+      readAndValidate<dypho::tracking::TrackingOptions>(root["tracking"]);
+    } catch (const std::exception&) {
+    }
+    try {
+      readAndValidate<dypho::mapping::MappingOptions>(root["mapping"]);
+    } catch (const std::exception&) {
+    }
   } catch (const std::exception&) {
   }
   return 0;

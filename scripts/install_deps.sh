@@ -18,7 +18,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libceres-dev libgtest-dev libyaml-cpp-dev
   librostest-dev python3-rostest ros-core rosbash python3-rosbag libstd-srvs-dev
   rviz xvfb imagemagick
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format universal-ctags
   python3-onnx python3-numpy python3-yaml
   opencv-doc
 )

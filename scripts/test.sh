@@ -42,6 +42,9 @@ phase_done "ctest"
 /usr/bin/python3 "$ROOT/scripts/results_table.py" --check || status=1
 # docs/parameters.md lists every core parameter with the default of config/*.yaml.
 /usr/bin/python3 "$ROOT/scripts/check_parameters_doc.py" || status=1
+# The code's form: clang-format (.clang-format), and functions and files within their size.
+bash "$ROOT/scripts/check_format.sh" || status=1
+bash "$ROOT/scripts/check_code_size.sh" || status=1
 # What failed, and the failures' own lines (gtest assertions, the rostest nodes' summaries from
 # their logs under ROS_HOME): printed again at the very end, where a shortened log still shows it.
 failure_summary="$BUILD/failure_summary.txt"

@@ -42,9 +42,8 @@ class InputTiming {
   std::string describe() const {
     std::lock_guard<std::mutex> lock(mutex_);
     std::ostringstream os;
-    os << "input: " << frames_ << " frames reached the test node; max lag behind their stamps' schedule at "
-       << rate_ << "x "
-       << max_lag_s_ * 1e3 << " ms, " << late_frames_ << " frames more than " << kLateS * 1e3
+    os << "input: " << frames_ << " frames reached the test node; max lag behind their stamps' schedule at " << rate_
+       << "x " << max_lag_s_ * 1e3 << " ms, " << late_frames_ << " frames more than " << kLateS * 1e3
        << " ms late, longest gap between frames " << max_gap_s_ * 1e3 << " ms";
     return os.str();
   }

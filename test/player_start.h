@@ -56,9 +56,9 @@ inline ::testing::AssertionResult resumePlayerOnceAdvertised(const std::vector<s
     }
     if (advertised == outputs.size()) break;
     if ((ros::WallTime::now() - start).toSec() > timeout_s) {
-      return ::testing::AssertionFailure() << advertised << " of " << outputs.size()
-                                           << " graph outputs advertised after " << timeout_s
-                                           << " s: did every nodelet load?";
+      return ::testing::AssertionFailure()
+             << advertised << " of " << outputs.size() << " graph outputs advertised after " << timeout_s
+             << " s: did every nodelet load?";
     }
     ros::WallDuration(0.1).sleep();
   }

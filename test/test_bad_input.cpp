@@ -100,16 +100,20 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
     return !std::isfinite(p.position.x) || !std::isfinite(p.position.y) || !std::isfinite(p.position.z) ||
            !std::isfinite(p.orientation.w) || !std::isfinite(p.orientation.x);
   };
-  auto pose_sub = nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
-    if (is_nan_pose(p->pose)) ++obs.nan_poses;
-    ++obs.poses;
-  });
-  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 100, [&](const dypho_slam::TrackingStatusConstPtr& s) {
-    if (is_nan_pose(s->T_world_camera) && s->trusted) ++obs.nan_poses;
-    if (s->restarted) ++obs.restarts;
-    ++obs.statuses;
-  });
-  auto mask_sub = nh.subscribe<sensor_msgs::Image>("/dypho/mask", 100, [&](const sensor_msgs::ImageConstPtr&) { ++obs.masks; });
+  auto pose_sub =
+      nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
+        if (is_nan_pose(p->pose)) ++obs.nan_poses;
+        ++obs.poses;
+      });
+  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 100,
+                                                             [&](const dypho_slam::TrackingStatusConstPtr& s) {
+                                                               if (is_nan_pose(s->T_world_camera) && s->trusted)
+                                                                 ++obs.nan_poses;
+                                                               if (s->restarted) ++obs.restarts;
+                                                               ++obs.statuses;
+                                                             });
+  auto mask_sub =
+      nh.subscribe<sensor_msgs::Image>("/dypho/mask", 100, [&](const sensor_msgs::ImageConstPtr&) { ++obs.masks; });
   auto log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 500, [&](const rosgraph_msgs::LogConstPtr& m) {
     if (m->level < rosgraph_msgs::Log::WARN) return;
     std::lock_guard<std::mutex> lock(obs.mutex);
@@ -154,23 +158,44 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   };
   // 1. Unsupported colour encoding.
   t += 1.0 / 30.0;
-  { sensor_msgs::Image rgb = rgbOf(f, t); rgb.encoding = "yuv422"; rgb.step = rgb.width * 2; rgb.data.resize(rgb.step * rgb.height); bad(rgb, depthOf(f.frame.depth_m, t), infoOf(f, t)); }
+  {
+    sensor_msgs::Image rgb = rgbOf(f, t);
+    rgb.encoding = "yuv422";
+    rgb.step = rgb.width * 2;
+    rgb.data.resize(rgb.step * rgb.height);
+    bad(rgb, depthOf(f.frame.depth_m, t), infoOf(f, t));
+  }
   // 2. Unsupported depth encoding.
   t += 1.0 / 30.0;
-  { cv::Mat d8(f.frame.depth_m.size(), CV_8UC1, cv::Scalar(3)); bad(rgbOf(f, t), *cv_bridge::CvImage(header(t), "8UC1", d8).toImageMsg(), infoOf(f, t)); }
+  {
+    cv::Mat d8(f.frame.depth_m.size(), CV_8UC1, cv::Scalar(3));
+    bad(rgbOf(f, t), *cv_bridge::CvImage(header(t), "8UC1", d8).toImageMsg(), infoOf(f, t));
+  }
   // 3. Depth and colour of different sizes.
   t += 1.0 / 30.0;
-  { cv::Mat small; cv::resize(f.frame.depth_m, small, cv::Size(), 0.5, 0.5, cv::INTER_NEAREST); bad(rgbOf(f, t), depthOf(small, t), infoOf(f, t)); }
+  {
+    cv::Mat small;
+    cv::resize(f.frame.depth_m, small, cv::Size(), 0.5, 0.5, cv::INTER_NEAREST);
+    bad(rgbOf(f, t), depthOf(small, t), infoOf(f, t));
+  }
   // 4. camera_info all zero (an uncalibrated driver).
   t += 1.0 / 30.0;
-  { sensor_msgs::CameraInfo zero; zero.header = header(t); bad(rgbOf(f, t), depthOf(f.frame.depth_m, t), zero); }
+  {
+    sensor_msgs::CameraInfo zero;
+    zero.header = header(t);
+    bad(rgbOf(f, t), depthOf(f.frame.depth_m, t), zero);
+  }
   // 5. NaN, zero and negative depth everywhere; 6. a black frame.
   for (float v : {std::numeric_limits<float>::quiet_NaN(), 0.f, -1.f}) {
     t += 1.0 / 30.0;
     bad(rgbOf(f, t), depthOf(cv::Mat(f.frame.depth_m.size(), CV_32FC1, cv::Scalar(v)), t), infoOf(f, t));
   }
   t += 1.0 / 30.0;
-  { SynthFrame black = f; black.frame.bgr.setTo(cv::Scalar(0, 0, 0)); bad(rgbOf(black, t), depthOf(f.frame.depth_m, t), infoOf(f, t)); }
+  {
+    SynthFrame black = f;
+    black.frame.bgr.setTo(cv::Scalar(0, 0, 0));
+    bad(rgbOf(black, t), depthOf(f.frame.depth_m, t), infoOf(f, t));
+  }
   ros::WallDuration(1.0).sleep();
   EXPECT_TRUE(logMentions(obs, "yuv422")) << "unsupported colour encoding not named";
   EXPECT_TRUE(logMentions(obs, "8UC1")) << "unsupported depth encoding not named";
@@ -206,7 +231,8 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   {
     ros::Publisher points = nh.advertise<sensor_msgs::PointCloud2>("/dypho/moving_points", 2);
     const ros::WallTime start = ros::WallTime::now();
-    while (points.getNumSubscribers() == 0 && (ros::WallTime::now() - start).toSec() < 10.0) ros::WallDuration(0.1).sleep();
+    while (points.getNumSubscribers() == 0 && (ros::WallTime::now() - start).toSec() < 10.0)
+      ros::WallDuration(0.1).sleep();
     ASSERT_GT(points.getNumSubscribers(), 0u) << "the mask nodelet does not subscribe to moving_points";
     sensor_msgs::PointCloud2 no_fields;
     no_fields.header = header(t);
@@ -229,8 +255,8 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   EXPECT_EQ(obs.nan_poses, 0);
   EXPECT_GT(obs.masks, 40);
   std::lock_guard<std::mutex> lock(obs.mutex);
-  std::cout << "bad input: " << obs.poses << " poses, " << obs.statuses << " statuses, " << obs.masks
-            << " masks, " << obs.log.size() << " warnings/errors, e.g.:\n";
+  std::cout << "bad input: " << obs.poses << " poses, " << obs.statuses << " statuses, " << obs.masks << " masks, "
+            << obs.log.size() << " warnings/errors, e.g.:\n";
   for (std::size_t i = 0; i < obs.log.size() && i < 12; ++i) std::cout << "  " << obs.log[i] << "\n";
 }
 

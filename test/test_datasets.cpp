@@ -39,7 +39,7 @@ constexpr double DYPHO_BONN_FLOW_ATE_BOUND_M = 0.03;
 constexpr double DYPHO_HARD_CASE_ATE_BOUND_M = 0.005;
 
 bool exists(const std::string& path) {
-  struct stat st{};
+  struct stat st {};
   return ::stat(path.c_str(), &st) == 0;
 }
 
@@ -55,9 +55,8 @@ constexpr const char* kTrajectoryOnly = "--no-map";
 
 /// Runs dypho_run_dataset and returns its exit code; output goes to <out>/log.txt.
 int runDataset(const std::string& dataset, const std::string& out, const std::string& extra = "") {
-  const std::string cmd = std::string("mkdir -p '") + out + "' && '" + DYPHO_RUN_DATASET +
-                          "' --dataset '" + dataset + "' --out '" + out + "' --quiet " + extra +
-                          " > '" + out + "/log.txt' 2>&1";
+  const std::string cmd = std::string("mkdir -p '") + out + "' && '" + DYPHO_RUN_DATASET + "' --dataset '" + dataset +
+                          "' --out '" + out + "' --quiet " + extra + " > '" + out + "/log.txt' 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream log(out + "/log.txt");
   std::cout << log.rdbuf() << std::endl;
@@ -102,8 +101,7 @@ TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
     config << "mask:\n  yolo_model_path: \"" << model << "\"\n";
   }
   ASSERT_EQ(runDataset(data, out, std::string(kTrajectoryOnly) + " --config '" + out + "/detector.yaml'"), 0);
-  const auto gt = dypho::tools::applyBonnCorrection(
-      dypho::readTumTrajectory(data + "/groundtruth.txt"));
+  const auto gt = dypho::tools::applyBonnCorrection(dypho::readTumTrajectory(data + "/groundtruth.txt"));
   const double ate = ateOf(out, gt);
   std::cout << "Bonn crowd 200-399: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
   EXPECT_LT(ate, DYPHO_BONN_ATE_BOUND_M);
@@ -156,17 +154,18 @@ TEST_P(HardCase, FlowMaskOnlyStaysOnTheStaticRoom) {
 }
 
 // People pixels, mean / max share of the view (dypho_synth's summary).
-INSTANTIATE_TEST_SUITE_P(StaticCamera, HardCase,
-                         ::testing::Values(HardCaseSpec{"stop_and_go", "--people 5 --walk stop-and-go --people-distance 0.9"},  // 34 / 54 %
-                                           HardCaseSpec{"group", "--people 4 --walk group"},                  // 6 / 36 %
-                                           // 22 / 39 %; 0.56 cm (frame 1 6.7 cm off) while the static check
-                                           // judged the frame after the start by the dragged pose's own turn
-                                           HardCaseSpec{"group_seed9", "--people 4 --walk group", 9},
-                                           HardCaseSpec{"towards", "--people 4 --walk towards"},              // 39 / 55 %
-                                           HardCaseSpec{"crossing6_seed2", "--people 6 --people-distance 0.9", 2},   // 31 / 55 %
-                                           // 41 / 65 %; 0.65 cm with object permanence (permanence_frames: 30)
-                                           HardCaseSpec{"crossing8_seed1", "--people 8 --people-distance 0.8", 1}),
-                         [](const ::testing::TestParamInfo<HardCaseSpec>& info) { return std::string(info.param.name); });
+INSTANTIATE_TEST_SUITE_P(
+    StaticCamera, HardCase,
+    ::testing::Values(HardCaseSpec{"stop_and_go", "--people 5 --walk stop-and-go --people-distance 0.9"},  // 34 / 54 %
+                      HardCaseSpec{"group", "--people 4 --walk group"},                                    // 6 / 36 %
+                      // 22 / 39 %; 0.56 cm (frame 1 6.7 cm off) while the static check
+                      // judged the frame after the start by the dragged pose's own turn
+                      HardCaseSpec{"group_seed9", "--people 4 --walk group", 9},
+                      HardCaseSpec{"towards", "--people 4 --walk towards"},                    // 39 / 55 %
+                      HardCaseSpec{"crossing6_seed2", "--people 6 --people-distance 0.9", 2},  // 31 / 55 %
+                      // 41 / 65 %; 0.65 cm with object permanence (permanence_frames: 30)
+                      HardCaseSpec{"crossing8_seed1", "--people 8 --people-distance 0.8", 1}),
+    [](const ::testing::TestParamInfo<HardCaseSpec>& info) { return std::string(info.param.name); });
 
 namespace {
 
@@ -201,8 +200,8 @@ constexpr const char* kNoProbation = "  point_probation_frames: 0\n";
 /// YAML, "" = the defaults), each into the run folder data + "_run_" + its name, prints both ATE
 /// RMSEs after `label`, and expects the first at least `min_gain_m` lower.
 struct RunVariant {
-  const char* name;         ///< run folder suffix and what the printed line calls it
-  std::string config;       ///< config YAML ("" = the defaults)
+  const char* name;    ///< run folder suffix and what the printed line calls it
+  std::string config;  ///< config YAML ("" = the defaults)
 };
 void expectLowerAte(const std::string& data, const std::string& label, const RunVariant& with,
                     const RunVariant& without, double min_gain_m) {
@@ -210,8 +209,8 @@ void expectLowerAte(const std::string& data, const std::string& label, const Run
   const double ate_without = ateWithConfig(data, data + "_run_" + without.name, without.config);
   ASSERT_GE(ate_with, 0.0) << with.name;
   ASSERT_GE(ate_without, 0.0) << without.name;
-  std::cout << label << ": ATE RMSE " << ate_with * 100 << " cm (" << with.name << "), " << ate_without * 100
-            << " cm (" << without.name << ")\n";
+  std::cout << label << ": ATE RMSE " << ate_with * 100 << " cm (" << with.name << "), " << ate_without * 100 << " cm ("
+            << without.name << ")\n";
   EXPECT_LT(ate_with, ate_without - min_gain_m);
 }
 
@@ -266,7 +265,8 @@ TEST(DatasetRun, ProbationKeepsFreshPointsOfMissedPeopleFromCarryingThePose) {
 // the defaults, 0.34 cm with the test off (moving_point_min_hits: 0); the test asks for at least
 // 1 mm less (single runs repeat to the last digit on one machine).
 TEST(DatasetRun, PointsSeenMovingBeforeAStillCameraAreCulled) {
-  const std::string data = stillCameraCrowd("stop_and_go_seed2", "--people 5 --walk stop-and-go --people-distance 0.9", 2);
+  const std::string data =
+      stillCameraCrowd("stop_and_go_seed2", "--people 5 --walk stop-and-go --people-distance 0.9", 2);
   ASSERT_FALSE(data.empty());
   expectLowerAte(data, "stop-and-go, seed 2", {"defaults", ""},
                  {"no_moving_points", "tracking:\n  moving_point_min_hits: 0\n"}, 0.001);
@@ -281,7 +281,8 @@ TEST(DatasetRun, PointsSeenMovingBeforeAStillCameraAreCulled) {
 // test asks for at least 1.5 mm less (under half the measured gain; single runs repeat to the
 // last digit on one machine).
 TEST(DatasetRun, PeriodicKeyframeWaitsForAnUndisputedPose) {
-  const std::string data = stillCameraCrowd("stop_and_go_seed5", "--people 5 --walk stop-and-go --people-distance 0.9", 5);
+  const std::string data =
+      stillCameraCrowd("stop_and_go_seed5", "--people 5 --walk stop-and-go --people-distance 0.9", 5);
   ASSERT_FALSE(data.empty());
   expectLowerAte(data, "stop-and-go, seed 5", {"defaults", ""},
                  {"never_postponed", "tracking:\n  keyframe_static_doubt: 0\n"}, 0.0015);
@@ -344,7 +345,6 @@ std::vector<std::string> listedFiles(const std::string& list) {
   return files;
 }
 
-
 // A recording with one truncated PNG and one garbage line in rgb.txt: the run goes on, skips that
 // frame and that line, names both, and writes every other frame's pose.
 TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
@@ -353,7 +353,7 @@ TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
   ASSERT_EQ(rgb.size(), 150u);
   const std::string damaged = data + "/" + rgb[70];
   ASSERT_EQ(::truncate(damaged.c_str(), 100), 0);  // a PNG cut off after 100 bytes
-  const std::size_t garbage_line = [&] {  // the line the garbage is appended as
+  const std::size_t garbage_line = [&] {           // the line the garbage is appended as
     std::ifstream in(data + "/rgb.txt");
     std::size_t lines = 0;
     for (std::string line; std::getline(in, line);) ++lines;
@@ -365,7 +365,7 @@ TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
   EXPECT_EQ(dypho::readTumTrajectory(out + "/trajectory.txt").size(), 149u);
   const std::string log = readText(out + "/log.txt");
   EXPECT_NE(log.find("1 unreadable and skipped"), std::string::npos);
-  EXPECT_NE(log.find(rgb[70]), std::string::npos);          // the frame's file is named
+  EXPECT_NE(log.find(rgb[70]), std::string::npos);                                    // the frame's file is named
   EXPECT_NE(log.find("rgb.txt:" + std::to_string(garbage_line)), std::string::npos);  // the garbage line is named
   EXPECT_TRUE(exists(out + "/map.ply"));
 }
@@ -379,8 +379,11 @@ TEST(DatasetRun, SigintWritesWhatWasProcessed) {
   const std::string log = out + "/log.txt";
   ASSERT_EQ(std::system(("mkdir -p '" + out + "'").c_str()), 0);
   const std::string script = "mkdir -p '" + out + "'; '" + std::string(DYPHO_RUN_DATASET) + "' --dataset '" + data +
-                             "' --out '" + out + "' > '" + log + "' 2>&1 & pid=$!; "
-                             "for i in $(seq 600); do grep -q '21/150' '" + log + "' && break; sleep 0.1; done; "
+                             "' --out '" + out + "' > '" + log +
+                             "' 2>&1 & pid=$!; "
+                             "for i in $(seq 600); do grep -q '21/150' '" +
+                             log +
+                             "' && break; sleep 0.1; done; "
                              "kill -INT $pid; wait $pid";
   std::ofstream(out + "_sigint.sh") << script << "\n";
   const int status = std::system(("bash '" + out + "_sigint.sh'").c_str());

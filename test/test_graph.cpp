@@ -107,17 +107,19 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     if (m->encoding != "mono8" || m->width == 0) ++rec.mask_errors;
     ++rec.masks;
   });
-  auto pose_sub = nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 50, [&](const geometry_msgs::PoseStampedConstPtr& p) {
-    EXPECT_EQ(p->header.frame_id, "map");
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Quaterniond(p->pose.orientation.w, p->pose.orientation.x,
-                                    p->pose.orientation.y, p->pose.orientation.z).toRotationMatrix();
-    T.translation() << p->pose.position.x, p->pose.position.y, p->pose.position.z;
-    std::lock_guard<std::mutex> lock(rec.mutex);
-    rec.trajectory.push_back({p->header.stamp.toSec(), T});
-    rec.last_pose = ros::WallTime::now();
-    ++rec.poses;
-  });
+  auto pose_sub =
+      nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 50, [&](const geometry_msgs::PoseStampedConstPtr& p) {
+        EXPECT_EQ(p->header.frame_id, "map");
+        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+        T.linear() = Eigen::Quaterniond(p->pose.orientation.w, p->pose.orientation.x, p->pose.orientation.y,
+                                        p->pose.orientation.z)
+                         .toRotationMatrix();
+        T.translation() << p->pose.position.x, p->pose.position.y, p->pose.position.z;
+        std::lock_guard<std::mutex> lock(rec.mutex);
+        rec.trajectory.push_back({p->header.stamp.toSec(), T});
+        rec.last_pose = ros::WallTime::now();
+        ++rec.poses;
+      });
   auto kf_sub = nh.subscribe<dypho_slam::Keyframe>("/dypho/keyframe", 50, [&](const dypho_slam::KeyframeConstPtr& k) {
     EXPECT_FALSE(k->keypoints.empty());
     EXPECT_EQ(k->mask.encoding, "mono8");
@@ -125,31 +127,37 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     rec.keyframe_stamps_s.push_back(k->header.stamp.toSec());
     ++rec.keyframes;
   });
-  auto cloud_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/map_cloud", 5, [&](const sensor_msgs::PointCloud2ConstPtr& c) {
-    rec.cloud_points = static_cast<std::size_t>(c->width) * c->height;
-    ++rec.clouds;
-  });
-  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 50, [&](const dypho_slam::TrackingStatusConstPtr& s) {
-    ++rec.statuses;
-    if (s->state == dypho_slam::TrackingStatus::OK) ++rec.ok_statuses;
-    std::lock_guard<std::mutex> lock(rec.mutex);
-    rec.last_status = *s;
-  });
-  auto mask_status_sub = nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 50, [&](const dypho_slam::MaskStatusConstPtr& m) {
-    std::lock_guard<std::mutex> lock(rec.mutex);
-    rec.last_mask_status = *m;
-  });
+  auto cloud_sub =
+      nh.subscribe<sensor_msgs::PointCloud2>("/dypho/map_cloud", 5, [&](const sensor_msgs::PointCloud2ConstPtr& c) {
+        rec.cloud_points = static_cast<std::size_t>(c->width) * c->height;
+        ++rec.clouds;
+      });
+  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 50,
+                                                             [&](const dypho_slam::TrackingStatusConstPtr& s) {
+                                                               ++rec.statuses;
+                                                               if (s->state == dypho_slam::TrackingStatus::OK)
+                                                                 ++rec.ok_statuses;
+                                                               std::lock_guard<std::mutex> lock(rec.mutex);
+                                                               rec.last_status = *s;
+                                                             });
+  auto mask_status_sub =
+      nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 50, [&](const dypho_slam::MaskStatusConstPtr& m) {
+        std::lock_guard<std::mutex> lock(rec.mutex);
+        rec.last_mask_status = *m;
+      });
   dypho::test::InputTiming input_timing(rate);  // camera_info is small: its arrival times cost nothing
-  auto info_sub = nh.subscribe<sensor_msgs::CameraInfo>("/camera/rgb/camera_info", 200, [&](const sensor_msgs::CameraInfoConstPtr& i) {
-    input_timing.add(i->header.stamp.toSec(), ros::WallTime::now().toSec());
-  });
+  auto info_sub = nh.subscribe<sensor_msgs::CameraInfo>(
+      "/camera/rgb/camera_info", 200, [&](const sensor_msgs::CameraInfoConstPtr& i) {
+        input_timing.add(i->header.stamp.toSec(), ros::WallTime::now().toSec());
+      });
   tf2_ros::Buffer tf_buffer;
   tf2_ros::TransformListener tf_listener(tf_buffer);
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
   // The player starts paused and plays once all three nodelets are up (player_start.h).
-  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
+  ASSERT_TRUE(
+      dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
   // Wait until the bag has played: all frames seen, or no new pose for 8 s after the first.
   const ros::WallTime start = ros::WallTime::now();
   while ((ros::WallTime::now() - start).toSec() < 120.0) {
@@ -170,8 +178,9 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
     std::cout << "graph test (1x): " << rec.statuses << " statuses, " << rec.poses << " poses of " << frames
               << " frames; tracking saw " << s.frames_in << " in, " << s.frames_processed << " processed, "
               << s.frames_dropped << " dropped, " << s.frames_mask_carried << " with a carried mask, "
-              << s.frames_without_mask << " without, " << s.frames_caught_up << " caught up; latency p50 " << s.latency_p50_ms << " ms, p95 "
-              << s.latency_p95_ms << " ms; mask skipped " << rec.last_mask_status.frames_dropped_busy << "\n"
+              << s.frames_without_mask << " without, " << s.frames_caught_up << " caught up; latency p50 "
+              << s.latency_p50_ms << " ms, p95 " << s.latency_p95_ms << " ms; mask skipped "
+              << rec.last_mask_status.frames_dropped_busy << "\n"
               << "graph test " << input_timing.describe() << "\n";
     EXPECT_EQ(s.frames_processed + s.frames_dropped, s.frames_in) << "every frame is tracked or counted as dropped";
   }
@@ -191,10 +200,9 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   std::lock_guard<std::mutex> lock(rec.mutex);
   ASSERT_GE(rec.trajectory.size(), 10u);
   const auto ate = dypho::tools::computeAte(rec.trajectory, gt);
-  std::cout << "graph test: " << rec.masks << " masks, " << rec.poses << " poses, "
-            << rec.keyframes << " keyframes, " << rec.clouds << " clouds (" << rec.cloud_points
-            << " points), ATE RMSE " << ate.rmse_m * 100 << " cm over " << ate.num_pairs
-            << " poses\n";
+  std::cout << "graph test: " << rec.masks << " masks, " << rec.poses << " poses, " << rec.keyframes << " keyframes, "
+            << rec.clouds << " clouds (" << rec.cloud_points << " points), ATE RMSE " << ate.rmse_m * 100 << " cm over "
+            << ate.num_pairs << " poses\n";
   // Bound 1.5 cm: the same bag run in-process (dypho_run_dataset) gives 0.37 cm and this graph
   // test measured 0.38-0.47 cm. Unlike the in-process run it is not deterministic (which frames
   // the synchroniser drops depends on the load), hence the margin.
@@ -205,9 +213,9 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   // bound: half of the frames masked.
   const dypho_slam::MaskStatus& mask_status = rec.last_mask_status;
   const bool rendered_depth_on = background_tau > 0.0;
-  std::cout << "graph test: mask used R_d on " << mask_status.frames_with_rendered_depth << " of "
-            << mask_status.frames << " frames (" << mask_status.rendered_depth_offered << " offered, "
-            << mask_status.rendered_depth_unmatched << " unmatched)\n";
+  std::cout << "graph test: mask used R_d on " << mask_status.frames_with_rendered_depth << " of " << mask_status.frames
+            << " frames (" << mask_status.rendered_depth_offered << " offered, " << mask_status.rendered_depth_unmatched
+            << " unmatched)\n";
   if (rendered_depth_on) {
     EXPECT_GE(mask_status.frames_with_rendered_depth * 2, mask_status.frames);
   }
@@ -227,9 +235,9 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   // stamp). Bound 5 mm: both are about 4 mm from the ground truth, and the graph differs only in
   // timing (which R_d arrives in time for which frame, frames the synchroniser drops).
   const auto agreement = dypho::tools::computeAte(rec.trajectory, in_process.trajectory);
-  std::cout << "graph vs in process: trajectory RMSE " << agreement.rmse_m * 100 << " cm over "
-            << agreement.num_pairs << " poses; keyframes " << rec.keyframe_stamps_s.size() << " vs "
-            << in_process.keyframe_stamps_s.size() << "\n";
+  std::cout << "graph vs in process: trajectory RMSE " << agreement.rmse_m * 100 << " cm over " << agreement.num_pairs
+            << " poses; keyframes " << rec.keyframe_stamps_s.size() << " vs " << in_process.keyframe_stamps_s.size()
+            << "\n";
   EXPECT_GE(agreement.num_pairs, static_cast<std::size_t>(frames * 8 / 10));
   EXPECT_LT(agreement.rmse_m, 0.005);
   // Keyframes: the same count within 25 %, and at least 60 % of the graph's keyframes at a frame

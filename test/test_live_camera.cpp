@@ -31,8 +31,8 @@ struct Recorder {
   std::vector<double> rgb_stamps_s, rgb_wall_s;  ///< colour frames seen (header stamp, arrival)
   std::set<std::string> rgb_encodings, depth_encodings;
   std::atomic<int> depth_frames{0};
-  std::set<double> status_stamps_s;   ///< frames tracking answered (any state)
-  std::set<double> trusted_stamps_s;  ///< tracking_status with trusted = true
+  std::set<double> status_stamps_s;            ///< frames tracking answered (any state)
+  std::set<double> trusted_stamps_s;           ///< tracking_status with trusted = true
   std::vector<dypho::StampedPose> trajectory;  ///< from `pose`
   std::set<std::string> pose_frames;
   dypho_slam::TrackingStatus last_status;  ///< its counters say where frames went
@@ -78,33 +78,38 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
     rec.depth_encodings.insert(m->encoding);
     ++rec.depth_frames;
   });
-  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>(
-      "/dypho/tracking_status", 100, [&](const dypho_slam::TrackingStatusConstPtr& s) {
+  auto status_sub = nh.subscribe<dypho_slam::TrackingStatus>("/dypho/tracking_status", 100,
+                                                             [&](const dypho_slam::TrackingStatusConstPtr& s) {
+                                                               std::lock_guard<std::mutex> lock(rec.mutex);
+                                                               rec.status_stamps_s.insert(s->header.stamp.toSec());
+                                                               if (s->trusted)
+                                                                 rec.trusted_stamps_s.insert(s->header.stamp.toSec());
+                                                               rec.last_status = *s;
+                                                               rec.last_output = ros::WallTime::now();
+                                                             });
+  auto mask_sub =
+      nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 100, [&](const dypho_slam::MaskStatusConstPtr& m) {
         std::lock_guard<std::mutex> lock(rec.mutex);
-        rec.status_stamps_s.insert(s->header.stamp.toSec());
-        if (s->trusted) rec.trusted_stamps_s.insert(s->header.stamp.toSec());
-        rec.last_status = *s;
+        rec.last_mask = *m;
+      });
+  auto pose_sub =
+      nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
+        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+        T.linear() = Eigen::Quaterniond(p->pose.orientation.w, p->pose.orientation.x, p->pose.orientation.y,
+                                        p->pose.orientation.z)
+                         .toRotationMatrix();
+        T.translation() << p->pose.position.x, p->pose.position.y, p->pose.position.z;
+        std::lock_guard<std::mutex> lock(rec.mutex);
+        rec.trajectory.push_back({p->header.stamp.toSec(), T});
+        rec.pose_frames.insert(p->header.frame_id);
         rec.last_output = ros::WallTime::now();
       });
-  auto mask_sub = nh.subscribe<dypho_slam::MaskStatus>("/dypho/mask/status", 100, [&](const dypho_slam::MaskStatusConstPtr& m) {
-    std::lock_guard<std::mutex> lock(rec.mutex);
-    rec.last_mask = *m;
-  });
-  auto pose_sub = nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::Quaterniond(p->pose.orientation.w, p->pose.orientation.x, p->pose.orientation.y,
-                                    p->pose.orientation.z).toRotationMatrix();
-    T.translation() << p->pose.position.x, p->pose.position.y, p->pose.position.z;
-    std::lock_guard<std::mutex> lock(rec.mutex);
-    rec.trajectory.push_back({p->header.stamp.toSec(), T});
-    rec.pose_frames.insert(p->header.frame_id);
-    rec.last_output = ros::WallTime::now();
-  });
 
   ros::AsyncSpinner spinner(2);
   spinner.start();
   // The player starts paused and plays once the three nodelets are up (player_start.h).
-  ASSERT_TRUE(dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
+  ASSERT_TRUE(
+      dypho::test::resumePlayerOnceAdvertised({"/dypho/mask", "/dypho/tracking_status", "/dypho/map_cloud"}, bag));
   // Wait for the bag: all frames seen, or no input for 3 s after the first; then for the graph to
   // drain (no status or pose for 3 s). Bounded by the wall time the bag needs plus 25 s.
   const ros::WallTime start = ros::WallTime::now();
@@ -152,9 +157,9 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   const double posed_fraction = static_cast<double>(pose_stamps.size()) / frames;
   std::cout << "live test: tracking answered " << rec.status_stamps_s.size() << " of " << frames << " frames ("
             << frames - static_cast<int>(rec.status_stamps_s.size())
-            << " dropped before tracking: the graph fell behind), trusted pose on "
-            << rec.trusted_stamps_s.size() << " (" << 100.0 * trusted_fraction << " %), pose published for "
-            << pose_stamps.size() << " (" << 100.0 * posed_fraction << " %)\n";
+            << " dropped before tracking: the graph fell behind), trusted pose on " << rec.trusted_stamps_s.size()
+            << " (" << 100.0 * trusted_fraction << " %), pose published for " << pose_stamps.size() << " ("
+            << 100.0 * posed_fraction << " %)\n";
   // Where frames went, from the last statuses: the synchroniser's output (frames_in) against the
   // bag tells the frames lost in transport or in the subscriber queues; the tracking and mask
   // counters tell the frames their queues dropped; latency and tracking time tell how far behind.
@@ -173,9 +178,9 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   const auto& ms = rec.last_mask;
   std::cout << "live test: tracking counters: " << st.frames_in << " in, " << st.frames_processed << " processed, "
             << st.frames_dropped << " dropped, " << st.frames_mask_carried << " with a carried mask, "
-            << st.frames_without_mask << " without a mask, " << st.frames_caught_up
-            << " caught up; latency p50 " << st.latency_p50_ms << " ms, p95 " << st.latency_p95_ms
-            << " ms; tracking p50 " << st.tracking_p50_ms << " ms, p95 " << st.tracking_p95_ms << " ms\n"
+            << st.frames_without_mask << " without a mask, " << st.frames_caught_up << " caught up; latency p50 "
+            << st.latency_p50_ms << " ms, p95 " << st.latency_p95_ms << " ms; tracking p50 " << st.tracking_p50_ms
+            << " ms, p95 " << st.tracking_p95_ms << " ms\n"
             << "live test: mask counters: " << ms.frames_in << " in, " << ms.frames << " masked, "
             << ms.frames_dropped_busy << " skipped (newer frames waiting); latency p50 " << ms.latency_p50_ms
             << " ms, p95 " << ms.latency_p95_ms << " ms\n"

@@ -19,11 +19,15 @@ constexpr std::size_t kBytes = 8u << 20;  // 8 MB: a save takes long enough to b
 
 /// Version `k` of the file: a size line, then kBytes bytes of value k % 251.
 void writeVersion(const std::string& path, int k) {
-  dypho::writeFileAtomically(path, [&](std::ostream& os) {
-    os << "version " << k << " bytes " << kBytes << "\n";
-    const std::string block(1 << 16, static_cast<char>(k % 251));
-    for (std::size_t n = 0; n < kBytes; n += block.size()) os.write(block.data(), static_cast<std::streamsize>(block.size()));
-  }, true);
+  dypho::writeFileAtomically(
+      path,
+      [&](std::ostream& os) {
+        os << "version " << k << " bytes " << kBytes << "\n";
+        const std::string block(1 << 16, static_cast<char>(k % 251));
+        for (std::size_t n = 0; n < kBytes; n += block.size())
+          os.write(block.data(), static_cast<std::streamsize>(block.size()));
+      },
+      true);
 }
 
 /// True when `path` holds one complete version.

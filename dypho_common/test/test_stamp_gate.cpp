@@ -17,8 +17,8 @@ TEST(StampGate, DropsRepeatedAndLateFramesRestartsOnAJumpBack) {
   EXPECT_EQ(gate.admit(10 * kFrameNs), StampOrder::kNext);
   EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kNext);
   EXPECT_EQ(gate.admit(11 * kFrameNs), StampOrder::kRepeated);
-  EXPECT_EQ(gate.admit(9 * kFrameNs), StampOrder::kLate);    // 2 frames late
-  EXPECT_EQ(gate.admit(12 * kFrameNs), StampOrder::kNext);   // the newest stays 11, then 12
+  EXPECT_EQ(gate.admit(9 * kFrameNs), StampOrder::kLate);                   // 2 frames late
+  EXPECT_EQ(gate.admit(12 * kFrameNs), StampOrder::kNext);                  // the newest stays 11, then 12
   EXPECT_EQ(gate.admit(12 * kFrameNs - 1'000'000'000), StampOrder::kLate);  // exactly 1 s: late
   EXPECT_EQ(gate.dropped(), 3u);
   EXPECT_EQ(gate.restarts(), 0u);

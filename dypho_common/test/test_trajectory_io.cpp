@@ -79,7 +79,7 @@ TEST(TrajectoryIo, CommentsBlankLinesCommasAndNormalisation) {
   const fs::path dir = makeTempDir("fmt");
   writeText(dir / "t.txt",
             "# ground truth trajectory\n\n"
-            "1.5 1 2 3 0 0 0 2\n"          // unnormalised quaternion (qw=2) -> identity
+            "1.5 1 2 3 0 0 0 2\n"  // unnormalised quaternion (qw=2) -> identity
             "   # indented comment\n"
             "2.5,4,5,6,0,0,0.7071067811865476,0.7071067811865476\r\n");  // commas, CRLF
   const auto poses = readTumTrajectory((dir / "t.txt").string());
@@ -96,10 +96,10 @@ TEST(TrajectoryIo, MalformedLinesNameFileAndLine) {
   const fs::path dir = makeTempDir("bad");
   const std::string ok = "1 0 0 0 0 0 0 1\n";
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"# header\n" + ok + "2 0 0 0 0 0 1\n", ":3:"},          // 7 numbers
-      {ok + ok + ok + "3 0 0 x 0 0 0 1\n", ":4:"},            // not a number
-      {ok + "2 0 0 0 0 0 0 1 extra\n", ":2:"},                // trailing junk
-      {"1 0 0 0 0 0 0 0\n", ":1:"},                           // zero quaternion
+      {"# header\n" + ok + "2 0 0 0 0 0 1\n", ":3:"},  // 7 numbers
+      {ok + ok + ok + "3 0 0 x 0 0 0 1\n", ":4:"},     // not a number
+      {ok + "2 0 0 0 0 0 0 1 extra\n", ":2:"},         // trailing junk
+      {"1 0 0 0 0 0 0 0\n", ":1:"},                    // zero quaternion
   };
   for (std::size_t k = 0; k < cases.size(); ++k) {
     const fs::path file = dir / ("bad" + std::to_string(k) + ".txt");

@@ -11,8 +11,8 @@ namespace dypho::mapping {
 
 template <typename T>
 struct GaussianParamsStorage {
-  int n = 0;          ///< number of Gaussians
-  int sh_degree = 1;  ///< SH degree of `sh`
+  int n = 0;                                ///< number of Gaussians
+  int sh_degree = 1;                        ///< SH degree of `sh`
   std::vector<T> pos, scale, rot, opa, sh;  ///< 3, 3 (log), 4 (wxyz), 1 (logit), 3 * (deg+1)^2 each
 
   GaussianParamsView<T> view() const {

@@ -43,7 +43,8 @@ class EmulatedGpuRasterizer {
     const std::uint32_t total = n > 0 ? offsets.back() : 0;
     std::vector<unsigned long long> keys(total);
     std::vector<std::uint32_t> values(total);
-    for (int i = 0; i < n; ++i) body::emitKeys(i, packed_.data(), touched_.data(), offsets.data(), tiles_x_, keys.data(), values.data());
+    for (int i = 0; i < n; ++i)
+      body::emitKeys(i, packed_.data(), touched_.data(), offsets.data(), tiles_x_, keys.data(), values.data());
     // cub::DeviceRadixSort::SortPairs: stable, ascending keys.
     std::vector<std::uint32_t> order(total);
     std::iota(order.begin(), order.end(), 0u);
@@ -72,8 +73,8 @@ class EmulatedGpuRasterizer {
           for (int lx = 0; lx < body::S; ++lx) {
             const body::TilePixel t = body::tilePixel(bx, by, lx, ly, cam.width, cam.height);
             body::forwardPixel(t, cam.width, cam.height, ranges_[by * tiles_x_ + bx], values_.data(), packed_.data(),
-                               static_cast<float>(settings_.min_alpha),
-                               static_cast<float>(settings_.min_transmittance), fo);
+                               static_cast<float>(settings_.min_alpha), static_cast<float>(settings_.min_transmittance),
+                               fo);
           }
   }
 
@@ -89,15 +90,16 @@ class EmulatedGpuRasterizer {
         for (int ly = 0; ly < body::S; ++ly)
           for (int lx = 0; lx < body::S; ++lx) {
             px.push_back(body::tilePixel(bx, by, lx, ly, cam_.width, cam_.height));
-            start.push_back(body::backwardStart(px.back(), cam_.width, cam_.height, range, final_T_.data(), last_.data(),
-                                                g.color, g.depth, g.alpha));
+            start.push_back(body::backwardStart(px.back(), cam_.width, cam_.height, range, final_T_.data(),
+                                                last_.data(), g.color, g.depth, g.alpha));
             block_last = std::max(block_last, start.back().last);
           }
         for (std::uint32_t k = block_last; k-- > range.begin;) {
           const std::uint32_t gi = values_[k];
           for (std::size_t j = 0; j < px.size(); ++j) {
             gs::ScreenGrad<float> s{};
-            if (!body::backwardPixelStep(px[j], k, packed_[gi], static_cast<float>(settings_.min_alpha), start[j], s)) continue;
+            if (!body::backwardPixelStep(px[j], k, packed_[gi], static_cast<float>(settings_.min_alpha), start[j], s))
+              continue;
             gs::ScreenGrad<float>& a = screen[gi];
             a.mean_u += s.mean_u;
             a.mean_v += s.mean_v;
@@ -117,8 +119,8 @@ class EmulatedGpuRasterizer {
     out.opacity_logit.assign(n, 7.f);
     out.sh.assign(static_cast<std::size_t>(K3) * n, 7.f);
     out.mean2d_norm.assign(n, 7.f);
-    const body::ParamGradsOut po{out.position.data(), out.log_scale.data(), out.rotation.data(),
-                                 out.opacity_logit.data(), out.sh.data(), out.mean2d_norm.data()};
+    const body::ParamGradsOut po{out.position.data(),      out.log_scale.data(), out.rotation.data(),
+                                 out.opacity_logit.data(), out.sh.data(),        out.mean2d_norm.data()};
     double pose[6] = {0, 0, 0, 0, 0, 0};
     for (int i = 0; i < n; ++i) {  // chainKernel
       float part[6];
@@ -161,8 +163,11 @@ struct HostState {
     return b;
   }
   void add(float x, float log_scale, float opacity_logit, float grad_sum, int grad_count) {
-    const float row[5][4] = {{x, 0.f, 2.f}, {log_scale, log_scale - 1.f, log_scale - 2.f}, {0.9f, 0.1f, 0.2f, 0.3f},
-                             {opacity_logit}, {0.1f, 0.2f, 0.3f}};
+    const float row[5][4] = {{x, 0.f, 2.f},
+                             {log_scale, log_scale - 1.f, log_scale - 2.f},
+                             {0.9f, 0.1f, 0.2f, 0.3f},
+                             {opacity_logit},
+                             {0.1f, 0.2f, 0.3f}};
     for (int p = 0; p < 5; ++p) {
       params[p].insert(params[p].end(), row[p], row[p] + kWidths[p]);
       m[p].insert(m[p].end(), kWidths[p], 0.5f);  // non-zero moments: kept rows must keep them
@@ -179,7 +184,8 @@ inline DensifyOutcome emulateDensify(HostState& st, const DensifySettings& s, st
   DensifyOutcome out;
   const std::size_t n0 = st.n;
   std::vector<std::uint32_t> children(n0), offsets(n0);
-  for (std::size_t i = 0; i < n0; ++i) children[i] = body::densifyChildren(i, st.accum.data(), st.count.data(), st.params[1].data(), s);
+  for (std::size_t i = 0; i < n0; ++i)
+    children[i] = body::densifyChildren(i, st.accum.data(), st.count.data(), st.params[1].data(), s);
   std::exclusive_scan(children.begin(), children.end(), offsets.begin(), 0u);
   const std::size_t wanted = offsets.back() + children.back(), room = capacity > n0 ? capacity - n0 : 0;
   const std::size_t added = std::min(wanted, room);
@@ -223,6 +229,5 @@ inline DensifyOutcome emulateDensify(HostState& st, const DensifySettings& s, st
   st = dst;
   return out;
 }
-
 
 }  // namespace dypho::mapping::gpu_emulator

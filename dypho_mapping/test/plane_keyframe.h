@@ -16,8 +16,8 @@
 
 namespace dypho::mapping::test {
 
-inline Keyframe texturedPlaneKeyframe(std::int64_t id, const Eigen::Isometry3d& T_world_camera,
-                                      int width_px, int height_px, double focal_px, int checker_px) {
+inline Keyframe texturedPlaneKeyframe(std::int64_t id, const Eigen::Isometry3d& T_world_camera, int width_px,
+                                      int height_px, double focal_px, int checker_px) {
   Keyframe kf;
   kf.id = id;
   CameraIntrinsics& c = kf.frame.camera;
@@ -35,8 +35,8 @@ inline Keyframe texturedPlaneKeyframe(std::int64_t id, const Eigen::Isometry3d& 
   for (int v = 0; v < height_px; ++v) {
     for (int u = 0; u < width_px; ++u) {
       const double u_plane = u + shift_u_px, v_plane = v + shift_v_px;
-      const long cell = static_cast<long>(std::floor(u_plane / checker_px)) +
-                        static_cast<long>(std::floor(v_plane / checker_px));
+      const long cell =
+          static_cast<long>(std::floor(u_plane / checker_px)) + static_cast<long>(std::floor(v_plane / checker_px));
       const int checker = static_cast<int>(((cell % 2) + 2) % 2);
       const long red = ((static_cast<long>(std::lround(2.0 * u_plane)) % 256) + 256) % 256;  // a ramp that wraps
       kf.frame.bgr.at<cv::Vec3b>(v, u) =

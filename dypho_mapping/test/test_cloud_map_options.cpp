@@ -22,8 +22,7 @@ TEST(CloudMapOptions, DefaultsAreValidAndDocumentedValues) {
   EXPECT_DOUBLE_EQ(o.voxel_size_m, 0.02);
   EXPECT_EQ(o.max_points, 2000000u);
   const std::string s = o.toString();
-  for (const char* key :
-       {"pixel_stride=", "min_depth_m=", "max_depth_m=", "voxel_size_m=", "max_points="}) {
+  for (const char* key : {"pixel_stride=", "min_depth_m=", "max_depth_m=", "voxel_size_m=", "max_points="}) {
     EXPECT_NE(s.find(key), std::string::npos) << key;
   }
 }

@@ -23,9 +23,9 @@ namespace {
 
 using Scene = GaussianParamsStorage<float>;
 namespace body = cuda_body;
+using gpu_emulator::emulateDensify;
 using gpu_emulator::EmulatedGpuRasterizer;
 using gpu_emulator::HostState;
-using gpu_emulator::emulateDensify;
 
 gs::PinholeView<float> view() {
   gs::PinholeView<float> v{};
@@ -58,11 +58,12 @@ Scene scene(int n, std::mt19937& rng) {
   };
   for (int i = 0; i < n; ++i) {
     const float base = std::log(0.01f + 0.2f * (0.5f + 0.5f * u(rng)));
-    add(1.6f * u(rng), 1.2f * u(rng), 3.f + u(rng), base, base + 0.5f * u(rng), base - 1.f, 1.f, 0.6f * u(rng), 3.f * u(rng));
+    add(1.6f * u(rng), 1.2f * u(rng), 3.f + u(rng), base, base + 0.5f * u(rng), base - 1.f, 1.f, 0.6f * u(rng),
+        3.f * u(rng));
   }
-  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), -1.f + u(rng), -3.f, -3.f, -3.f, 1.f, 0.f, 2.f);     // behind
-  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), 2.f, -30.f, -2.f, -30.f, 0.f, 0.f, 2.f);            // degenerate
-  for (int i = 0; i < 400; ++i) {                                                                        // one tile
+  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), -1.f + u(rng), -3.f, -3.f, -3.f, 1.f, 0.f, 2.f);  // behind
+  for (int i = 0; i < 50; ++i) add(u(rng), u(rng), 2.f, -30.f, -2.f, -30.f, 0.f, 0.f, 2.f);          // degenerate
+  for (int i = 0; i < 400; ++i) {                                                                    // one tile
     const float z = 2.5f + u(rng);
     add((40.f + 6.f * u(rng) - 74.5f) * z / 120.f + 0.05f, (40.f + 6.f * u(rng) - 54.5f) * z / 120.f - 0.03f, z + 0.1f,
         -5.5f, -5.7f, -6.f, 1.f, 0.f, u(rng));
@@ -83,7 +84,8 @@ float relativeError(const std::vector<float>& cpu, const std::vector<float>& oth
   for (float v : cpu) scale = std::max(scale, std::abs(v));
   if (scale == 0.f) return cpu == other ? 0.f : 1e30f;
   float worst = 0.f;
-  for (std::size_t i = 0; i < cpu.size(); ++i) worst = std::max(worst, std::abs(cpu[i] - other[i]) / std::max(std::abs(cpu[i]), 1e-2f * scale));
+  for (std::size_t i = 0; i < cpu.size(); ++i)
+    worst = std::max(worst, std::abs(cpu[i] - other[i]) / std::max(std::abs(cpu[i]), 1e-2f * scale));
   return worst;
 }
 
@@ -134,8 +136,8 @@ void compareWithCpu(bool thresholds) {
   EXPECT_LE(relativeError(ca.mean2d_norm, gb.mean2d_norm), 1e-4f);
   for (int k = 0; k < 6; ++k) EXPECT_NEAR(ca.pose[k], gb.pose[k], 1e-4f * std::max(1.f, std::abs(ca.pose[k])));
   std::printf("[ report ] %s: %zu visible, %zu tile entries, image diff %.1e, position gradient rel. error %.1e\n",
-              thresholds ? "thresholds" : "smooth", cpu.numVisible(), cpu.numTileEntries(), maxAbsDiff(a.color, b.color),
-              relativeError(ca.position, gb.position));
+              thresholds ? "thresholds" : "smooth", cpu.numVisible(), cpu.numTileEntries(),
+              maxAbsDiff(a.color, b.color), relativeError(ca.position, gb.position));
 }
 
 TEST(CudaKernelBodies, GpuPipelineOnTheCpuMatchesTheRasterizerSmooth) { compareWithCpu(false); }
@@ -167,7 +169,8 @@ TEST(CudaKernelBodies, LossGradientsAreTheDerivativeOfTheLoss) {
   std::uniform_real_distribution<float> u(0.1f, 0.9f);
   std::vector<float> color(3 * npix), depth(npix), alpha(npix), t_rgb(3 * npix), t_depth(npix);
   std::vector<std::uint8_t> mask(npix, 1);
-  for (auto* v : {&color, &t_rgb}) for (float& x : *v) x = u(rng);
+  for (auto* v : {&color, &t_rgb})
+    for (float& x : *v) x = u(rng);
   for (float& x : depth) x = 1.f + u(rng);
   for (float& x : t_depth) x = 1.f + u(rng);
   for (float& x : alpha) x = u(rng);
@@ -190,7 +193,7 @@ TEST(CudaKernelBodies, LossGradientsAreTheDerivativeOfTheLoss) {
       float sums[train::kLossSums] = {};
       for (int i = 0; i < npix; ++i)
         train::l1LossPixel(i, L, c.data(), d.data(), a.data(), t_rgb.data(), t_depth.data(), mask.data(), g1.data(),
-                          g2.data(), g3.data(), sums);
+                           g2.data(), g3.data(), sums);
       if (gc) *gc = g1;
       if (gd) *gd = g2;
       if (ga) *ga = g3;
@@ -203,15 +206,21 @@ TEST(CudaKernelBodies, LossGradientsAreTheDerivativeOfTheLoss) {
     for (int i = 0; i < npix; ++i) {
       std::vector<float> c2 = color;
       c2[i] += h;
-      const float num = (loss(c2, depth, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      const float num =
+          (loss(c2, depth, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) /
+          h;
       EXPECT_NEAR(gc[i], num, 2e-3f) << "colour pixel " << i << " exposure " << exposure;
       std::vector<float> d2 = depth;
       d2[i] += h;
-      const float numd = (loss(color, d2, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      const float numd =
+          (loss(color, d2, alpha, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) /
+          h;
       EXPECT_NEAR(gd[i], numd, 2e-3f) << "depth pixel " << i;
       std::vector<float> a2 = alpha;
       a2[i] += h;
-      const float numa = (loss(color, depth, a2, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) / h;
+      const float numa =
+          (loss(color, depth, a2, nullptr, nullptr, nullptr) - loss(color, depth, alpha, nullptr, nullptr, nullptr)) /
+          h;
       EXPECT_NEAR(ga[i], numa, 2e-3f) << "alpha pixel " << i;
     }
     EXPECT_EQ(gc[5], 0.f);  // masked
@@ -247,12 +256,12 @@ TEST(CudaKernelBodies, AdamUsesTheShRestStepAfterTheDcCoefficients) {
 TEST(CudaKernelBodies, DensifyAndPruneFollowTheHostRules) {
   HostState st;
   const float small = std::log(0.01f), large = std::log(0.1f);
-  st.add(0.f, small, 2.f, 1.f, 10);   // 0: clone
-  st.add(1.f, large, 2.f, 1.f, 10);   // 1: split
-  st.add(2.f, small, 2.f, 1e-5f, 10); // 2: below the threshold
-  st.add(3.f, small, 2.f, 1.f, 0);    // 3: never visible
-  st.add(4.f, small, -10.f, 0.f, 0);  // 4: transparent: pruned
-  st.add(5.f, large, 2.f, 1.f, 10);   // 5: split, but no room left
+  st.add(0.f, small, 2.f, 1.f, 10);    // 0: clone
+  st.add(1.f, large, 2.f, 1.f, 10);    // 1: split
+  st.add(2.f, small, 2.f, 1e-5f, 10);  // 2: below the threshold
+  st.add(3.f, small, 2.f, 1.f, 0);     // 3: never visible
+  st.add(4.f, small, -10.f, 0.f, 0);   // 4: transparent: pruned
+  st.add(5.f, large, 2.f, 1.f, 10);    // 5: split, but no room left
   DensifySettings s;
   s.grad_threshold = 2e-4f;
   s.log_split_scale = std::log(0.02f);
@@ -282,7 +291,8 @@ TEST(CudaKernelBodies, DensifyAndPruneFollowTheHostRules) {
       EXPECT_EQ(st.v[p][4 * w + c], 0.f);
     }
   for (int half = 5; half <= 6; ++half) {  // the halves of Gaussian 1
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(st.params[1][half * 3 + c], before.params[1][3 + c] - std::log(1.6f), 1e-6f);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(st.params[1][half * 3 + c], before.params[1][3 + c] - std::log(1.6f), 1e-6f);
     float moved = 0.f;
     for (int c = 0; c < 3; ++c) moved += std::abs(st.params[0][half * 3 + c] - before.params[0][3 + c]);
     EXPECT_GT(moved, 0.f);
@@ -382,7 +392,8 @@ TEST(CudaKernelBodies, DeferredExposureChainEqualsTheFusedOne) {
   std::uniform_real_distribution<float> u(0.1f, 0.9f);
   std::vector<float> color(3 * npix), depth(npix), alpha(npix), t_rgb(3 * npix), t_depth(npix);
   std::vector<std::uint8_t> mask(npix, 1);
-  for (auto* v : {&color, &t_rgb, &alpha}) for (float& x : *v) x = u(rng);
+  for (auto* v : {&color, &t_rgb, &alpha})
+    for (float& x : *v) x = u(rng);
   for (float& x : depth) x = 1.f + u(rng);
   for (float& x : t_depth) x = 1.f + u(rng);
   mask[3] = 0;
@@ -400,13 +411,14 @@ TEST(CudaKernelBodies, DeferredExposureChainEqualsTheFusedOne) {
   float fused[train::kLossSums] = {}, deferred[train::kLossSums] = {};
   for (int i = 0; i < npix; ++i)
     train::l1LossPixel(i, L, color.data(), depth.data(), alpha.data(), t_rgb.data(), t_depth.data(), mask.data(),
-                      gc1.data(), gd.data(), ga.data(), fused);
+                       gc1.data(), gd.data(), ga.data(), fused);
   L.defer_exposure = 1;
   for (int i = 0; i < npix; ++i)
     train::l1LossPixel(i, L, color.data(), depth.data(), alpha.data(), t_rgb.data(), t_depth.data(), mask.data(),
-                      gc2.data(), gd.data(), ga.data(), deferred, shown.data());
+                       gc2.data(), gd.data(), ga.data(), deferred, shown.data());
   for (int i = 0; i < npix; ++i) train::exposureChain(i, L, shown.data(), gc2.data(), deferred);
-  for (int k = 0; k < train::kLossSums; ++k) EXPECT_NEAR(deferred[k], fused[k], 1e-5f * (1.f + std::abs(fused[k]))) << k;
+  for (int k = 0; k < train::kLossSums; ++k)
+    EXPECT_NEAR(deferred[k], fused[k], 1e-5f * (1.f + std::abs(fused[k]))) << k;
   for (int i = 0; i < 3 * npix; ++i) EXPECT_FLOAT_EQ(gc2[i], gc1[i]) << i;
   for (int i = 0; i < 3 * npix; ++i) EXPECT_FLOAT_EQ(shown[i], L.gain[i / npix] * color[i] + L.offset[i / npix]);
 }

@@ -22,10 +22,10 @@ namespace {
 
 using Scene = GaussianParamsStorage<float>;
 
-#define DYPHO_REQUIRE_CUDA_DEVICE()                                                   \
-  do {                                                                                \
-    std::string reason;                                                               \
-    if (cudaDeviceCount(&reason) <= 0) GTEST_SKIP() << "no CUDA device: " << reason;  \
+#define DYPHO_REQUIRE_CUDA_DEVICE()                                                  \
+  do {                                                                               \
+    std::string reason;                                                              \
+    if (cudaDeviceCount(&reason) <= 0) GTEST_SKIP() << "no CUDA device: " << reason; \
   } while (0)
 
 /// A 150x110 camera (partial tiles on both edges), focal 120 px, looking down +z from (tx, ty, tz).
@@ -46,8 +46,8 @@ gs::PinholeView<float> view(float tx = 0.05f, float ty = -0.03f, float tz = 0.1f
   return v;
 }
 
-void add(Scene& s, float x, float y, float z, float log_scale0, float log_scale1, float log_scale2,
-         const float q[4], float opacity_logit, std::mt19937& rng) {
+void add(Scene& s, float x, float y, float z, float log_scale0, float log_scale1, float log_scale2, const float q[4],
+         float opacity_logit, std::mt19937& rng) {
   std::uniform_real_distribution<float> u(-1.f, 1.f);
   s.pos.insert(s.pos.end(), {x, y, z});
   s.scale.insert(s.scale.end(), {log_scale0, log_scale1, log_scale2});
@@ -192,9 +192,10 @@ void compare(const std::string& name, const Scene& scene, bool thresholds) {
   const auto c = countAbove(cpu.image.color, gpu.image.color, 1e-4f);
   const auto a = countAbove(cpu.image.alpha, gpu.image.alpha, 1e-4f);
   const auto d = countAbove(cpu.image.depth, gpu.image.depth, 4e-4f);
-  std::printf("[ report ] %s %s: %zu Gaussians, %zu visible, %zu tile entries; max diff colour %.2e alpha %.2e depth %.2e\n",
-              name.c_str(), thresholds ? "thresholds" : "smooth", static_cast<std::size_t>(scene.n), cpu.visible,
-              cpu.entries, c.second, a.second, d.second);
+  std::printf(
+      "[ report ] %s %s: %zu Gaussians, %zu visible, %zu tile entries; max diff colour %.2e alpha %.2e depth %.2e\n",
+      name.c_str(), thresholds ? "thresholds" : "smooth", static_cast<std::size_t>(scene.n), cpu.visible, cpu.entries,
+      c.second, a.second, d.second);
   if (!thresholds) {
     EXPECT_EQ(c.first, 0u) << "max " << c.second;
     EXPECT_EQ(a.first, 0u) << "max " << a.second;

@@ -39,7 +39,8 @@ Run train(const std::string& device, double ssim_weight, bool densify) {
   EXPECT_EQ(mapper.computeDevice(), device == "cuda" ? ComputeDevice::kCuda : ComputeDevice::kCpu);
   Eigen::Isometry3d T2 = Eigen::Isometry3d::Identity();
   T2.translation().x() = 0.1;
-  EXPECT_TRUE(mapper.addKeyframe(test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10)).added);
+  EXPECT_TRUE(
+      mapper.addKeyframe(test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10)).added);
   EXPECT_TRUE(mapper.addKeyframe(test::texturedPlaneKeyframe(2, T2, 160, 120, 130.0, 10)).added);
   Run r;
   r.gaussians_seeded = mapper.stats().num_gaussians;
@@ -53,12 +54,14 @@ Run train(const std::string& device, double ssim_weight, bool densify) {
   for (const GaussianCentre& c : mapper.centres()) {
     EXPECT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
   }
-  const RenderedView view = mapper.render(Eigen::Isometry3d::Identity(),
-                                          test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10).frame.camera);
+  const RenderedView view =
+      mapper.render(Eigen::Isometry3d::Identity(),
+                    test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10).frame.camera);
   EXPECT_TRUE(cv::checkRange(view.depth_m));
-  std::printf("[ report ] %s%s: PSNR %.2f dB seeded -> %.2f dB after 100 iterations, loss %.4f -> %.4f, %zu -> %zu Gaussians\n",
-              device.c_str(), ssim_weight > 0 ? " with SSIM" : "", r.psnr_seeded, r.psnr, r.first_loss, r.last_loss,
-              r.gaussians_seeded, r.gaussians);
+  std::printf(
+      "[ report ] %s%s: PSNR %.2f dB seeded -> %.2f dB after 100 iterations, loss %.4f -> %.4f, %zu -> %zu Gaussians\n",
+      device.c_str(), ssim_weight > 0 ? " with SSIM" : "", r.psnr_seeded, r.psnr, r.first_loss, r.last_loss,
+      r.gaussians_seeded, r.gaussians);
   return r;
 }
 
@@ -117,7 +120,8 @@ TEST(CudaTraining, SnapshotRendersOnTheGpuMatchTheCpu) {
   std::string reason;
   if (cudaDeviceCount(&reason) <= 0) GTEST_SKIP() << "no CUDA device: " << reason;
   const std::shared_ptr<const GaussianMap> a = planeMap(0.9f, 400), b = planeMap(0.1f, 400);
-  const CameraIntrinsics cam = test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10).frame.camera;
+  const CameraIntrinsics cam =
+      test::texturedPlaneKeyframe(1, Eigen::Isometry3d::Identity(), 160, 120, 130.0, 10).frame.camera;
   MapRenderer cpu(1, ComputeDevice::kCpu), gpu(1, ComputeDevice::kCuda);
   for (const auto& map : {a, b, a, b}) {
     const RenderedView c = cpu.render(map, Eigen::Isometry3d::Identity(), cam);

@@ -25,7 +25,8 @@ Scene randomScene(int n, int degree, std::mt19937& rng) {
   for (int i = 0; i < n; ++i) {
     // In front of the camera (identity-ish pose below), inside the view.
     s.pos.insert(s.pos.end(), {0.5 * u(rng), 0.4 * u(rng), 3.0 + 0.8 * u(rng)});
-    s.scale.insert(s.scale.end(), {std::log(0.15 + 0.1 * u(rng)), std::log(0.12 + 0.08 * u(rng)), std::log(0.1 + 0.05 * u(rng))});
+    s.scale.insert(s.scale.end(),
+                   {std::log(0.15 + 0.1 * u(rng)), std::log(0.12 + 0.08 * u(rng)), std::log(0.1 + 0.05 * u(rng))});
     s.rot.insert(s.rot.end(), {1.0 + 0.3 * u(rng), 0.5 * u(rng), 0.5 * u(rng), 0.5 * u(rng)});
     s.opa.push_back(-0.5 + 1.0 * u(rng));
     for (int k = 0; k < K3; ++k) s.sh.push_back(k < 3 ? 0.8 * u(rng) : 0.15 * u(rng));
@@ -57,7 +58,8 @@ double loss(Rasterizer<double>& r, const Scene& s, const gs::PinholeView<double>
   return L;
 }
 
-gs::PinholeView<double> perturbedView(const Eigen::Isometry3d& T_cw, const CameraIntrinsics& cam, const Eigen::Matrix<double, 6, 1>& d) {
+gs::PinholeView<double> perturbedView(const Eigen::Isometry3d& T_cw, const CameraIntrinsics& cam,
+                                      const Eigen::Matrix<double, 6, 1>& d) {
   Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
   const double angle = d.tail<3>().norm();
   if (angle > 0) E.linear() = Eigen::AngleAxisd(angle, d.tail<3>() / angle).toRotationMatrix();
@@ -83,7 +85,7 @@ TEST_P(GradientCheck, AnalyticMatchesCentralDifferences) {
   ThreadPool pool(2);
   Rasterizer<double> raster(&pool, smoothSettings());
   CameraIntrinsics cam;
-  cam.width = 40;   // three tiles across and two down (partial tiles included)
+  cam.width = 40;  // three tiles across and two down (partial tiles included)
   cam.height = 24;
   cam.fx = cam.fy = 30.0;
   cam.cx = 19.5;
@@ -123,9 +125,15 @@ TEST_P(GradientCheck, AnalyticMatchesCentralDifferences) {
   };
   // Bound 1e-3 (the acceptance bound). Central differences in double with eps = 1e-6 have
   // truncation error ~eps^2 * f''' and rounding ~1e-16 * |L| / eps ~ 1e-9 relative: far below.
-  const struct { const char* name; std::vector<double>* param; std::vector<double>* grad; } blocks[] = {
-      {"position", &s.pos, &g.position}, {"log_scale", &s.scale, &g.log_scale},
-      {"rotation", &s.rot, &g.rotation}, {"opacity_logit", &s.opa, &g.opacity_logit}, {"sh", &s.sh, &g.sh}};
+  const struct {
+    const char* name;
+    std::vector<double>* param;
+    std::vector<double>* grad;
+  } blocks[] = {{"position", &s.pos, &g.position},
+                {"log_scale", &s.scale, &g.log_scale},
+                {"rotation", &s.rot, &g.rotation},
+                {"opacity_logit", &s.opa, &g.opacity_logit},
+                {"sh", &s.sh, &g.sh}};
   for (const auto& b : blocks) {
     const std::vector<double> n = numeric(*b.param);
     const double e = relError(*b.grad, n);

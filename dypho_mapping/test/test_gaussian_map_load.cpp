@@ -115,7 +115,8 @@ TEST(GaussianMapLoad, CorruptOrTruncatedFileLeavesTheMapUntouched) {
       {"cut inside the header", bytes.substr(0, header_end / 2), "end_header"},
       {"not a PLY", "solid cube\nfacet normal 0 0 1\n", "not a PLY"},
       {"empty file", "", "not a PLY"},
-      {"ASCII PLY", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n", "binary_little_endian"},
+      {"ASCII PLY", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+       "binary_little_endian"},
       {"missing property",
        "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nproperty float y\nend_header\n",
        "missing property"},
@@ -127,7 +128,7 @@ TEST(GaussianMapLoad, CorruptOrTruncatedFileLeavesTheMapUntouched) {
       ADD_FAILURE() << c.name << ": accepted";
     } catch (const std::runtime_error& e) {
       const std::string msg = e.what();
-      EXPECT_NE(msg.find(bad), std::string::npos) << c.name << ": " << msg;      // names the file
+      EXPECT_NE(msg.find(bad), std::string::npos) << c.name << ": " << msg;       // names the file
       EXPECT_NE(msg.find(c.expect), std::string::npos) << c.name << ": " << msg;  // and the problem
     }
     EXPECT_EQ(mapper.stats().num_gaussians, count) << c.name;

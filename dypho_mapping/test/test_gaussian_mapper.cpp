@@ -1,4 +1,5 @@
-/// GaussianMapper: bad input, capacity, densify/prune invariants, re-anchoring, training on a synthetic sequence (PSNR, no ghosts).
+/// GaussianMapper: bad input, capacity, densify/prune invariants, re-anchoring, training on a synthetic sequence (PSNR,
+/// no ghosts).
 #include <unistd.h>
 
 #include <atomic>
@@ -99,8 +100,10 @@ TEST(GaussianMapper, TrainingReducesTheLossAndDensifyPruneKeepsInvariants) {
   EXPECT_GT(s.num_gaussians, 0u);
   EXPECT_LE(s.num_gaussians, o.max_gaussians);
   // After densify/prune every Gaussian is finite and renders finite images.
-  for (const GaussianCentre& c : mapper.centres()) ASSERT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
-  const RenderedView v = mapper.render(Eigen::Isometry3d::Identity(), planeKeyframe(1, Eigen::Isometry3d::Identity()).frame.camera);
+  for (const GaussianCentre& c : mapper.centres())
+    ASSERT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
+  const RenderedView v =
+      mapper.render(Eigen::Isometry3d::Identity(), planeKeyframe(1, Eigen::Isometry3d::Identity()).frame.camera);
   EXPECT_TRUE(cv::checkRange(v.depth_m));
   const KeyframeEvaluation ev = mapper.evaluateKeyframes();
   EXPECT_EQ(ev.num_keyframes, 1u);
@@ -193,14 +196,16 @@ TEST(GaussianMapper, TrainingThreadsRunInTheIdleClass) {
   std::vector<int> idle(2, -1);
   {
     ThreadPool pool(2, GaussianMapperOptions().trainingPriority());
-    pool.parallelForStatic(2, [&](int i, int) { idle[static_cast<std::size_t>(i)] = currentThreadIsIdleClass() ? 1 : 0; });
+    pool.parallelForStatic(2,
+                           [&](int i, int) { idle[static_cast<std::size_t>(i)] = currentThreadIsIdleClass() ? 1 : 0; });
   }
   EXPECT_EQ(idle[0], 0) << "the caller keeps its class";
   EXPECT_EQ(idle[1], 1) << "the pool thread runs in the idle class";
   // 1 when the worker's thread ran its job in the idle class, 0 when not.
   const auto workerIsIdleClass = [](ThreadPriority priority) {
     std::atomic<int> idle_class{-1};
-    MappingWorker worker(1, [&](const MappingJob&) { idle_class = currentThreadIsIdleClass() ? 1 : 0; }, {}, priority);
+    MappingWorker worker(
+        1, [&](const MappingJob&) { idle_class = currentThreadIsIdleClass() ? 1 : 0; }, {}, priority);
     worker.push(MappingJob{}, true);
     worker.waitUntilIdle();
     worker.stop();
@@ -276,8 +281,7 @@ TEST(GaussianMapper, LivePolicyTrainsWhileIdle) {
   mapper.waitUntilIdle();
   // Idle iterations follow; wait (at most 20 s, a loaded CI machine) for 20 beyond the keyframe's 3.
   const auto start = std::chrono::steady_clock::now();
-  while (mapper.stats().iterations < 3 + 20 &&
-         std::chrono::steady_clock::now() - start < std::chrono::seconds(20)) {
+  while (mapper.stats().iterations < 3 + 20 && std::chrono::steady_clock::now() - start < std::chrono::seconds(20)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_GE(mapper.stats().iterations, 3 + 20) << "no training while idle";
@@ -444,8 +448,8 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
   const CameraIntrinsics& cam = frames[0].frame.camera;
   auto seenElsewhere = [&](std::size_t k, int x, int y) {
     const float z = frames[k].static_depth_m.at<float>(y, x);
-    const Eigen::Vector3d p_w = frames[k].T_world_camera *
-        Eigen::Vector3d((x - cam.cx) / cam.fx * z, (y - cam.cy) / cam.fy * z, z);
+    const Eigen::Vector3d p_w =
+        frames[k].T_world_camera * Eigen::Vector3d((x - cam.cx) / cam.fx * z, (y - cam.cy) / cam.fy * z, z);
     for (std::size_t j = 0; j < frames.size(); ++j) {
       if (j == k) continue;
       const Eigen::Vector3d p = frames[j].T_world_camera.inverse() * p_w;
@@ -453,7 +457,8 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
       const int u = static_cast<int>(std::lround(cam.fx * p.x() / p.z() + cam.cx));
       const int v = static_cast<int>(std::lround(cam.fy * p.y() / p.z() + cam.cy));
       if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
-      if (frames[j].mask_gt.at<std::uint8_t>(v, u) == 0 && std::abs(frames[j].frame.depth_m.at<float>(v, u) - p.z()) < 0.05)
+      if (frames[j].mask_gt.at<std::uint8_t>(v, u) == 0 &&
+          std::abs(frames[j].frame.depth_m.at<float>(v, u) - p.z()) < 0.05)
         return true;
     }
     return false;
@@ -473,9 +478,10 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
         farther += err > 0.05f;  // seen through: the static surface is not opaque from here
       }
   }
-  std::printf("ghost check: %.2f %% of %zu revealed dynamic pixels within 5 cm (%.2f %% closer: ghosts, %.2f %% farther)\n",
-              100.0 * ok / std::max<std::size_t>(1, n), n, 100.0 * closer / std::max<std::size_t>(1, n),
-              100.0 * farther / std::max<std::size_t>(1, n));
+  std::printf(
+      "ghost check: %.2f %% of %zu revealed dynamic pixels within 5 cm (%.2f %% closer: ghosts, %.2f %% farther)\n",
+      100.0 * ok / std::max<std::size_t>(1, n), n, 100.0 * closer / std::max<std::size_t>(1, n),
+      100.0 * farther / std::max<std::size_t>(1, n));
   ASSERT_GT(n, 1000u);
   const double share = static_cast<double>(ok) / n;
   // The target: >= 99 % within 5 cm. Measured 99.46-99.51 % (0.00 % closer, 0.5 % farther:
@@ -486,7 +492,6 @@ TEST(GaussianMapper, SyntheticSequenceHasNoGhosts) {
   EXPECT_GE(share, 0.99);
   EXPECT_LE(static_cast<double>(closer) / n, 0.005);
 }
-
 
 // The mapping stage re-anchors a keyframe's Gaussians when tracking corrects it (local BA or loop
 // closure), in order with the keyframes: a correction sent right after its keyframe, while that

@@ -159,7 +159,8 @@ TEST(Rasterizer, SingleGaussianMatchesAnalyticValue) {
   RenderResult<double> out;
   raster.forward(g.view(), view, out);
   gs::Projected<double> p;
-  ASSERT_TRUE(gs::projectGaussian(view, g.pos.data(), g.scale.data(), g.rot.data(), g.opa[0], g.sh.data(), 0, 3.0, 1.0 / 255, p));
+  ASSERT_TRUE(gs::projectGaussian(view, g.pos.data(), g.scale.data(), g.rot.data(), g.opa[0], g.sh.data(), 0, 3.0,
+                                  1.0 / 255, p));
   const double o = 1.0 / (1.0 + std::exp(-1.2));
   int checked = 0;
   for (int y = 0; y < cam.height; ++y) {
@@ -204,8 +205,8 @@ TEST(GaussianMath, MayReachImageNeverRejectsAVisibleGaussian) {
     gs::Projected<float> p;
     if (gs::projectGaussian(view, pos, ls, q, logit, sh, 0, 3.f, 1.f / 255.f, p)) {
       const float r = p.radius_px;
-      const bool on_screen = p.mean_u + r >= -0.5f && p.mean_u - r <= cam.width - 0.5f &&
-                             p.mean_v + r >= -0.5f && p.mean_v - r <= cam.height - 0.5f;
+      const bool on_screen = p.mean_u + r >= -0.5f && p.mean_u - r <= cam.width - 0.5f && p.mean_v + r >= -0.5f &&
+                             p.mean_v - r <= cam.height - 0.5f;
       if (on_screen) {
         ++visible;
         ASSERT_TRUE(may) << "rejected a visible Gaussian " << i << " at (" << p.mean_u << ", " << p.mean_v
@@ -221,8 +222,8 @@ TEST(GaussianMath, MayReachImageNeverRejectsAVisibleGaussian) {
 
 /// Per-pixel front-to-back compositing of every Gaussian (no tiles, no boxes): the definition the
 /// tiled rasterizer implements. Returns how many pixels stopped early.
-int referenceRender(const GaussianParamsView<double>& v, const gs::PinholeView<double>& view,
-                     const RasterSettings& st, RenderResult<double>& out) {
+int referenceRender(const GaussianParamsView<double>& v, const gs::PinholeView<double>& view, const RasterSettings& st,
+                    RenderResult<double>& out) {
   const int W = view.width, H = view.height;
   const std::size_t npix = static_cast<std::size_t>(W) * H;
   out.color.assign(3 * npix, 0.0);
@@ -312,7 +313,7 @@ TEST(Rasterizer, FrontGaussianOccludesBackOne) {
   GaussianMap map(0, 4);
   GaussianInit g;
   g.log_scale = Eigen::Vector3f::Constant(std::log(0.5f));  // >= 8 px std dev: G ~ 1 at the centre
-  g.opacity_logit = 10.f;  // opacity ~1 -> alpha clamps at 0.99
+  g.opacity_logit = 10.f;                                   // opacity ~1 -> alpha clamps at 0.99
   g.position_w = {0, 0, 3};
   g.sh = {rgbToShDc(0.f), rgbToShDc(0.f), rgbToShDc(1.f)};
   map.add(g);
@@ -320,14 +321,19 @@ TEST(Rasterizer, FrontGaussianOccludesBackOne) {
   g.position_w = {0, 0, 1};
   g.sh = {rgbToShDc(1.f), rgbToShDc(0.f), rgbToShDc(0.f)};
   map.add(g);  // added second but nearer: depth sorting must put it first
-  GaussianParamsView<float> v{map.data(kParamPosition), map.data(kParamLogScale), map.data(kParamRotation),
-                              map.data(kParamOpacity), map.data(kParamSh), 2, 0};
+  GaussianParamsView<float> v{map.data(kParamPosition),
+                              map.data(kParamLogScale),
+                              map.data(kParamRotation),
+                              map.data(kParamOpacity),
+                              map.data(kParamSh),
+                              2,
+                              0};
   RenderResult<float> out;
   raster.forward(v, makePinholeView<float>(Eigen::Isometry3d::Identity(), cam), out);
   const std::size_t c = 24 * 64 + 32, n = 64 * 48;
   // Tolerance 2e-3: at the centre pixel (half a pixel off the mean) G differs from 1 by < 1e-3.
-  EXPECT_NEAR(out.color[c], 0.7f, 2e-3f);                // red in front
-  EXPECT_NEAR(out.color[2 * n + c], 0.3f * 0.99f, 2e-3f);  // blue behind, through T = 0.3
+  EXPECT_NEAR(out.color[c], 0.7f, 2e-3f);                             // red in front
+  EXPECT_NEAR(out.color[2 * n + c], 0.3f * 0.99f, 2e-3f);             // blue behind, through T = 0.3
   EXPECT_NEAR(out.depth[c], 0.7f * 1.f + 0.3f * 0.99f * 3.f, 6e-3f);  // D = sum d_i alpha_i T_i
   EXPECT_NEAR(out.alpha[c], 0.7f + 0.3f * 0.99f, 2e-3f);
 }
@@ -488,8 +494,13 @@ TEST(GaussianSh, ReanchoredGaussianRendersTheSameFromTheMovedCamera) {
     map.add(g);
     Rasterizer<float> raster(&pool);
     auto view = [&](const GaussianMap& m) {
-      return GaussianParamsView<float>{m.data(kParamPosition), m.data(kParamLogScale), m.data(kParamRotation),
-                                       m.data(kParamOpacity), m.data(kParamSh), 1, degree};
+      return GaussianParamsView<float>{m.data(kParamPosition),
+                                       m.data(kParamLogScale),
+                                       m.data(kParamRotation),
+                                       m.data(kParamOpacity),
+                                       m.data(kParamSh),
+                                       1,
+                                       degree};
     };
     RenderResult<float> before, after;
     raster.forward(view(map), makePinholeView<float>(T_wc, cam), before);
@@ -497,20 +508,23 @@ TEST(GaussianSh, ReanchoredGaussianRendersTheSameFromTheMovedCamera) {
     const Eigen::Quaternionf qT(T.linear().cast<float>());
     GaussianInit moved = g;
     moved.position_w = T.cast<float>() * g.position_w;
-    const Eigen::Quaternionf qm = qT * Eigen::Quaternionf(g.rotation_wxyz[0], g.rotation_wxyz[1], g.rotation_wxyz[2], g.rotation_wxyz[3]);
+    const Eigen::Quaternionf qm =
+        qT * Eigen::Quaternionf(g.rotation_wxyz[0], g.rotation_wxyz[1], g.rotation_wxyz[2], g.rotation_wxyz[3]);
     moved.rotation_wxyz = {qm.w(), qm.x(), qm.y(), qm.z()};
     unrotated.add(moved);
     ASSERT_EQ(map.transformAnchored(3, T), 1u);
     raster.forward(view(map), makePinholeView<float>(T * T_wc, cam), after);
     double max_diff = 0.0, sum_alpha = 0.0;
-    for (std::size_t i = 0; i < before.color.size(); ++i) max_diff = std::max(max_diff, double(std::abs(before.color[i] - after.color[i])));
+    for (std::size_t i = 0; i < before.color.size(); ++i)
+      max_diff = std::max(max_diff, double(std::abs(before.color[i] - after.color[i])));
     for (float a : before.alpha) sum_alpha += a;
     EXPECT_GT(sum_alpha, 5.0) << "the Gaussian must cover pixels";
     EXPECT_LT(max_diff, 2e-5) << "degree " << degree;
     RenderResult<float> stale;
     raster.forward(view(unrotated), makePinholeView<float>(T * T_wc, cam), stale);
     double stale_diff = 0.0;
-    for (std::size_t i = 0; i < before.color.size(); ++i) stale_diff = std::max(stale_diff, double(std::abs(before.color[i] - stale.color[i])));
+    for (std::size_t i = 0; i < before.color.size(); ++i)
+      stale_diff = std::max(stale_diff, double(std::abs(before.color[i] - stale.color[i])));
     EXPECT_GT(stale_diff, 1e-2) << "degree " << degree << ": without SH rotation the colour should change";
   }
 }

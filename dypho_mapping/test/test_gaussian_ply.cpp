@@ -31,7 +31,8 @@ void writePly(const std::string& path, const std::string& count, const std::vect
   f << "ply\nformat binary_little_endian 1.0\nelement vertex " << count << "\n";
   for (const auto& p : props) f << "property float " << p << "\n";
   f << "end_header\n";
-  for (const auto& r : rows) f.write(reinterpret_cast<const char*>(r.data()), static_cast<std::streamsize>(r.size() * sizeof(float)));
+  for (const auto& r : rows)
+    f.write(reinterpret_cast<const char*>(r.data()), static_cast<std::streamsize>(r.size() * sizeof(float)));
 }
 
 std::string loadError(const std::string& path, GaussianMap& map) {
@@ -64,7 +65,8 @@ TEST(GaussianPly, RoundTripAndCorruptFiles) {
   GaussianMap back(2, 10);
   EXPECT_EQ(readGaussianPly(path, back), 5u);
   for (int p = 0; p < kNumGaussianParams; ++p)
-    for (std::size_t i = 0; i < map.size() * map.width(p); ++i) ASSERT_EQ(map.data(p)[i], back.data(p)[i]) << p;  // bit-exact
+    for (std::size_t i = 0; i < map.size() * map.width(p); ++i)
+      ASSERT_EQ(map.data(p)[i], back.data(p)[i]) << p;  // bit-exact
   // Degree 2 file into a degree-1 map: DC and first-order coefficients kept.
   GaussianMap low(1, 3);
   std::string note;
@@ -103,8 +105,8 @@ TEST(GaussianPly, RoundTripAndCorruptFiles) {
 // must come from the column its name says. (A reader that assumed x, y, z adjacent read past the
 // row when 'x' came last: found by fuzz_gaussian_ply.)
 TEST(GaussianPly, PropertiesAreFoundByNameInAnyOrder) {
-  const std::vector<std::string> props = {"rot_3", "opacity", "scale_2", "f_dc_2", "red", "rot_0", "y", "scale_0",
-                                          "f_dc_0", "z", "rot_2", "scale_1", "f_dc_1", "rot_1", "x"};
+  const std::vector<std::string> props = {"rot_3",  "opacity", "scale_2", "f_dc_2",  "red",    "rot_0", "y", "scale_0",
+                                          "f_dc_0", "z",       "rot_2",   "scale_1", "f_dc_1", "rot_1", "x"};
   std::vector<float> row(props.size());
   for (std::size_t i = 0; i < row.size(); ++i) row[i] = 0.25f * static_cast<float>(i + 1);
   auto value = [&](const std::string& n) {
@@ -128,8 +130,8 @@ TEST(GaussianPly, PropertiesAreFoundByNameInAnyOrder) {
 }
 
 TEST(GaussianPly, HostileHeadersAreRefusedWithoutAllocating) {
-  const std::vector<std::string> props = {"x", "y", "z", "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
-                                          "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"};
+  const std::vector<std::string> props = {"x",       "y",       "z",       "f_dc_0", "f_dc_1", "f_dc_2", "opacity",
+                                          "scale_0", "scale_1", "scale_2", "rot_0",  "rot_1",  "rot_2",  "rot_3"};
   const std::vector<float> row(props.size(), 0.5f);
   GaussianMap keep(0, 4);
   keep.add(GaussianInit());

@@ -103,10 +103,8 @@ TEST(KeyframeCloudMap, DistortedCameraMatchesUndistortPoints) {
   for (std::size_t i = 0; i < pixels.size(); ++i) {
     const auto& p = (*cloud)[i];
     max_err = std::max({max_err, double(std::abs(p.x - depth * normalised[i].x)),
-                        double(std::abs(p.y - depth * normalised[i].y)),
-                        double(std::abs(p.z - depth))});
-    max_pinhole_err = std::max(max_pinhole_err,
-                               std::abs(p.x - depth * (pixels[i].x - cam.cx) / cam.fx));
+                        double(std::abs(p.y - depth * normalised[i].y)), double(std::abs(p.z - depth))});
+    max_pinhole_err = std::max(max_pinhole_err, std::abs(p.x - depth * (pixels[i].x - cam.cx) / cam.fx));
   }
   // Same algorithm and criteria as cv::undistortPoints: equal up to float rounding (1e-6 m).
   EXPECT_LT(max_err, 1e-6);
@@ -117,9 +115,10 @@ TEST(KeyframeCloudMap, DistortedCameraMatchesUndistortPoints) {
   double max_default = 0.0;
   for (std::size_t i = 0; i < pixels.size(); ++i)
     max_default = std::max(max_default, depth * cv::norm(default_iter[i] - normalised[i]));
-  std::printf("[ report ] distorted unprojection: default 5-iteration undistortPoints differs by "
-              "up to %.2e m at 1.5 m; pinhole would be off by %.3f m\n",
-              max_default, max_pinhole_err);
+  std::printf(
+      "[ report ] distorted unprojection: default 5-iteration undistortPoints differs by "
+      "up to %.2e m at 1.5 m; pinhole would be off by %.3f m\n",
+      max_default, max_pinhole_err);
   EXPECT_LT(max_default, 1e-3);
   EXPECT_GT(max_pinhole_err, 0.01);
 }
@@ -130,14 +129,14 @@ TEST(KeyframeCloudMap, MaskedAndInvalidPixelsAreExcludedExactly) {
   Keyframe kf = makeKeyframe(0, cam, 1.0f);
   kf.mask = cv::Mat::zeros(48, 64, CV_8UC1);
   kf.mask(cv::Rect(0, 0, 20, 20)).setTo(255);  // 10 x 10 samples dynamic
-  kf.mask.at<uchar>(41, 41) = 255;            // odd pixel: not sampled, must not matter
+  kf.mask.at<uchar>(41, 41) = 255;             // odd pixel: not sampled, must not matter
   cv::Mat& d = kf.frame.depth_m;
   d.at<float>(30, 30) = std::numeric_limits<float>::quiet_NaN();
-  d.at<float>(30, 32) = 0.f;                                         // no measurement
-  d.at<float>(30, 34) = 5.0f;                                        // > max_depth_m (4)
-  d.at<float>(30, 36) = 0.05f;                                       // < min_depth_m (0.1)
+  d.at<float>(30, 32) = 0.f;    // no measurement
+  d.at<float>(30, 34) = 5.0f;   // > max_depth_m (4)
+  d.at<float>(30, 36) = 0.05f;  // < min_depth_m (0.1)
   d.at<float>(30, 38) = std::numeric_limits<float>::infinity();
-  d.at<float>(4, 4) = std::numeric_limits<float>::quiet_NaN();       // already masked
+  d.at<float>(4, 4) = std::numeric_limits<float>::quiet_NaN();  // already masked
   EXPECT_EQ(map.addKeyframe(kf), 768u - 100u - 5u);
   EXPECT_EQ(map.numPoints(), 663u);
   // Boundary depths are inclusive.

@@ -27,36 +27,42 @@ TEST(MappingGraphTest, RenderedImagesAndCloudsArePublished) {
   std::atomic<int> colors{0}, depths{0}, predicted{0}, gaussian_clouds{0}, map_clouds{0}, bad{0};
   std::atomic<double> best_depth_share{0.0}, best_predicted_share{0.0};
   std::atomic<std::size_t> gaussians{0};
-  auto color_sub = nh.subscribe<sensor_msgs::Image>("/dypho/rendered/color", 5, [&](const sensor_msgs::ImageConstPtr& m) {
-    if (m->encoding != "bgr8" || m->width != 640 || m->height != 480) ++bad;
-    ++colors;
-  });
-  auto depth_sub = nh.subscribe<sensor_msgs::Image>("/dypho/rendered/depth", 5, [&](const sensor_msgs::ImageConstPtr& m) {
-    const double s = validDepthShare(*m);
-    if (s < 0) ++bad;
-    best_depth_share = std::max(best_depth_share.load(), s);
-    ++depths;
-  });
+  auto color_sub =
+      nh.subscribe<sensor_msgs::Image>("/dypho/rendered/color", 5, [&](const sensor_msgs::ImageConstPtr& m) {
+        if (m->encoding != "bgr8" || m->width != 640 || m->height != 480) ++bad;
+        ++colors;
+      });
+  auto depth_sub =
+      nh.subscribe<sensor_msgs::Image>("/dypho/rendered/depth", 5, [&](const sensor_msgs::ImageConstPtr& m) {
+        const double s = validDepthShare(*m);
+        if (s < 0) ++bad;
+        best_depth_share = std::max(best_depth_share.load(), s);
+        ++depths;
+      });
   ros::Time last_pose_stamp;
-  auto pred_sub = nh.subscribe<sensor_msgs::Image>("/dypho/rendered/depth_predicted", 5, [&](const sensor_msgs::ImageConstPtr& m) {
-    const double s = validDepthShare(*m);
-    if (s < 0 || m->header.stamp.isZero()) ++bad;
-    best_predicted_share = std::max(best_predicted_share.load(), s);
-    ++predicted;
-  });
-  auto gc_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/gaussian_cloud", 2, [&](const sensor_msgs::PointCloud2ConstPtr& c) {
-    if (c->header.frame_id != "map") ++bad;
-    gaussians = static_cast<std::size_t>(c->width) * c->height;
-    ++gaussian_clouds;
-  });
-  auto mc_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/map_cloud", 2, [&](const sensor_msgs::PointCloud2ConstPtr&) { ++map_clouds; });
+  auto pred_sub =
+      nh.subscribe<sensor_msgs::Image>("/dypho/rendered/depth_predicted", 5, [&](const sensor_msgs::ImageConstPtr& m) {
+        const double s = validDepthShare(*m);
+        if (s < 0 || m->header.stamp.isZero()) ++bad;
+        best_predicted_share = std::max(best_predicted_share.load(), s);
+        ++predicted;
+      });
+  auto gc_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/gaussian_cloud", 2,
+                                                       [&](const sensor_msgs::PointCloud2ConstPtr& c) {
+                                                         if (c->header.frame_id != "map") ++bad;
+                                                         gaussians = static_cast<std::size_t>(c->width) * c->height;
+                                                         ++gaussian_clouds;
+                                                       });
+  auto mc_sub = nh.subscribe<sensor_msgs::PointCloud2>("/dypho/map_cloud", 2,
+                                                       [&](const sensor_msgs::PointCloud2ConstPtr&) { ++map_clouds; });
 
   // Wait (wall time) until every output has arrived a few times, at most 120 s.
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(120.0);
   ros::AsyncSpinner spinner(2);
   spinner.start();
-  while (ros::ok() && ros::WallTime::now() < deadline &&
-         (colors < 3 || depths < 3 || predicted < 5 || gaussian_clouds < 2 || map_clouds < 1 || best_depth_share < 0.5)) {
+  while (
+      ros::ok() && ros::WallTime::now() < deadline &&
+      (colors < 3 || depths < 3 || predicted < 5 || gaussian_clouds < 2 || map_clouds < 1 || best_depth_share < 0.5)) {
     ros::WallDuration(0.2).sleep();
   }
   EXPECT_GE(colors.load(), 3);

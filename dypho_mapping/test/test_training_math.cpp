@@ -113,9 +113,9 @@ void addGaussians(GaussianTrainer& trainer) {
     int grad_count;
   };
   const float small = std::log(0.01f), large = std::log(0.1f), huge = std::log(0.5f);
-  const Row rows[] = {{0.f, small, 2.f, 1.f, 10},  {1.f, large, 2.f, 1.f, 10},  {2.f, small, 2.f, 1e-5f, 10},
-                      {3.f, small, 2.f, 1.f, 0},   {4.f, small, -10.f, 0.f, 0}, {5.f, huge, 2.f, 0.f, 0},
-                      {6.f, large, 2.f, 1.f, 10},  {7.f, small, 2.f, 1.f, 10},  {8.f, large, 2.f, 1.f, 10}};
+  const Row rows[] = {{0.f, small, 2.f, 1.f, 10}, {1.f, large, 2.f, 1.f, 10},  {2.f, small, 2.f, 1e-5f, 10},
+                      {3.f, small, 2.f, 1.f, 0},  {4.f, small, -10.f, 0.f, 0}, {5.f, huge, 2.f, 0.f, 0},
+                      {6.f, large, 2.f, 1.f, 10}, {7.f, small, 2.f, 1.f, 10},  {8.f, large, 2.f, 1.f, 10}};
   for (const Row& row : rows) {
     GaussianInit g;
     g.position_w = Eigen::Vector3f(row.x, 0.5f * row.x, 2.f);
@@ -159,9 +159,9 @@ TEST(TrainingMath, DeviceDensifyIsTheTrainers) {
     st.accum = trainer.grad_accum;
     st.count = trainer.grad_count;
     std::mt19937 rng_copy = trainer.rng;  // the seed the trainer's pass draws
-    const DensifySettings s = train::densifySettings(o.densify_grad_threshold, o.densify_scale_threshold_m,
-                                                     o.prune_min_opacity, o.prune_max_scale_m,
-                                                     static_cast<std::uint32_t>(rng_copy()));
+    const DensifySettings s =
+        train::densifySettings(o.densify_grad_threshold, o.densify_scale_threshold_m, o.prune_min_opacity,
+                               o.prune_max_scale_m, static_cast<std::uint32_t>(rng_copy()));
     const std::size_t hits_before = trainer.capacity_hits;
     trainer.densifyAndPrune();
     const DensifyOutcome outcome = gpu_emulator::emulateDensify(st, s, capacity);

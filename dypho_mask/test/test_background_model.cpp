@@ -25,7 +25,7 @@ CameraIntrinsics cam(int w, int h) {
 
 TEST(ConsistencyFilter, CountsAgreeingNeighbours) {
   cv::Mat B(20, 20, CV_32FC1, cv::Scalar(3.0f)), D = B.clone(), dyn;
-  D(cv::Rect(5, 5, 6, 6)).setTo(1.0f);  // object 2 m in front
+  D(cv::Rect(5, 5, 6, 6)).setTo(1.0f);   // object 2 m in front
   D.at<float>(15, 15) = 2.0f;            // single nearer pixel: noise, not an object
   D(cv::Rect(0, 14, 4, 4)).setTo(3.5f);  // farther than B: never dynamic (one-sided)
   depthConsistencyMask(B, D, 0.2, 5, 9, dyn);
@@ -91,19 +91,21 @@ TEST(BackgroundModel, ForwardWarpOfAPlaneMatchesTheMovedCamera) {
   // Fronto-parallel plane at 2 m seen from 0.5 m closer: 1.5 m wherever covered (zoom-in leaves
   // splat holes that the 3x3 fill closes; border pixels no longer seen stay 0).
   int covered = 0;
-  for (int y = 5; y < 55; ++y) for (int x = 5; x < 75; ++x) {
-    const float z = warped.at<float>(y, x);
-    ASSERT_GT(z, 0.f) << y << "," << x;
-    EXPECT_NEAR(z, 1.5f, 1e-4);
-    ++covered;
-  }
+  for (int y = 5; y < 55; ++y)
+    for (int x = 5; x < 75; ++x) {
+      const float z = warped.at<float>(y, x);
+      ASSERT_GT(z, 0.f) << y << "," << x;
+      EXPECT_NEAR(z, 1.5f, 1e-4);
+      ++covered;
+    }
   EXPECT_EQ(covered, 50 * 70);
 }
 
 TEST(EgoMotion, RigidPredictionOfATranslation) {
   const CameraIntrinsics c = cam(40, 30);
   cv::Mat grid(30, 40, CV_32FC2), depth(30, 40, CV_32FC1, cv::Scalar(2.0f)), pred;
-  for (int y = 0; y < 30; ++y) for (int x = 0; x < 40; ++x) grid.at<cv::Vec2f>(y, x) = cv::Vec2f(x, y);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 40; ++x) grid.at<cv::Vec2f>(y, x) = cv::Vec2f(x, y);
   depth.at<float>(3, 3) = 0.f;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = Eigen::Vector3d(0.1, 0, 0);  // previous camera sees points 0.1 m further right

@@ -97,9 +97,9 @@ TEST(DynamicMasker, DepthAwareMarginStaysOffTheBackgroundBehindPeople) {
       if (aware == 1) dynamic_px += cv::countNonZero(gt);
     }
   }
-  std::printf("false-dynamic px plain %.0f, depth-aware %.0f (ratio %.2f); missed px plain %.0f, depth-aware %.0f of %.0f\n",
-              false_px[0], false_px[1], false_px[1] / std::max(1.0, false_px[0]), missed_px[0], missed_px[1],
-              dynamic_px);
+  std::printf(
+      "false-dynamic px plain %.0f, depth-aware %.0f (ratio %.2f); missed px plain %.0f, depth-aware %.0f of %.0f\n",
+      false_px[0], false_px[1], false_px[1] / std::max(1.0, false_px[0]), missed_px[0], missed_px[1], dynamic_px);
   ASSERT_GT(false_px[0], 0.0) << "the plain margin must produce false pixels, else the test shows nothing";
   EXPECT_LE(false_px[1], 0.8 * false_px[0]);
   EXPECT_LE(missed_px[1], missed_px[0] + 0.01 * dynamic_px);
@@ -340,7 +340,7 @@ TEST(YoloxNano, RealModelFindsNothingOnGreyAtTheExportSizeAndAtAnother) {
   const SegmentOutput out = seg.segment(cv::Mat(480, 640, CV_8UC3, cv::Scalar(114, 114, 114)), cv::Mat());
   ASSERT_TRUE(out.ok) << out.message;
   EXPECT_TRUE(out.detections.empty());  // a uniform image has no objects
-  y.input_size_px = 96;  // the export is 416
+  y.input_size_px = 96;                 // the export is 416
   YoloSegmenter other(y);
   ASSERT_TRUE(other.ready()) << other.status();
   EXPECT_EQ(other.layout().layout, YoloLayout::kYolox);

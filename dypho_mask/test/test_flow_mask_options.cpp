@@ -64,10 +64,9 @@ TEST(FlowMaskOptions, ValidateRejectsEachBadValueAndNamesTheField) {
 TEST(FlowMaskOptions, ToStringListsEveryField) {
   const std::string s = FlowMaskOptions().toString();
   for (const char* key :
-       {"flow_scale=", "residual_threshold_px=", "min_region_area_px=", "dilate_px=",
-        "max_masked_fraction=", "open_radius_px=", "sample_step_px=", "ransac_threshold_px=",
-        "ransac_max_iterations=", "min_inlier_ratio=", "min_texture_gradient=",
-        "ultrafast=", "dis_refinement_iterations="}) {
+       {"flow_scale=", "residual_threshold_px=", "min_region_area_px=", "dilate_px=", "max_masked_fraction=",
+        "open_radius_px=", "sample_step_px=", "ransac_threshold_px=", "ransac_max_iterations=", "min_inlier_ratio=",
+        "min_texture_gradient=", "ultrafast=", "dis_refinement_iterations="}) {
     EXPECT_NE(s.find(key), std::string::npos) << key << " missing in " << s;
   }
 }

@@ -51,8 +51,7 @@ cv::Mat rotatedView(const cv::Mat& texture, const cv::Matx33d& R_ref_cur) {
   const cv::Matx33d T(1, 0, ox, 0, 1, oy, 0, 0, 1);
   const cv::Matx33d M = T * K * R_ref_cur * K.inv();  // current pixel -> texture pixel
   cv::Mat out;
-  cv::warpPerspective(texture, out, cv::Mat(M), kSize, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_REFLECT);
+  cv::warpPerspective(texture, out, cv::Mat(M), kSize, cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
   return out;
 }
 
@@ -63,8 +62,8 @@ cv::Matx33d rotation(double rx_deg, double ry_deg, double rz_deg) {
 }
 
 /// Background shifted by `bg_shift` (camera motion) with a textured square at `square`.
-cv::Mat squareScene(const cv::Mat& background, const cv::Point2d& bg_shift,
-                    const cv::Mat& square_texture, const cv::Rect& square) {
+cv::Mat squareScene(const cv::Mat& background, const cv::Point2d& bg_shift, const cv::Mat& square_texture,
+                    const cv::Rect& square) {
   const cv::Matx23d shift(1, 0, bg_shift.x, 0, 1, bg_shift.y);
   cv::Mat frame;
   cv::warpAffine(background, frame, cv::Mat(shift), kSize, cv::INTER_LINEAR, cv::BORDER_REFLECT);
@@ -135,18 +134,16 @@ TEST(FlowMotionMasker, PureCameraRotationIsNotMasked) {
 
 /// As `rotatedView`, seen through a camera with radial-tangential distortion: each output pixel is
 /// undistorted (`ideal_px`, CV_32FC2 from cv::undistortPoints with P = K), rotated, looked up.
-cv::Mat distortedRotatedView(const cv::Mat& texture, const cv::Matx33d& R_ref_cur,
-                             const cv::Mat& ideal_px, const cv::Matx33d& K) {
-  const cv::Matx33d T(1, 0, (texture.cols - kSize.width) / 2.0, 0, 1,
-                      (texture.rows - kSize.height) / 2.0, 0, 0, 1);
+cv::Mat distortedRotatedView(const cv::Mat& texture, const cv::Matx33d& R_ref_cur, const cv::Mat& ideal_px,
+                             const cv::Matx33d& K) {
+  const cv::Matx33d T(1, 0, (texture.cols - kSize.width) / 2.0, 0, 1, (texture.rows - kSize.height) / 2.0, 0, 0, 1);
   const cv::Matx33d M = T * K * R_ref_cur * K.inv();
   cv::Mat map(kSize, CV_32FC2);
   for (int y = 0; y < kSize.height; ++y) {
     for (int x = 0; x < kSize.width; ++x) {
       const cv::Vec2f p = ideal_px.at<cv::Vec2f>(y, x);
       const cv::Vec3d q = M * cv::Vec3d(p[0], p[1], 1.0);
-      map.at<cv::Vec2f>(y, x) = cv::Vec2f(static_cast<float>(q[0] / q[2]),
-                                          static_cast<float>(q[1] / q[2]));
+      map.at<cv::Vec2f>(y, x) = cv::Vec2f(static_cast<float>(q[0] / q[2]), static_cast<float>(q[1] / q[2]));
     }
   }
   cv::Mat out;
@@ -168,8 +165,7 @@ TEST(FlowMotionMasker, RotationThroughDistortedLensIsNotMaskedWhenIntrinsicsAreG
   for (int y = 0; y < kSize.height; ++y)
     for (int x = 0; x < kSize.width; ++x) pixels.emplace_back(x, y);
   cv::Mat ideal;
-  cv::undistortPoints(pixels, ideal, K, cv::Mat(1, 5, CV_64F, camera.distortion.data()),
-                      cv::noArray(), K);
+  cv::undistortPoints(pixels, ideal, K, cv::Mat(1, 5, CV_64F, camera.distortion.data()), cv::noArray(), K);
   ideal = ideal.reshape(2, kSize.height);
 
   const cv::Mat texture = makeTexture(cv::Size(1100, 900), 14);
@@ -177,8 +173,7 @@ TEST(FlowMotionMasker, RotationThroughDistortedLensIsNotMaskedWhenIntrinsicsAreG
   FlowMotionMasker without_camera{FlowMaskOptions()};
   double max_with = 0.0, max_without = 0.0;
   for (int k = 0; k < 6; ++k) {
-    RgbdFrame f = frameOf(
-        distortedRotatedView(texture, rotation(1.0 * k, 2.5 * k, 1.0 * k), ideal, K));
+    RgbdFrame f = frameOf(distortedRotatedView(texture, rotation(1.0 * k, 2.5 * k, 1.0 * k), ideal, K));
     const FlowMaskResult raw = without_camera.compute(f);
     f.camera = camera;
     const FlowMaskResult r = with_camera.compute(f);
@@ -189,9 +184,10 @@ TEST(FlowMotionMasker, RotationThroughDistortedLensIsNotMaskedWhenIntrinsicsAreG
     max_with = std::max(max_with, r.masked_fraction);
     max_without = std::max(max_without, raw.masked_fraction);
   }
-  std::printf("[ report ] rotation through a distorted lens: max masked fraction %.4f with "
-              "intrinsics, %.4f when the distortion is ignored\n",
-              max_with, max_without);
+  std::printf(
+      "[ report ] rotation through a distorted lens: max masked fraction %.4f with "
+      "intrinsics, %.4f when the distortion is ignored\n",
+      max_with, max_without);
   // The scene is sensitive to the lens: ignoring the distortion leaves visible residual regions
   // (so the check above could fail if the intrinsics were not used).
   EXPECT_GT(max_without, 0.02);
@@ -224,17 +220,16 @@ TEST(FlowMotionMasker, MovingSquareOverShiftedBackgroundIsMasked) {
     EXPECT_GE(overlap, 0.7) << "frame " << k << " masked " << r.masked_fraction;
     // With the default 8 px margin the square must be covered almost entirely (>= 95 %), and
     // nothing far from it may be masked (outside the square grown by 24 px: < 1 % of the image).
-    const double covered =
-        static_cast<double>(cv::countNonZero(rd.mask & truth)) / cv::countNonZero(truth);
+    const double covered = static_cast<double>(cv::countNonZero(rd.mask & truth)) / cv::countNonZero(truth);
     EXPECT_GE(covered, 0.95) << "frame " << k;
     cv::Mat near = cv::Mat::zeros(kSize, CV_8UC1);
     near(cv::Rect(square.x - 24, square.y - 24, square.width + 48, square.height + 48)).setTo(255);
-    const double far_fraction =
-        static_cast<double>(cv::countNonZero(rd.mask & ~near)) / kSize.area();
+    const double far_fraction = static_cast<double>(cv::countNonZero(rd.mask & ~near)) / kSize.area();
     EXPECT_LT(far_fraction, 0.01) << "frame " << k;
-    std::printf("[ report ] moving square frame %d: IoU %.3f (no margin), coverage %.3f, "
-                "masked %.3f (default options)\n",
-                k, overlap, covered, rd.masked_fraction);
+    std::printf(
+        "[ report ] moving square frame %d: IoU %.3f (no margin), coverage %.3f, "
+        "masked %.3f (default options)\n",
+        k, overlap, covered, rd.masked_fraction);
   }
 }
 
@@ -245,8 +240,7 @@ TEST(FlowMotionMasker, TooMuchMaskedWithoutHistoryIsDegradedAndEmpty) {
   const cv::Mat bg = makeTexture(kSize, 6);
   const cv::Mat sq = makeTexture(cv::Size(160, 160), 7);
   masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(200, 150, 120, 120))));
-  const FlowMaskResult r =
-      masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(210, 156, 120, 120))));
+  const FlowMaskResult r = masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(210, 156, 120, 120))));
   EXPECT_TRUE(r.degraded);
   EXPECT_NE(r.message.find("max_masked_fraction"), std::string::npos) << r.message;
   EXPECT_EQ(r.masked_fraction, 0.0);
@@ -262,8 +256,8 @@ TEST(FlowMotionMasker, TooMuchMaskedCarriesThePreviousMaskAlongTheFlow) {
   masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(200, 150, 120, 120))));
   cv::Mat previous = cv::Mat::zeros(kSize, CV_8UC1);
   previous(cv::Rect(192, 142, 136, 136)).setTo(255);  // the square with an 8 px margin
-  const FlowMaskResult r = masker.compute(
-      frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(210, 156, 120, 120))), std::nullopt, previous);
+  const FlowMaskResult r =
+      masker.compute(frameOf(squareScene(bg, {0, 0}, sq, cv::Rect(210, 156, 120, 120))), std::nullopt, previous);
   EXPECT_TRUE(r.degraded);
   EXPECT_NE(r.message.find("carried"), std::string::npos) << r.message;
   // The carried mask lies on the square's new place (shifted by about (10, 6) px), shrunk by the
@@ -285,8 +279,7 @@ TEST(FlowMotionMasker, PreviousMaskStopsTheFitFromFollowingACrowd) {
   masker.compute(frameOf(squareScene(bg, {0, 0}, crowd, before)));
   cv::Mat previous = cv::Mat::zeros(kSize, CV_8UC1);
   previous(cv::Rect(12, 0, 456, 480)).setTo(255);
-  const FlowMaskResult r =
-      masker.compute(frameOf(squareScene(bg, {0, 0}, crowd, after)), std::nullopt, previous);
+  const FlowMaskResult r = masker.compute(frameOf(squareScene(bg, {0, 0}, crowd, after)), std::nullopt, previous);
   EXPECT_TRUE(r.fit_excluded_previous_mask) << r.message;
   cv::Mat truth = cv::Mat::zeros(kSize, CV_8UC1);
   truth(after).setTo(255);

@@ -36,8 +36,8 @@ std::map<std::int64_t, std::string> readRgbList(const std::string& path) {
 }
 
 /// The entry of `files` within 1 ms of `stamp_ns` (frames are 33 ms apart), or end().
-std::map<std::int64_t, std::string>::const_iterator findStamp(
-    const std::map<std::int64_t, std::string>& files, std::int64_t stamp_ns) {
+std::map<std::int64_t, std::string>::const_iterator findStamp(const std::map<std::int64_t, std::string>& files,
+                                                              std::int64_t stamp_ns) {
   constexpr std::int64_t kToleranceNs = 1'000'000;
   auto it = files.lower_bound(stamp_ns - kToleranceNs);
   if (it != files.end() && std::llabs(it->first - stamp_ns) <= kToleranceNs) return it;
@@ -58,22 +58,21 @@ TEST(MaskNodelet, PublishesAMaskPerFrameThatAgreesWithTheGroundTruth) {
   std::map<std::int64_t, cv::Mat> received;  // stamp [ns] -> mask (mono8 only)
   std::atomic<int> messages{0}, wrong_encoding{0}, wrong_size{0}, unknown_stamp{0};
   ros::WallTime last_mask = ros::WallTime::now();
-  auto sub = nh.subscribe<sensor_msgs::Image>(
-      "/dypho/mask", 200, [&](const sensor_msgs::ImageConstPtr& msg) {
-        ++messages;
-        std::lock_guard<std::mutex> lock(mutex);
-        last_mask = ros::WallTime::now();
-        if (msg->encoding != sensor_msgs::image_encodings::MONO8) ++wrong_encoding;
-        if (msg->width != 640 || msg->height != 480) ++wrong_size;
-        const std::int64_t stamp_ns = static_cast<std::int64_t>(msg->header.stamp.toNSec());
-        if (findStamp(rgb_files, stamp_ns) == rgb_files.end()) {
-          ++unknown_stamp;
-          return;
-        }
-        if (msg->encoding == sensor_msgs::image_encodings::MONO8) {
-          received[stamp_ns] = cv_bridge::toCvCopy(msg)->image;
-        }
-      });
+  auto sub = nh.subscribe<sensor_msgs::Image>("/dypho/mask", 200, [&](const sensor_msgs::ImageConstPtr& msg) {
+    ++messages;
+    std::lock_guard<std::mutex> lock(mutex);
+    last_mask = ros::WallTime::now();
+    if (msg->encoding != sensor_msgs::image_encodings::MONO8) ++wrong_encoding;
+    if (msg->width != 640 || msg->height != 480) ++wrong_size;
+    const std::int64_t stamp_ns = static_cast<std::int64_t>(msg->header.stamp.toNSec());
+    if (findStamp(rgb_files, stamp_ns) == rgb_files.end()) {
+      ++unknown_stamp;
+      return;
+    }
+    if (msg->encoding == sensor_msgs::image_encodings::MONO8) {
+      received[stamp_ns] = cv_bridge::toCvCopy(msg)->image;
+    }
+  });
   ros::AsyncSpinner spinner(1);
   spinner.start();
   // The bag lasts frames / 30 Hz / 0.5 = 8 s after a 3 s delay; stop 5 s after the last mask.
@@ -106,10 +105,10 @@ TEST(MaskNodelet, PublishesAMaskPerFrameThatAgreesWithTheGroundTruth) {
     ++iou_frames;
   }
   const double mean_iou = iou_frames > 0 ? iou_sum / iou_frames : 0.0;
-  std::cout << "mask nodelet: " << messages << " masks for " << frames << " frames, "
-            << compared << " compared, mean IoU " << mean_iou << " over " << iou_frames
-            << " frames with >= 2 % people, mean masked fraction "
-            << (compared > 0 ? fraction_sum / compared : 0.0) << "\n";
+  std::cout << "mask nodelet: " << messages << " masks for " << frames << " frames, " << compared
+            << " compared, mean IoU " << mean_iou << " over " << iou_frames
+            << " frames with >= 2 % people, mean masked fraction " << (compared > 0 ? fraction_sum / compared : 0.0)
+            << "\n";
 
   // >= 90 % of the frames give a mask: the approximate-time synchroniser may drop the first
   // frames while the subscriptions connect; at half speed the nodelet keeps up on 2 cores.

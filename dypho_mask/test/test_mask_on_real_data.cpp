@@ -64,8 +64,8 @@ RangeStats runRange(const std::vector<std::string>& paths, int first, int last) 
 }
 
 void print(const char* label, const RangeStats& s) {
-  std::printf("[ report ] %-44s frames %3d  masked mean %.4f max %.4f  degraded %d  %.2f ms\n",
-              label, s.frames, s.mean_fraction, s.max_fraction, s.degraded, s.mean_total_ms);
+  std::printf("[ report ] %-44s frames %3d  masked mean %.4f max %.4f  degraded %d  %.2f ms\n", label, s.frames,
+              s.mean_fraction, s.max_fraction, s.degraded, s.mean_total_ms);
 }
 
 TEST(FlowMaskRealData, BonnCrowdPeopleVersusEmptyRoom) {

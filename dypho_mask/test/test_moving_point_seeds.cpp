@@ -67,7 +67,7 @@ TEST(MovingPointSeeds, GrowOverThePersonTheMaskMissed) {
   const std::vector<cv::Point3f> points{personCentre(camera)};
   const Timestamp seen_on_frame_1 = frameAt(1).stamp_ns;
   EXPECT_GT(personCoverage(true, points, seen_on_frame_1), 0.9);
-  EXPECT_LT(personCoverage(true, {}, seen_on_frame_1), 0.3);     // nothing handed over
+  EXPECT_LT(personCoverage(true, {}, seen_on_frame_1), 0.3);       // nothing handed over
   EXPECT_LT(personCoverage(false, points, seen_on_frame_1), 0.3);  // seeds switched off
 }
 

@@ -33,9 +33,9 @@ TEST(Letterbox, RoundTripAndPadding) {
   cv::Mat img(480, 640, CV_8UC3, cv::Scalar(10, 20, 30)), in;
   letterboxImage(img, lb, in);
   ASSERT_EQ(in.size(), cv::Size(416, 416));
-  EXPECT_EQ(in.at<cv::Vec3b>(10, 200), cv::Vec3b(114, 114, 114));     // top padding
-  EXPECT_EQ(in.at<cv::Vec3b>(208, 200), cv::Vec3b(10, 20, 30));       // image
-  EXPECT_EQ(in.at<cv::Vec3b>(410, 200), cv::Vec3b(114, 114, 114));    // bottom padding
+  EXPECT_EQ(in.at<cv::Vec3b>(10, 200), cv::Vec3b(114, 114, 114));   // top padding
+  EXPECT_EQ(in.at<cv::Vec3b>(208, 200), cv::Vec3b(10, 20, 30));     // image
+  EXPECT_EQ(in.at<cv::Vec3b>(410, 200), cv::Vec3b(114, 114, 114));  // bottom padding
   // Portrait image: padding left/right.
   const Letterbox lp = makeLetterbox({300, 600}, {640, 640});
   EXPECT_DOUBLE_EQ(lp.pad_y, 0.0);
@@ -74,7 +74,11 @@ TEST(YoloDecoder, Yolov8DetectionChannelsFirstWithNms) {
   const cv::Size in(64, 64);
   cv::Mat out = tensor3(4 + 2, 100);
   auto put = [&](int i, float cx, float cy, float w, float h, int c, float s) {
-    at3(out, 0, i) = cx; at3(out, 1, i) = cy; at3(out, 2, i) = w; at3(out, 3, i) = h; at3(out, 4 + c, i) = s;
+    at3(out, 0, i) = cx;
+    at3(out, 1, i) = cy;
+    at3(out, 2, i) = w;
+    at3(out, 3, i) = h;
+    at3(out, 4 + c, i) = s;
   };
   put(3, 20, 20, 10, 10, 1, 0.9f);
   put(4, 21, 20, 10, 10, 1, 0.7f);  // overlaps 3 (IoU 0.82): suppressed
@@ -96,13 +100,23 @@ TEST(YoloDecoder, SegLayoutsGiveTheSameInstanceMask) {
   cv::Mat protos(4, psz, CV_32F, cv::Scalar(0));
   // Prototype 1: +5 on proto rows/cols [4, 12) (input [16, 48)), -5 elsewhere.
   float* p1 = protos.ptr<float>(0) + 1 * 256;
-  for (int y = 0; y < 16; ++y) for (int x = 0; x < 16; ++x) p1[y * 16 + x] = (x >= 4 && x < 12 && y >= 4 && y < 12) ? 5.f : -5.f;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) p1[y * 16 + x] = (x >= 4 && x < 12 && y >= 4 && y < 12) ? 5.f : -5.f;
   cv::Mat v8 = tensor3(4 + nc + nm, n);
-  at3(v8, 0, 7) = 32; at3(v8, 1, 7) = 32; at3(v8, 2, 7) = 60; at3(v8, 3, 7) = 60;
-  at3(v8, 4 + 0, 7) = 0.9f; at3(v8, 4 + nc + 1, 7) = 1.f;
+  at3(v8, 0, 7) = 32;
+  at3(v8, 1, 7) = 32;
+  at3(v8, 2, 7) = 60;
+  at3(v8, 3, 7) = 60;
+  at3(v8, 4 + 0, 7) = 0.9f;
+  at3(v8, 4 + nc + 1, 7) = 1.f;
   cv::Mat v5 = tensor3(n, 5 + nc + nm);
-  at3(v5, 7, 0) = 32; at3(v5, 7, 1) = 32; at3(v5, 7, 2) = 60; at3(v5, 7, 3) = 60; at3(v5, 7, 4) = 1.f;
-  at3(v5, 7, 5 + 0) = 0.9f; at3(v5, 7, 5 + nc + 1) = 1.f;
+  at3(v5, 7, 0) = 32;
+  at3(v5, 7, 1) = 32;
+  at3(v5, 7, 2) = 60;
+  at3(v5, 7, 3) = 60;
+  at3(v5, 7, 4) = 1.f;
+  at3(v5, 7, 5 + 0) = 0.9f;
+  at3(v5, 7, 5 + nc + 1) = 1.f;
   const Letterbox lb = makeLetterbox({128, 64}, in);  // image 2:1 -> scale 0.5, pad_y 16
   for (auto [outs, expected] : {std::make_pair(std::vector<cv::Mat>{v8, protos}, YoloLayout::kYolov8Seg),
                                 std::make_pair(std::vector<cv::Mat>{v5, protos}, YoloLayout::kYolov5Seg)}) {
@@ -139,12 +153,12 @@ TEST(YoloDecoder, WrongLayoutsAreReported) {
 
 TEST(BoxDepthSegmenter, BoxKeepsTheForegroundNotTheWall) {
   cv::Mat depth(100, 100, CV_32FC1, cv::Scalar(4.0f));  // wall at 4 m
-  depth(cv::Rect(40, 20, 20, 70)).setTo(2.0f);           // person at 2 m
-  depth(cv::Rect(45, 30, 3, 3)).setTo(0.f);              // hole inside the person
+  depth(cv::Rect(40, 20, 20, 70)).setTo(2.0f);          // person at 2 m
+  depth(cv::Rect(45, 30, 3, 3)).setTo(0.f);             // hole inside the person
   cv::Mat m = cv::Mat::zeros(100, 100, CV_8UC1);
   EXPECT_TRUE(paintBoxForeground(depth, cv::Rect(30, 10, 40, 85), BoxDepthSettings(), m));
   EXPECT_EQ(cv::countNonZero(m(cv::Rect(40, 20, 20, 70))), 20 * 70);  // person incl. the hole
-  EXPECT_EQ(cv::countNonZero(m) , 20 * 70);                            // nothing of the wall
+  EXPECT_EQ(cv::countNonZero(m), 20 * 70);                            // nothing of the wall
   cv::Mat m2 = cv::Mat::zeros(100, 100, CV_8UC1);
   EXPECT_FALSE(paintBoxForeground(cv::Mat(), cv::Rect(30, 10, 40, 85), BoxDepthSettings(), m2));
   EXPECT_EQ(cv::countNonZero(m2), 40 * 85);  // depth-free mode: whole box

@@ -161,7 +161,8 @@ class RealtimeRun {
         first_release_ = now;
       } else {
         const double offset_s = timestampToSeconds(next->input.frame.stamp_ns - *first_stamp) / options_.speed;
-        now = waitUntil(*first_release_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(offset_s)));
+        now = waitUntil(*first_release_ +
+                        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(offset_s)));
         if (stopped()) break;
       }
       release(std::move(*next), now);
@@ -218,7 +219,7 @@ class RealtimeRun {
   std::atomic<bool> aborted_{false};
   std::mutex result_mutex_;  ///< the camera, the mask and the tracking threads record
   RealtimeResult result_;
-  std::exception_ptr error_;  ///< the first error of a stage (under result_mutex_)
+  std::exception_ptr error_;                        ///< the first error of a stage (under result_mutex_)
   std::optional<Clock::time_point> first_release_;  ///< written by the camera, read after it ended
   BoundedHandOver<Loaded> prefetched_;
   BoundedHandOver<ToMask> camera_to_mask_;
@@ -256,8 +257,8 @@ double percentile(std::vector<double> values, double q) {
 }
 
 std::size_t RealtimeResult::framesWithMask(tracking::MaskSource source) const {
-  return static_cast<std::size_t>(std::count_if(processed.begin(), processed.end(),
-                                                [&](const RealtimeProcessedFrame& f) { return f.mask_source == source; }));
+  return static_cast<std::size_t>(std::count_if(
+      processed.begin(), processed.end(), [&](const RealtimeProcessedFrame& f) { return f.mask_source == source; }));
 }
 
 double RealtimeResult::latencyPercentileMs(double q) const {
@@ -272,8 +273,9 @@ std::vector<std::string> applyLivePolicy(PipelineOptions& options) {
   std::vector<std::string> changes;
   if (!options.mask.yolo.model_path.empty() && !options.mask.yolo.async) {
     options.mask.yolo.async = true;
-    changes.push_back("yolo_async forced on: the network runs on a worker and its newest mask is carried "
-                      "to each frame with the flow (the live policy)");
+    changes.push_back(
+        "yolo_async forced on: the network runs on a worker and its newest mask is carried "
+        "to each frame with the flow (the live policy)");
   }
   return changes;
 }

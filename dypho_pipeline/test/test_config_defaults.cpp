@@ -1,7 +1,6 @@
-/// Configuration and output paths. Each YAML in config/ lists every option of its module with the built-in default: the same set
-/// of keys, and each value equal to the default. (The YAML is what roslaunch loads and what
-/// dypho_run_dataset reads first; a drift would make the ROS graph and the README disagree with
-/// the code.)
+/// Configuration and output paths. Each YAML in config/ lists every option of its module with the built-in default: the
+/// same set of keys, and each value equal to the default. (The YAML is what roslaunch loads and what dypho_run_dataset
+/// reads first; a drift would make the ROS graph and the README disagree with the code.)
 
 #include <cmath>
 #include <set>

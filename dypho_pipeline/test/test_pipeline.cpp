@@ -32,7 +32,7 @@ RunResult runSynthetic(int frames, bool loop_closure) {
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
   options.tracking.loop_closure = loop_closure;
-  options.mask.background.tau = 0.1;  // R_d on (the paper's weight; off by default)
+  options.mask.background.tau = 0.1;                      // R_d on (the paper's weight; off by default)
   options.mapping.gaussian.iterations_per_keyframe = 10;  // keeps the test short; R_d needs a map only
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);
@@ -47,7 +47,8 @@ RunResult runSynthetic(int frames, bool loop_closure) {
   const mapping::MappingStageStats stats = slam.mapping().stats();
   r.correction_batches = stats.correction_batches;
   r.corrected_in_mapper = stats.gaussians.corrected_keyframes;
-  for (const auto& [id, kf] : slam.tracking().odometry().map().keyframes()) r.tracker_keyframes.emplace_back(id, kf.T_world_camera);
+  for (const auto& [id, kf] : slam.tracking().odometry().map().keyframes())
+    r.tracker_keyframes.emplace_back(id, kf.T_world_camera);
   r.mapper_keyframes = slam.mapping().gaussians().keyframePoses();
   return r;
 }

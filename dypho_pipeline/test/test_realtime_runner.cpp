@@ -1,9 +1,9 @@
 /// The realtime runner (dypho_run_dataset --realtime) on a short synthetic sequence, through the
 /// tracking nodelet's live code (LiveTracker, tested on its own in dypho_tracking): every released
 /// frame is either processed or dropped and counted, dropped frames have no pose, a frame the mask
-/// skipped is tracked with a carried mask, and the default deterministic path is unchanged. Invariants only: which frames are dropped depends on
-/// the machine's load, so no assertion depends on timing except where the margin is three orders
-/// of magnitude (stated at the test).
+/// skipped is tracked with a carried mask, and the default deterministic path is unchanged. Invariants only: which
+/// frames are dropped depends on the machine's load, so no assertion depends on timing except where the margin is three
+/// orders of magnitude (stated at the test).
 #include <algorithm>
 #include <atomic>
 #include <chrono>

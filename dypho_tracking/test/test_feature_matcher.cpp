@@ -24,14 +24,12 @@ Pair makePair(OrbExtractor& extractor) {
   const cv::Mat img1 = test::shifted(img0, kShiftU, kShiftV);
   const RgbdFrame f0 = test::planarFrame(img0, kDepthM, 1);
   const RgbdFrame f1 = test::planarFrame(img1, kDepthM, 2);
-  const FrameFeatures ff0 = makeFrameFeatures(extractor.extract(img0, cv::Mat()), f0.depth_m,
-                                              f0.camera, o.min_depth_m, o.max_depth_m);
+  const FrameFeatures ff0 =
+      makeFrameFeatures(extractor.extract(img0, cv::Mat()), f0.depth_m, f0.camera, o.min_depth_m, o.max_depth_m);
   Pair p;
-  p.frame = makeFrameFeatures(extractor.extract(img1, cv::Mat()), f1.depth_m, f1.camera,
-                              o.min_depth_m, o.max_depth_m);
+  p.frame = makeFrameFeatures(extractor.extract(img1, cv::Mat()), f1.depth_m, f1.camera, o.min_depth_m, o.max_depth_m);
   std::int64_t next_id = 0;
-  p.reference = makeKeyframePoints(0, f0, cv::Mat(), Eigen::Isometry3d::Identity(), ff0, nullptr,
-                                   {}, &next_id);
+  p.reference = makeKeyframePoints(0, f0, cv::Mat(), Eigen::Isometry3d::Identity(), ff0, nullptr, {}, &next_id);
   EXPECT_EQ(next_id, static_cast<std::int64_t>(ff0.size()));  // one new id per point
   return p;
 }
@@ -43,8 +41,7 @@ double correctFraction(const Pair& p, const std::vector<FeatureMatch>& matches) 
   for (const auto& m : matches) {
     const auto& a = p.reference.keypoints[static_cast<size_t>(m.reference_index)].pt;
     const auto& b = p.frame.keypoints[static_cast<size_t>(m.frame_index)].pt;
-    const double level_scale =
-        std::pow(1.2, p.frame.keypoints[static_cast<size_t>(m.frame_index)].octave);
+    const double level_scale = std::pow(1.2, p.frame.keypoints[static_cast<size_t>(m.frame_index)].octave);
     if (std::hypot(b.x - a.x - kShiftU, b.y - a.y - kShiftV) <= 1.5 * level_scale) ++correct;
   }
   return matches.empty() ? 0.0 : static_cast<double>(correct) / matches.size();
@@ -74,8 +71,7 @@ TEST(FeatureMatcher, ProjectionSearchUsesThePrediction) {
   EXPECT_GT(good.size(), 500u);
   EXPECT_GT(correctFraction(p, good), 0.97);
   // With a wrong prediction (identity, 17 px off) and a 4 px window almost nothing is found.
-  const auto bad = matcher.matchByProjection(p.reference, p.frame, Eigen::Isometry3d::Identity(),
-                                             k, 4.0);
+  const auto bad = matcher.matchByProjection(p.reference, p.frame, Eigen::Isometry3d::Identity(), k, 4.0);
   EXPECT_LT(bad.size(), good.size() / 4);
 }
 

@@ -21,7 +21,7 @@ const Pinhole kPinhole{525.0, 525.0, 319.5, 239.5};
 struct Scene {
   KeyframePoints reference;
   FrameFeatures frame;
-  std::vector<bool> moving;  ///< per reference point: on the walking person
+  std::vector<bool> moving;                                          ///< per reference point: on the walking person
   Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();  ///< the frame's true pose
 };
 

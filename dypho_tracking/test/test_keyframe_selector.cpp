@@ -67,7 +67,7 @@ TEST(KeyframeSelector, FastRotationPostponesSoftButNotHardTriggers) {
   const KeyframeSelector s{TrackingOptions()};
   KeyframeQuery q = calmQuery();
   q.T_world_camera = q.T_world_keyframe * pose(0.0, 12.0);  // soft trigger: rotation
-  q.frame_rotation_deg = 2.5;                                  // camera turning fast
+  q.frame_rotation_deg = 2.5;                               // camera turning fast
   EXPECT_FALSE(s.decide(q).is_keyframe);
   q.frame_rotation_deg = 1.4;
   EXPECT_TRUE(s.decide(q).is_keyframe);

@@ -142,7 +142,7 @@ TEST(LiveTracker, AFrameWithoutItsMaskGoesOnAfterTheWait) {
   Live live(stage, pairing(wait_s, 30, 0.2), true, callbacks(seen));
   live.addMask(stampOf(0), 1);
   live.addFrame(stampOf(0), 0);
-  live.addFrame(stampOf(1), 1);   // 33 ms from frame 0's mask: carried
+  live.addFrame(stampOf(1), 1);    // 33 ms from frame 0's mask: carried
   live.addFrame(stampOf(10), 10);  // 333 ms from it: none
   live.finish();
   ASSERT_EQ(seen.frames, (std::vector<int>{0, 1, 10}));
@@ -205,11 +205,14 @@ TEST(LiveTracker, StopWithFramesInFlightAccountsForEveryFrame) {
 TEST(LiveTracker, FailuresAreReportedAndTheNextFramesGoOn) {
   TrackingStage stage{TrackingOptions()};
   Seen seen;
-  auto c = callbacks(seen, [](int i) {
-    if (i == 2) throw std::runtime_error("unreadable on purpose");
-  }, [](int i) {
-    if (i == 5) throw std::runtime_error("publishing failed on purpose");
-  });
+  auto c = callbacks(
+      seen,
+      [](int i) {
+        if (i == 2) throw std::runtime_error("unreadable on purpose");
+      },
+      [](int i) {
+        if (i == 5) throw std::runtime_error("publishing failed on purpose");
+      });
   auto convert = c.convert;
   c.convert = [convert](const Live::Ready& r) {
     LiveFrame f = convert(r);

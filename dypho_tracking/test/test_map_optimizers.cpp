@@ -21,8 +21,7 @@ Pinhole testPinhole() { return Pinhole{525.0, 525.0, 319.5, 239.5}; }
 
 Eigen::Isometry3d makePose(double rx, double ry, double rz, double tx, double ty, double tz) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = (Eigen::AngleAxisd(rz, Eigen::Vector3d::UnitZ()) *
-                Eigen::AngleAxisd(ry, Eigen::Vector3d::UnitY()) *
+  T.linear() = (Eigen::AngleAxisd(rz, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(ry, Eigen::Vector3d::UnitY()) *
                 Eigen::AngleAxisd(rx, Eigen::Vector3d::UnitX()))
                    .toRotationMatrix();
   T.translation() = Eigen::Vector3d(tx, ty, tz);
@@ -55,16 +54,14 @@ TEST(PoseGraphError, JacobiansMatchCentralDifferences) {
   const Eigen::Isometry3d T_b = makePose(-0.1, 0.4, 0.2, 1.3, 0.2, 0.1);
   const Eigen::Isometry3d T_ab_meas = makePose(-0.25, 0.3, 0.45, 0.2, -0.3, 0.35);
   PoseGraphError cost(T_ab_meas, 0.01, 0.02);
-  test::expectJacobiansMatch(cost, {quat(T_a), vec(T_a.translation()), quat(T_b),
-                                    vec(T_b.translation())});
+  test::expectJacobiansMatch(cost, {quat(T_a), vec(T_a.translation()), quat(T_b), vec(T_b.translation())});
 }
 
 TEST(PoseGraphError, ZeroAtTheMeasurement) {
   const Eigen::Isometry3d T_a = makePose(0.2, 0.1, -0.3, 1.0, 0.5, -0.2);
   const Eigen::Isometry3d T_b = makePose(-0.1, 0.4, 0.2, 1.3, 0.2, 0.1);
   PoseGraphError cost(T_a.inverse() * T_b, 0.01, 0.01);
-  std::vector<std::vector<double>> p{quat(T_a), vec(T_a.translation()), quat(T_b),
-                                     vec(T_b.translation())};
+  std::vector<std::vector<double>> p{quat(T_a), vec(T_a.translation()), quat(T_b), vec(T_b.translation())};
   const double* ptrs[] = {p[0].data(), p[1].data(), p[2].data(), p[3].data()};
   double r[6];
   ASSERT_TRUE(cost.Evaluate(ptrs, r, nullptr));

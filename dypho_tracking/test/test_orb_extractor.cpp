@@ -63,8 +63,8 @@ TEST(OrbExtractor, NoKeypointInsideOrNearTheMask) {
     const double border = options.mask_border_px * std::pow(options.scale_factor, kp.octave) - 1.0;
     const double dx = std::max({dynamic.x - kp.pt.x, 0.f, kp.pt.x - (dynamic.br().x - 1)});
     const double dy = std::max({dynamic.y - kp.pt.y, 0.f, kp.pt.y - (dynamic.br().y - 1)});
-    EXPECT_GE(std::hypot(dx, dy), border) << "keypoint (" << kp.pt.x << ", " << kp.pt.y << ") level "
-                               << kp.octave << " too close to the dynamic area";
+    EXPECT_GE(std::hypot(dx, dy), border)
+        << "keypoint (" << kp.pt.x << ", " << kp.pt.y << ") level " << kp.octave << " too close to the dynamic area";
   }
 }
 
@@ -82,8 +82,7 @@ TEST(OrbExtractor, AllMaskedOrBlackGivesNoKeypoints) {
 TEST(OrbExtractor, RejectsWrongTypes) {
   OrbExtractor extractor{TrackingOptions()};
   EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC3), cv::Mat()), std::invalid_argument);
-  EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC1), cv::Mat(10, 10, CV_8UC1)),
-               std::invalid_argument);
+  EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC1), cv::Mat(10, 10, CV_8UC1)), std::invalid_argument);
 }
 
 }  // namespace
@@ -189,9 +188,8 @@ TEST(OrbExtractor, RelaxedFeaturesFillTheBudgetOnMaskedFrames) {
     // Static side only, outside the mask border (scaled by the level, 1 px rounding).
     EXPECT_GE(kp.pt.x, 320.0 + on.mask_border_px * std::pow(on.scale_factor, kp.octave) - 1.0);
   }
-  std::cout << "keypoints on the unmasked half: FAST only " << masked_off.keypoints.size()
-            << ", with relaxed features " << masked_on.keypoints.size() << " (" << masked_on.num_relaxed
-            << " relaxed)\n";
+  std::cout << "keypoints on the unmasked half: FAST only " << masked_off.keypoints.size() << ", with relaxed features "
+            << masked_on.keypoints.size() << " (" << masked_on.num_relaxed << " relaxed)\n";
 }
 
 cv::KeyPoint withResponse(float response) { return cv::KeyPoint(0.f, 0.f, 7.f, -1.f, response); }
@@ -205,9 +203,9 @@ std::vector<float> responses(const std::vector<cv::KeyPoint>& keypoints) {
 // The grid step alone: every cell's best keypoint comes before any cell's second; the round that
 // overflows the budget keeps its best.
 TEST(OrbGrid, DistributeOverCellsServesCellsRoundRobin) {
-  std::vector<std::vector<cv::KeyPoint>> cells = {
-      {withResponse(1.f), withResponse(5.f), withResponse(0.5f)}, {withResponse(3.f)},
-      {withResponse(2.f), withResponse(4.f)}};
+  std::vector<std::vector<cv::KeyPoint>> cells = {{withResponse(1.f), withResponse(5.f), withResponse(0.5f)},
+                                                  {withResponse(3.f)},
+                                                  {withResponse(2.f), withResponse(4.f)}};
   EXPECT_EQ(responses(distributeOverCells(cells, 4)), (std::vector<float>{5.f, 3.f, 4.f, 2.f}));
   EXPECT_EQ(responses(cells[0]), (std::vector<float>{5.f, 1.f, 0.5f}));  // sorted in place, best first
   EXPECT_EQ(responses(distributeOverCells(cells, 2)), (std::vector<float>{5.f, 4.f}));

@@ -34,8 +34,7 @@ TEST(PoseOptimizer, RecoversPoseWithNoiseAndThirtyPercentOutliers) {
     std::normal_distribution<double> noise(0.0, 0.5);
 
     Eigen::Isometry3d T_cw_true = Eigen::Isometry3d::Identity();
-    T_cw_true.linear() =
-        Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.3).normalized()).toRotationMatrix();
+    T_cw_true.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.3).normalized()).toRotationMatrix();
     T_cw_true.translation() = Eigen::Vector3d(0.4, -0.2, 0.3);
 
     std::vector<PoseObservation> obs;
@@ -61,13 +60,12 @@ TEST(PoseOptimizer, RecoversPoseWithNoiseAndThirtyPercentOutliers) {
     }
     Eigen::Isometry3d T_init = T_cw_true;
     T_init.linear() = T_init.linear() *
-        Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+                      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
     T_init.translation() += Eigen::Vector3d(0.03, -0.03, 0.03);
 
     const PoseOptimizerResult r = optimizer.optimize(obs, kPinhole, T_init);
     ASSERT_TRUE(r.success) << r.message;
-    const double pos_err_m =
-        (r.T_camera_world.inverse().translation() - T_cw_true.inverse().translation()).norm();
+    const double pos_err_m = (r.T_camera_world.inverse().translation() - T_cw_true.inverse().translation()).norm();
     EXPECT_LT(pos_err_m, 0.005) << "seed " << seed;
     EXPECT_LT(rotationErrorDeg(r.T_camera_world, T_cw_true), 0.1) << "seed " << seed;
 

@@ -24,8 +24,8 @@ TEST(ReprojectionError, AnalyticJacobianMatchesCentralDifferences) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   for (int trial = 0; trial < 50; ++trial) {
-    const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(
-        0.5 * uni(rng), Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized()));
+    const Eigen::Quaterniond q = Eigen::Quaterniond(
+        Eigen::AngleAxisd(0.5 * uni(rng), Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized()));
     Eigen::Vector3d t(0.3 * uni(rng), 0.3 * uni(rng), 0.3 * uni(rng));
     const Eigen::Vector3d p_c(uni(rng), uni(rng), 2.5 + uni(rng));
     const Eigen::Vector3d p_w = q.inverse() * (p_c - t);
@@ -93,13 +93,12 @@ TEST(RgbdReprojectionError, AnalyticJacobianMatchesCentralDifferences) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   for (int trial = 0; trial < 50; ++trial) {
-    const Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(
-        0.5 * uni(rng), Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized()));
+    const Eigen::Quaterniond q = Eigen::Quaterniond(
+        Eigen::AngleAxisd(0.5 * uni(rng), Eigen::Vector3d(uni(rng), uni(rng), uni(rng)).normalized()));
     const Eigen::Vector3d t(0.3 * uni(rng), 0.3 * uni(rng), 0.3 * uni(rng));
     const Eigen::Vector3d p_c(uni(rng), uni(rng), 2.5 + uni(rng));
     const Eigen::Vector3d p_w = q.inverse() * (p_c - t);
-    const RgbdReprojectionError cost(p_w, Eigen::Vector2d(310, 240), 2.4 + 0.3 * uni(rng), 0.075,
-                                     1.2, kPinhole);
+    const RgbdReprojectionError cost(p_w, Eigen::Vector2d(310, 240), 2.4 + 0.3 * uni(rng), 0.075, 1.2, kPinhole);
     double qd[4] = {q.x(), q.y(), q.z(), q.w()};
     double td[3] = {t.x(), t.y(), t.z()};
     const double* params[2] = {qd, td};

@@ -14,13 +14,9 @@ namespace {
 
 constexpr Timestamp kDt = 33'000'000;  // 30 Hz
 
-bool contains(const std::string& s, const std::string& what) {
-  return s.find(what) != std::string::npos;
-}
+bool contains(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
 
-void expectFinite(const TrackingResult& r) {
-  EXPECT_TRUE(r.T_world_camera.matrix().allFinite()) << r.message;
-}
+void expectFinite(const TrackingResult& r) { EXPECT_TRUE(r.T_world_camera.matrix().allFinite()) << r.message; }
 
 TEST(RgbdOdometry, FirstGoodFrameIsKeyframeZeroAtIdentity) {
   RgbdOdometry odo{TrackingOptions()};
@@ -173,8 +169,7 @@ TEST(RgbdOdometry, ReinitialisesAfterMaxLostFrames) {
   o.max_lost_frames = 3;
   RgbdOdometry odo(o);
   Timestamp t = kDt;
-  ASSERT_EQ(odo.track(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {}).state,
-            TrackingState::kOk);
+  ASSERT_EQ(odo.track(test::planarFrame(test::texturedImage(24), 2.0, t += kDt), {}).state, TrackingState::kOk);
   // A completely different scene cannot be registered to the keyframe.
   const RgbdFrame other = test::planarFrame(test::texturedImage(99), 2.0, 0);
   for (int i = 1; i < 3; ++i) {

@@ -78,8 +78,7 @@ std::vector<GtPose> readGroundTruth(const std::string& path) {
 /// Ground-truth position at t by linear interpolation between the bracketing samples (TUM gt is
 /// 100 Hz, Bonn ~30 Hz); false when t is outside the gt or the bracketing gap exceeds 0.1 s.
 bool interpolateGt(const std::vector<GtPose>& gt, double t, Eigen::Vector3d* p) {
-  const auto it = std::lower_bound(gt.begin(), gt.end(), t,
-                                   [](const GtPose& g, double v) { return g.t_s < v; });
+  const auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const GtPose& g, double v) { return g.t_s < v; });
   if (it == gt.begin() || it == gt.end()) return false;
   const GtPose& b = *it;
   const GtPose& a = *(it - 1);
@@ -112,8 +111,8 @@ struct RunStats {
 };
 
 /// Runs the odometry over a TUM-layout folder and evaluates against `gt` (positions).
-RunStats runSequence(const std::string& dir, const CameraIntrinsics& camera,
-                     const std::vector<GtPose>& gt, const std::string& name) {
+RunStats runSequence(const std::string& dir, const CameraIntrinsics& camera, const std::vector<GtPose>& gt,
+                     const std::string& name) {
   const std::vector<StampedPath> rgb = readList(dir + "/rgb.txt");
   const std::vector<StampedPath> depth = readList(dir + "/depth.txt");
   RgbdOdometry odometry{TrackingOptions()};
@@ -153,11 +152,10 @@ RunStats runSequence(const std::string& dir, const CameraIntrinsics& camera,
     }
     if (r.is_keyframe) ++stats.keyframes;
     if (std::getenv("DYPHO_TRACKING_VERBOSE") != nullptr) {
-      std::cout << "[" << name << "] " << stats.frames - 1 << " " << toString(r.state)
-                << " kf=" << r.is_keyframe << " feat=" << r.num_features << " matches="
-                << r.num_matches << " inliers=" << r.num_inliers << " t=" << r.times.total
-                << " (f " << r.times.features << " m " << r.times.matching << " p " << r.times.pnp
-                << " r " << r.times.refine << ") " << r.message << "\n";
+      std::cout << "[" << name << "] " << stats.frames - 1 << " " << toString(r.state) << " kf=" << r.is_keyframe
+                << " feat=" << r.num_features << " matches=" << r.num_matches << " inliers=" << r.num_inliers
+                << " t=" << r.times.total << " (f " << r.times.features << " m " << r.times.matching << " p "
+                << r.times.pnp << " r " << r.times.refine << ") " << r.message << "\n";
     }
     if (r.state != TrackingState::kOk) continue;
     Eigen::Vector3d p_gt;
@@ -167,8 +165,8 @@ RunStats runSequence(const std::string& dir, const CameraIntrinsics& camera,
     if (traj.is_open()) {
       const Eigen::Quaterniond q(r.T_world_camera.rotation());
       const Eigen::Vector3d& p = r.T_world_camera.translation();
-      traj << std::fixed << std::setprecision(6) << c.t_s << " " << p.x() << " " << p.y() << " "
-           << p.z() << " " << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
+      traj << std::fixed << std::setprecision(6) << c.t_s << " " << p.x() << " " << p.y() << " " << p.z() << " "
+           << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
     }
   }
   stats.evaluated = static_cast<int>(est.size());
@@ -177,10 +175,9 @@ RunStats runSequence(const std::string& dir, const CameraIntrinsics& camera,
     std::nth_element(times_ms.begin(), times_ms.begin() + times_ms.size() / 2, times_ms.end());
     stats.median_ms = times_ms[times_ms.size() / 2];
   }
-  std::cout << "[" << name << "] frames " << stats.frames << ", OK " << stats.ok << ", LOST "
-            << stats.lost << ", keyframes " << stats.keyframes << ", evaluated " << stats.evaluated
-            << ", ATE RMSE " << stats.ate_m * 100.0 << " cm, median " << stats.median_ms
-            << " ms/frame" << std::endl;
+  std::cout << "[" << name << "] frames " << stats.frames << ", OK " << stats.ok << ", LOST " << stats.lost
+            << ", keyframes " << stats.keyframes << ", evaluated " << stats.evaluated << ", ATE RMSE "
+            << stats.ate_m * 100.0 << " cm, median " << stats.median_ms << " ms/frame" << std::endl;
   return stats;
 }
 
@@ -232,8 +229,8 @@ TEST(RgbdOdometryRealData, BonnCrowdRough) {
   // Corrected gt (SOURCE.txt): T_cam = T_ros * T_gt * T_ros * T_m.
   Eigen::Matrix4d T_ros, T_m;
   T_ros << -1, 0, 0, 0, 0, 0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 1;
-  T_m << 1.0157, 0.1828, -0.2389, 0.0113, 0.0009, -0.8431, -0.6413, -0.0098, -0.3009, 0.6147,
-      -0.8085, 0.0111, 0, 0, 0, 1;
+  T_m << 1.0157, 0.1828, -0.2389, 0.0113, 0.0009, -0.8431, -0.6413, -0.0098, -0.3009, 0.6147, -0.8085, 0.0111, 0, 0, 0,
+      1;
   for (GtPose& g : gt) {
     Eigen::Matrix4d T_gt = Eigen::Matrix4d::Identity();
     T_gt.topLeftCorner<3, 3>() = g.q.toRotationMatrix();

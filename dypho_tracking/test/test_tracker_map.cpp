@@ -143,7 +143,8 @@ TEST(TrackerMap, RemovesUnverifiedPointsOfTheFirstKeyframeOnly) {
   const auto second = map.addKeyframe(makeKf(1, {first[0], -1}, 0.1));
   const std::int64_t later_point = second[1];
   ASSERT_NE(later_point, first[0]);
-  for (int f = 0; f < 5; ++f) map.updateVisibility({first[0], first[1], later_point}, {first[0], first[1], later_point});
+  for (int f = 0; f < 5; ++f)
+    map.updateVisibility({first[0], first[1], later_point}, {first[0], first[1], later_point});
   const std::vector<std::int64_t> seen{first[1], later_point};
   for (int hit = 1; hit <= 2; ++hit) {
     map.cullMovingPoints(seen, 0);  // counts the sighting, removes nothing (test off)
@@ -230,7 +231,7 @@ TEST(TrackerMap, RedundantKeyframeRule) {
   map.addKeyframe(makeKf(2, base, 0.2));
   EXPECT_FALSE(map.isRedundant(1, 0.9));  // its points are seen by 2 others (0 and 2)
   map.addKeyframe(makeKf(3, base, 0.3));
-  EXPECT_TRUE(map.isRedundant(1, 0.9));   // 10 of 11 = 0.91 seen by 3 others
+  EXPECT_TRUE(map.isRedundant(1, 0.9));  // 10 of 11 = 0.91 seen by 3 others
   EXPECT_FALSE(map.isRedundant(1, 0.95));
   // Observers at a coarser scale (octave > own + 1) do not count.
   MapKeyframe coarse = makeKf(4, base, 0.4);
@@ -263,8 +264,8 @@ TEST(TrackerMap, RemovedKeyframeKeepsAPoseThatFollowsCorrections) {
   ASSERT_TRUE(map.removeKeyframe(1));
   EXPECT_EQ(map.keyframe(1), nullptr);
   EXPECT_EQ(map.numRemovedKeyframes(), 1u);
-  EXPECT_EQ(map.point(b[5]), nullptr);                   // seen only by keyframe 1
-  EXPECT_EQ(map.point(b[4])->first_keyframe_id, 2);      // created by 1, also seen by 2
+  EXPECT_EQ(map.point(b[5]), nullptr);               // seen only by keyframe 1
+  EXPECT_EQ(map.point(b[4])->first_keyframe_id, 2);  // created by 1, also seen by 2
   EXPECT_EQ(map.point(a[0])->observations.count(1), 0u);
   ASSERT_TRUE(map.keyframePose(1).has_value());
   EXPECT_TRUE(map.keyframePose(1)->isApprox(T_world_1, 1e-12));

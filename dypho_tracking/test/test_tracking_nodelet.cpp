@@ -26,8 +26,8 @@ TEST(TrackingNodelet, PublishesPosePathTfAndKeyframesAtTheInputRate) {
   std::atomic<int> poses{0}, keyframes{0}, statuses{0}, nan_poses{0};
   std::size_t path_length = 0;
   ros::WallTime first_pose, last_pose = ros::WallTime::now();
-  auto pose_sub = nh.subscribe<geometry_msgs::PoseStamped>(
-      "/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
+  auto pose_sub =
+      nh.subscribe<geometry_msgs::PoseStamped>("/dypho/pose", 100, [&](const geometry_msgs::PoseStampedConstPtr& p) {
         const auto& q = p->pose.orientation;
         const auto& t = p->pose.position;
         if (!std::isfinite(q.w + q.x + q.y + q.z + t.x + t.y + t.z)) ++nan_poses;
@@ -57,9 +57,8 @@ TEST(TrackingNodelet, PublishesPosePathTfAndKeyframesAtTheInputRate) {
   }
   std::lock_guard<std::mutex> lock(mutex);
   const double span_s = (last_pose - first_pose).toSec();
-  std::cout << "tracking nodelet: " << statuses << " statuses, " << poses << " poses, "
-            << keyframes << " keyframes, path " << path_length << ", pose span " << span_s
-            << " s for " << frames << " frames\n";
+  std::cout << "tracking nodelet: " << statuses << " statuses, " << poses << " poses, " << keyframes
+            << " keyframes, path " << path_length << ", pose span " << span_s << " s for " << frames << " frames\n";
   // At the input rate: >= 90 % of the frames give a status and a pose (the synchroniser may drop
   // the first frames while subscriptions connect), and the poses span at most 1.3x the bag's
   // duration (frames / 30 Hz): a tracker slower than the input would fall behind and drop frames.

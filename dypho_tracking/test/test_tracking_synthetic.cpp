@@ -66,8 +66,7 @@ TEST_F(SyntheticTracking, TracksWithLocalMapAndBuildsCovisibility) {
   EXPECT_LT(max_error, 0.02);
   EXPECT_GE(keyframes, 2);
   // Every keyframe made is in the map or was removed as redundant (and still has a pose).
-  EXPECT_EQ(static_cast<int>(odometry.map().keyframes().size() + odometry.map().numRemovedKeyframes()),
-            keyframes);
+  EXPECT_EQ(static_cast<int>(odometry.map().keyframes().size() + odometry.map().numRemovedKeyframes()), keyframes);
   // The newest keyframe shares points with an older one (map points are re-observed).
   const std::int64_t newest = odometry.map().keyframes().rbegin()->first;
   EXPECT_FALSE(odometry.map().covisibleKeyframes(newest, 5).empty());
@@ -192,8 +191,8 @@ TEST_F(SyntheticTracking, CatchUpModeSkipsLocalBaOnly) {
   double max_error_behind = 0;
   for (size_t i = 0; i < frames_.size(); ++i) {
     const TrackingResult a = normal.track(frames_[i].frame, cv::Mat());
-    const TrackingResult c = behind.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr,
-                                          options.catch_up_frames_waiting);
+    const TrackingResult c =
+        behind.track(frames_[i].frame, cv::Mat(), MaskJudgement::kUnknown, nullptr, options.catch_up_frames_waiting);
     ASSERT_EQ(a.state, TrackingState::kOk) << "frame " << i;
     ASSERT_EQ(c.state, TrackingState::kOk) << "frame " << i << ": " << c.message;
     EXPECT_FALSE(a.caught_up);
@@ -257,9 +256,8 @@ TEST_F(SyntheticTracking, RedundantKeyframesAreRemovedOnRepeatedPasses) {
   // With it the map stops growing once the place is known (measured 7, 10, 12, 13, 13, 13): the
   // last three passes add at most one keyframe.
   EXPECT_GT(kept.back(), kept[2] + 6);
-  EXPECT_LE(culled.back(), culled[2] + 1) << "after passes 1-6: " << culled[0] << ", " << culled[1]
-                                          << ", " << culled[2] << ", " << culled[3] << ", "
-                                          << culled[4] << ", " << culled[5];
+  EXPECT_LE(culled.back(), culled[2] + 1) << "after passes 1-6: " << culled[0] << ", " << culled[1] << ", " << culled[2]
+                                          << ", " << culled[3] << ", " << culled[4] << ", " << culled[5];
   // Same accuracy class as one pass (~0.5 cm); 2 cm catches poses lost with removed keyframes.
   EXPECT_LT(culled_error, 0.02);
 }
@@ -268,8 +266,7 @@ TEST_F(SyntheticTracking, RelocalizesAfterForcedLoss) {
   TrackingOptions options;
   RgbdOdometry odometry(options);
   for (int i = 0; i < 40; ++i) {
-    ASSERT_EQ(odometry.track(frames_[static_cast<size_t>(i)].frame, cv::Mat()).state,
-              TrackingState::kOk);
+    ASSERT_EQ(odometry.track(frames_[static_cast<size_t>(i)].frame, cv::Mat()).state, TrackingState::kOk);
   }
   // Forced loss: a black frame (textureless) -> LOST with a reason, pose still finite.
   RgbdFrame black = frames_[40].frame;
@@ -283,9 +280,8 @@ TEST_F(SyntheticTracking, RelocalizesAfterForcedLoss) {
   OrbExtractor extractor(options);
   cv::Mat gray;
   cv::cvtColor(frames_[12].frame.bgr, gray, cv::COLOR_BGR2GRAY);
-  const FrameFeatures features =
-      makeFrameFeatures(extractor.extract(gray, cv::Mat()), frames_[12].frame.depth_m,
-                        frames_[12].frame.camera, options.min_depth_m, options.max_depth_m);
+  const FrameFeatures features = makeFrameFeatures(extractor.extract(gray, cv::Mat()), frames_[12].frame.depth_m,
+                                                   frames_[12].frame.camera, options.min_depth_m, options.max_depth_m);
   const RelocalizationResult reloc = Relocalizer(options).relocalize(
       odometry.map(), features, Pinhole::fromIntrinsics(frames_[12].frame.camera), nullptr);
   ASSERT_TRUE(reloc.success) << reloc.message;
@@ -302,8 +298,7 @@ TEST_F(SyntheticTracking, BadInputMidRunNeverGivesNaN) {
   RgbdOdometry odometry{TrackingOptions()};
   for (int i = 0; i < 10; ++i) odometry.track(frames_[static_cast<size_t>(i)].frame, cv::Mat());
   RgbdFrame no_depth = frames_[10].frame;
-  no_depth.depth_m = cv::Mat(no_depth.depth_m.size(), CV_32FC1,
-                             cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  no_depth.depth_m = cv::Mat(no_depth.depth_m.size(), CV_32FC1, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   TrackingResult r = odometry.track(no_depth, cv::Mat());
   EXPECT_EQ(r.state, TrackingState::kLost);
   EXPECT_NE(r.message.find("depth"), std::string::npos) << r.message;

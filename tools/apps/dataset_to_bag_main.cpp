@@ -45,12 +45,19 @@ Args parseArgs(int argc, char** argv) {
       if (i + 1 >= argc) throw std::runtime_error(flag + " needs a value");
       return argv[++i];
     };
-    if (flag == "--dataset") a.dataset = value();
-    else if (flag == "--out") a.out = value();
-    else if (flag == "--camera") a.camera = value();
-    else if (flag == "--layout") a.layout = dypho::tools::parseBagLayout(value());
-    else if (flag == "-h" || flag == "--help") { std::cout << kUsage; std::exit(0); }
-    else throw std::runtime_error("unknown argument '" + flag + "'");
+    if (flag == "--dataset")
+      a.dataset = value();
+    else if (flag == "--out")
+      a.out = value();
+    else if (flag == "--camera")
+      a.camera = value();
+    else if (flag == "--layout")
+      a.layout = dypho::tools::parseBagLayout(value());
+    else if (flag == "-h" || flag == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else
+      throw std::runtime_error("unknown argument '" + flag + "'");
   }
   if (a.dataset.empty()) throw std::runtime_error("--dataset DIR is required");
   if (a.out.empty()) throw std::runtime_error("--out FILE.bag is required");
@@ -91,9 +98,8 @@ int main(int argc, char** argv) {
     const dypho::tools::BagTopics topics = dypho::tools::bagTopicsFor(args.layout);
     std::printf("dypho_dataset_to_bag: %zu RGB-D pairs from %s, camera '%s' -> %s (%s layout: %s %s, %s %s, %s)\n",
                 dataset.size(), args.dataset.c_str(), cfg.name.c_str(), args.out.c_str(),
-                dypho::tools::bagLayoutName(args.layout).c_str(), topics.rgb.c_str(),
-                topics.colour_encoding.c_str(), topics.depth.c_str(), topics.depth_encoding.c_str(),
-                topics.camera_info.c_str());
+                dypho::tools::bagLayoutName(args.layout).c_str(), topics.rgb.c_str(), topics.colour_encoding.c_str(),
+                topics.depth.c_str(), topics.depth_encoding.c_str(), topics.camera_info.c_str());
     // Written beside the target and renamed when complete: an interrupted run leaves no
     // truncated FILE.bag behind (and never replaces a good one).
     const std::string partial = args.out + ".partial-" + std::to_string(::getpid());

@@ -72,15 +72,24 @@ Args parseArgs(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw std::invalid_argument("missing value after " + flag);
     const std::string value = argv[++i];
-    if (flag == "--estimate") a.estimate = value;
-    else if (flag == "--groundtruth") a.groundtruth = value;
-    else if (flag == "--plot") a.plot = value;
-    else if (flag == "--json") a.json = value;
-    else if (flag == "--errors") a.errors = value;
-    else if (flag == "--title") a.title = value;
-    else if (flag == "--delta") a.deltas_s.push_back(parsePositive(flag, value));
-    else if (flag == "--max-gap") a.max_gap_s = parsePositive(flag, value);
-    else throw std::invalid_argument("unknown option '" + flag + "'");
+    if (flag == "--estimate")
+      a.estimate = value;
+    else if (flag == "--groundtruth")
+      a.groundtruth = value;
+    else if (flag == "--plot")
+      a.plot = value;
+    else if (flag == "--json")
+      a.json = value;
+    else if (flag == "--errors")
+      a.errors = value;
+    else if (flag == "--title")
+      a.title = value;
+    else if (flag == "--delta")
+      a.deltas_s.push_back(parsePositive(flag, value));
+    else if (flag == "--max-gap")
+      a.max_gap_s = parsePositive(flag, value);
+    else
+      throw std::invalid_argument("unknown option '" + flag + "'");
   }
   if (a.estimate.empty()) throw std::invalid_argument("--estimate FILE is required");
   if (a.groundtruth.empty()) throw std::invalid_argument("--groundtruth FILE is required");
@@ -117,7 +126,7 @@ struct Evaluation {
   std::vector<dypho::StampedPose> groundtruth;  ///< with --bonn-correction applied
   dypho::tools::AteResult ate;                  ///< rigid alignment, no scale
   std::optional<dypho::tools::AteResult> ate_scaled;
-  std::string scaled_error;  ///< why ate_scaled is missing
+  std::string scaled_error;      ///< why ate_scaled is missing
   std::vector<RpeOutcome> rpes;  ///< one per --delta, in order
 };
 
@@ -158,8 +167,8 @@ void printEvaluation(const Args& args, const Evaluation& ev) {
   std::printf("ground truth: %s (%zu poses%s)\n", args.groundtruth.c_str(), ev.groundtruth.size(),
               args.bonn_correction ? ", Bonn correction applied" : "");
   std::printf("ATE (rigid alignment, no scale): %zu pairs\n", ate.num_pairs);
-  std::printf("  rmse   %8.3f cm\n  mean   %8.3f cm\n  median %8.3f cm\n  max    %8.3f cm\n",
-              ate.rmse_m * 100, ate.mean_m * 100, ate.median_m * 100, ate.max_m * 100);
+  std::printf("  rmse   %8.3f cm\n  mean   %8.3f cm\n  median %8.3f cm\n  max    %8.3f cm\n", ate.rmse_m * 100,
+              ate.mean_m * 100, ate.median_m * 100, ate.max_m * 100);
   if (ev.ate_scaled) {
     std::printf("ATE with scale (Sim(3) alignment, for diagnosis): rmse %.3f cm, scale %.4f\n",
                 ev.ate_scaled->rmse_m * 100, ev.ate_scaled->scale);
@@ -168,8 +177,8 @@ void printEvaluation(const Args& args, const Evaluation& ev) {
   }
   for (const auto& o : ev.rpes) {
     if (o.result) {
-      std::printf("RPE over %.3f s: %zu pairs, trans rmse %.3f cm, rot rmse %.3f deg\n", o.delta_s,
-                  o.result->num_pairs, o.result->trans_rmse_m * 100, o.result->rot_rmse_deg);
+      std::printf("RPE over %.3f s: %zu pairs, trans rmse %.3f cm, rot rmse %.3f deg\n", o.delta_s, o.result->num_pairs,
+                  o.result->trans_rmse_m * 100, o.result->rot_rmse_deg);
     } else {
       std::printf("RPE over %.3f s: not available (%s)\n", o.delta_s, o.error.c_str());
     }
@@ -192,8 +201,8 @@ void writeRpeJson(std::ostream& js, const RpeOutcome& o) {
   js << "    {\"delta_s\": " << o.delta_s;
   if (o.result) {
     js << ", \"num_pairs\": " << o.result->num_pairs << ", \"trans_rmse_m\": " << o.result->trans_rmse_m
-       << ", \"rot_rmse_deg\": " << o.result->rot_rmse_deg << ", \"trans_mean_m\": "
-       << o.result->trans_mean_m << ", \"rot_mean_deg\": " << o.result->rot_mean_deg << "}";
+       << ", \"rot_rmse_deg\": " << o.result->rot_rmse_deg << ", \"trans_mean_m\": " << o.result->trans_mean_m
+       << ", \"rot_mean_deg\": " << o.result->rot_mean_deg << "}";
   } else {
     js << ", \"error\": " << jsonString(o.error) << "}";
   }
@@ -204,13 +213,11 @@ std::string evaluationJson(const Args& args, const Evaluation& ev) {
   const dypho::tools::AteResult& ate = ev.ate;
   std::ostringstream js;
   js.precision(9);
-  js << "{\n  \"estimate\": " << jsonString(args.estimate)
-     << ",\n  \"groundtruth\": " << jsonString(args.groundtruth)
+  js << "{\n  \"estimate\": " << jsonString(args.estimate) << ",\n  \"groundtruth\": " << jsonString(args.groundtruth)
      << ",\n  \"bonn_correction\": " << (args.bonn_correction ? "true" : "false")
      << ",\n  \"max_gap_s\": " << args.max_gap_s << ",\n  \"ate\": {\"num_pairs\": " << ate.num_pairs
-     << ", \"rmse_m\": " << ate.rmse_m << ", \"mean_m\": " << ate.mean_m
-     << ", \"median_m\": " << ate.median_m << ", \"max_m\": " << ate.max_m
-     << ", \"std_m\": " << ate.std_m << "},\n  \"ate_with_scale\": ";
+     << ", \"rmse_m\": " << ate.rmse_m << ", \"mean_m\": " << ate.mean_m << ", \"median_m\": " << ate.median_m
+     << ", \"max_m\": " << ate.max_m << ", \"std_m\": " << ate.std_m << "},\n  \"ate_with_scale\": ";
   if (ev.ate_scaled) {
     js << "{\"rmse_m\": " << ev.ate_scaled->rmse_m << ", \"scale\": " << ev.ate_scaled->scale << "}";
   } else {

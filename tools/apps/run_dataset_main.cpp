@@ -39,6 +39,7 @@
 #include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
+#include "timing_csv.h"
 
 namespace {
 
@@ -49,6 +50,8 @@ std::atomic<bool> g_stop{false};
 void onStopSignal(int) { g_stop = true; }
 using namespace dypho::tools;
 using namespace dypho::pipeline;
+using dypho::run_dataset::TimingRow;
+using dypho::run_dataset::writeTiming;
 
 struct Args {
   std::string dataset;
@@ -62,9 +65,9 @@ struct Args {
   bool quiet = false;
   bool print_config = false;
   bool save_masks = false;
-  bool realtime = false;                ///< --realtime: frames at their stamps, live policy
+  bool realtime = false;                       ///< --realtime: frames at their stamps, live policy
   pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue
-  bool realtime_option_given = false;   ///< one of those was given (needs --realtime)
+  bool realtime_option_given = false;          ///< one of those was given (needs --realtime)
 };
 
 void usage(std::ostream& os) {
@@ -126,34 +129,51 @@ Args parseArgs(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (k == "--dataset") a.dataset = value();
-    else if (k == "--out") a.out = value();
-    else if (k == "--camera") a.camera = value();
-    else if (k == "--config") a.config = value();
-    else if (k == "--mask") a.mask = value();
-    else if (k == "--max-frames") a.max_frames = std::stol(value());
-    else if (k == "--no-eval") a.eval = false;
-    else if (k == "--no-map") a.build_map = false;
-    else if (k == "--quiet") a.quiet = true;
-    else if (k == "--print-config") a.print_config = true;
-    else if (k == "--save-masks") a.save_masks = true;
-    else if (k == "--realtime") a.realtime = true;
-    else if (k == "--realtime-speed") { a.realtime_options.speed = parseNumber(k, value()); a.realtime_option_given = true; }
-    else if (k == "--realtime-queue") {
+    if (k == "--dataset")
+      a.dataset = value();
+    else if (k == "--out")
+      a.out = value();
+    else if (k == "--camera")
+      a.camera = value();
+    else if (k == "--config")
+      a.config = value();
+    else if (k == "--mask")
+      a.mask = value();
+    else if (k == "--max-frames")
+      a.max_frames = std::stol(value());
+    else if (k == "--no-eval")
+      a.eval = false;
+    else if (k == "--no-map")
+      a.build_map = false;
+    else if (k == "--quiet")
+      a.quiet = true;
+    else if (k == "--print-config")
+      a.print_config = true;
+    else if (k == "--save-masks")
+      a.save_masks = true;
+    else if (k == "--realtime")
+      a.realtime = true;
+    else if (k == "--realtime-speed") {
+      a.realtime_options.speed = parseNumber(k, value());
+      a.realtime_option_given = true;
+    } else if (k == "--realtime-queue") {
       const double frames = parseNumber(k, value());
       if (frames != std::floor(frames) || frames < 1 || frames > 1000) {
         throw std::runtime_error("--realtime-queue needs a whole number of frames in [1, 1000]");
       }
       a.realtime_options.queue_capacity_frames = static_cast<int>(frames);
       a.realtime_option_given = true;
-    }
-    else if (k == "-h" || k == "--help") { usage(std::cout); std::exit(0); }
-    else throw std::runtime_error("unknown argument '" + k + "'");
+    } else if (k == "-h" || k == "--help") {
+      usage(std::cout);
+      std::exit(0);
+    } else
+      throw std::runtime_error("unknown argument '" + k + "'");
   }
   if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
     throw std::runtime_error("--dataset and --out are required");
   }
-  if (a.save_masks && a.realtime) throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
+  if (a.save_masks && a.realtime)
+    throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
   if (a.realtime_option_given && !a.realtime) {
     throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
   }
@@ -175,7 +195,7 @@ void makeDirs(const std::string& path) {
     partial += part + "/";
     ::mkdir(partial.c_str(), 0755);
   }
-  struct stat st{};
+  struct stat st {};
   if (::stat(path.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
     throw std::runtime_error("cannot create output folder '" + path + "'");
   }
@@ -186,14 +206,6 @@ double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
 }
-
-struct TimingRow {
-  std::size_t index;
-  double stamp_s;
-  double load_ms;
-  FrameReport report;
-  double total_ms;
-};
 
 /// --save-masks: OUT/mask/<stamp>.png (8-bit, 255 = dynamic; an empty mask is written all static)
 /// and OUT/mask.txt ("stamp mask/<stamp>.png"), the layout dypho_synth writes for --mask gt.
@@ -208,9 +220,12 @@ class MaskWriter {
     const cv::Mat img = mask.empty() ? cv::Mat::zeros(size, CV_8UC1) : mask;
     std::vector<std::uint8_t> png;
     if (!cv::imencode(".png", img, png)) throw std::runtime_error(std::string("PNG encoding failed for mask ") + stamp);
-    writeFileAtomically(out_dir_ + "/mask/" + stamp + ".png", [&](std::ostream& os) {
-      os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-    }, true);
+    writeFileAtomically(
+        out_dir_ + "/mask/" + stamp + ".png",
+        [&](std::ostream& os) {
+          os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+        },
+        true);
     lines_ += std::string(stamp) + " mask/" + stamp + ".png\n";
   }
   /// Writes mask.txt (after all images, so it never names a missing one).
@@ -223,27 +238,6 @@ class MaskWriter {
   std::string out_dir_;
   std::string lines_;
 };
-
-void writeTiming(const std::string& path, const std::vector<TimingRow>& rows) {
-  writeFileAtomically(path, [&](std::ostream& os) {
-    os << "frame,stamp_s,load_ms,render_ms,mask_ms,features_ms,matching_ms,pnp_ms,refine_ms,tracking_ms,"
-          "mapping_ms,total_ms,state,is_keyframe,num_features,num_inliers,masked_fraction,rendered_depth_used,"
-          "static_check_ms,static_agreement,static_corrected,moving_points_removed,moving_points_seen\n";
-    os << std::fixed;
-    for (const TimingRow& r : rows) {
-      const auto& t = r.report.tracking;
-      os << r.index << ',' << std::setprecision(6) << r.stamp_s << ',' << std::setprecision(3)
-         << r.load_ms << ',' << r.report.render_ms << ',' << r.report.mask_ms << ',' << t.times.features << ','
-         << t.times.matching << ',' << t.times.pnp << ',' << t.times.refine << ',' << t.times.total
-         << ',' << r.report.mapping_ms << ',' << r.total_ms << ',' << tracking::toString(t.state)
-         << ',' << (t.is_keyframe ? 1 : 0) << ',' << t.num_features << ',' << t.num_inliers << ','
-         << std::setprecision(4) << r.report.masked_fraction << ',' << (r.report.rendered_depth_used ? 1 : 0) << ','
-         << std::setprecision(3) << t.times.static_check << ',' << std::setprecision(4) << t.static_agreement << ','
-         << (t.static_check_corrected ? 1 : 0) << ',' << t.num_moving_points_removed << ','
-         << t.moving_points_camera_m.size() << '\n';
-    }
-  });
-}
 
 /// realtime.csv: one row per frame of the sequence: what happened to it in the realtime run.
 void writeRealtimeCsv(const std::string& path, const RealtimeResult& r, std::size_t num_frames) {
@@ -276,13 +270,12 @@ std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, con
      << r.framesPosed() << " posed, " << std::setprecision(3)
      << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
      << " of the sequence), " << r.framesDropped() << " dropped, no pose; "
-     << r.framesWithMask(tracking::MaskSource::kCarried) << " with a carried mask, "
-     << r.masks_skipped.size() << " skipped by the mask; " << r.late_releases
-     << " released late (reading fell behind)\n"
+     << r.framesWithMask(tracking::MaskSource::kCarried) << " with a carried mask, " << r.masks_skipped.size()
+     << " skipped by the mask; " << r.late_releases << " released late (reading fell behind)\n"
      << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
      << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
-     << ", mask queue " << o.queue_capacity_frames
-     << ", " << std::setprecision(1) << r.wall_s << " s wall; per frame: realtime.csv";
+     << ", mask queue " << o.queue_capacity_frames << ", " << std::setprecision(1) << r.wall_s
+     << " s wall; per frame: realtime.csv";
   return os.str();
 }
 
@@ -292,10 +285,10 @@ struct RunTally {
   std::size_t processed = 0;   ///< frames read and handed to the pipeline
   std::size_t lost = 0;        ///< posed frames whose tracking state was not kOk
   std::size_t num_keyframes = 0;
-  std::vector<TimingRow> rows;  ///< one per posed frame (timing.csv)
-  std::vector<double> totals;   ///< work per posed frame [ms], for the median
-  std::vector<std::string> unreadable;    ///< frames skipped because their files could not be read
-  std::vector<std::string> out_of_order;  ///< frames dropped for a repeated or late stamp (stamp_gate.h)
+  std::vector<TimingRow> rows;             ///< one per posed frame (timing.csv)
+  std::vector<double> totals;              ///< work per posed frame [ms], for the median
+  std::vector<std::string> unreadable;     ///< frames skipped because their files could not be read
+  std::vector<std::string> out_of_order;   ///< frames dropped for a repeated or late stamp (stamp_gate.h)
   std::optional<RealtimeResult> realtime;  ///< --realtime only
 };
 
@@ -323,15 +316,15 @@ std::unique_ptr<FrameSource> openDataset(const Args& args, const PipelineOptions
     throw std::runtime_error("--mask gt needs a mask/ folder in the dataset (written by dypho_synth)");
   }
   makeDirs(args.out);
-  std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size()
-            << " frames, camera " << source->cameraName() << ", mask " << args.mask << "\n";
+  std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size() << " frames, camera "
+            << source->cameraName() << ", mask " << args.mask << "\n";
   for (const std::string& w : source->warnings()) std::cerr << "warning: " << w << "\n";
   return source;
 }
 
 /// Ctrl-C / SIGTERM: stop after the current frame and write what was processed.
 void installStopHandlers() {
-  struct sigaction stop_action{};
+  struct sigaction stop_action {};
   stop_action.sa_handler = onStopSignal;
   sigaction(SIGINT, &stop_action, nullptr);
   sigaction(SIGTERM, &stop_action, nullptr);
@@ -340,7 +333,8 @@ void installStopHandlers() {
 /// --realtime: switches `options` to the graph's live policy and logs each change.
 void applyRealtimePolicy(const Args& args, PipelineOptions& options) {
   if (args.realtime) {
-    for (const std::string& change : applyLivePolicy(options)) std::cerr << "dypho_run_dataset: realtime: " << change << "\n";
+    for (const std::string& change : applyLivePolicy(options))
+      std::cerr << "dypho_run_dataset: realtime: " << change << "\n";
   }
 }
 
@@ -400,24 +394,22 @@ void runDeterministicFrames(const Args& args, const FrameSource& source, SlamPip
       continue;
     }
     ++tally.processed;
-    const double load_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const auto t1 = std::chrono::steady_clock::now();
     MaskedFrame masked = pipeline.maskFrame(sf.frame, sf.mask);
-    if (args.save_masks && !masked.report.dropped) mask_writer.write(sf.frame.stamp_ns, masked.mask, sf.frame.bgr.size());
+    if (args.save_masks && !masked.report.dropped)
+      mask_writer.write(sf.frame.stamp_ns, masked.mask, sf.frame.bgr.size());
     FrameReport report = pipeline.trackFrame(std::move(masked));
-    const double total_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+    const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     if (report.dropped) {  // repeated or late stamp in the list: counted and named, no pose
       tally.out_of_order.push_back("frame " + std::to_string(i) + ": " + report.message);
       continue;
     }
     tallyPosedFrame(tally, i, timestampToSeconds(sf.frame.stamp_ns), load_ms, report, total_ms);
     if (!args.quiet && (i % 10 == 0 || i + 1 == n)) {
-      std::cerr << "\r[" << std::setw(5) << i + 1 << "/" << n << "] " << std::fixed
-                << std::setprecision(1) << median(tally.totals) << " ms/frame (median), "
-                << tally.num_keyframes << " keyframes, " << tally.lost << " not tracked, state "
-                << tracking::toString(report.tracking.state) << "      " << std::flush;
+      std::cerr << "\r[" << std::setw(5) << i + 1 << "/" << n << "] " << std::fixed << std::setprecision(1)
+                << median(tally.totals) << " ms/frame (median), " << tally.num_keyframes << " keyframes, " << tally.lost
+                << " not tracked, state " << tracking::toString(report.tracking.state) << "      " << std::flush;
     }
   }
 }
@@ -427,10 +419,14 @@ RunTally runFrames(const Args& args, const FrameSource& source, SlamPipeline& pi
                    std::size_t num_frames) {
   RunTally tally;
   tally.num_frames = num_frames;
-  if (args.realtime) runRealtimeFrames(args, source, pipeline, tally);
-  else runDeterministicFrames(args, source, pipeline, mask_writer, tally);
+  if (args.realtime)
+    runRealtimeFrames(args, source, pipeline, tally);
+  else
+    runDeterministicFrames(args, source, pipeline, mask_writer, tally);
   if (!args.quiet) std::cerr << "\n";
-  if (g_stop) std::cerr << "dypho_run_dataset: stopped by a signal after " << tally.processed << " frames; writing what was processed\n";
+  if (g_stop)
+    std::cerr << "dypho_run_dataset: stopped by a signal after " << tally.processed
+              << " frames; writing what was processed\n";
   return tally;
 }
 
@@ -450,7 +446,7 @@ RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally
   mask_writer.finish();
   if (args.build_map) {
     if (!args.quiet) std::cerr << "refining the map over all keyframes and writing it (map.ply, map.pcd)...\n";
-    pipeline.mapping().save(args.out);  // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
+    pipeline.mapping().save(args.out);   // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
     makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
     outputs.map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
   }
@@ -464,13 +460,12 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
   const mask::MaskStageStats mask_stats = pipeline.mask().stats();
   std::cout << "frames:       " << tally.processed << " of " << tally.num_frames << " processed (" << tally.lost
             << " not tracked, " << tally.unreadable.size() << " unreadable and skipped, " << tally.out_of_order.size()
-            << " dropped for a repeated or late stamp" << (g_stop ? ", stopped early by a signal" : "")
-            << "), " << outputs.num_final_keyframes << " keyframes\n";
+            << " dropped for a repeated or late stamp" << (g_stop ? ", stopped early by a signal" : "") << "), "
+            << outputs.num_final_keyframes << " keyframes\n";
   for (const std::string& u : tally.unreadable) std::cout << "  skipped " << u << "\n";
   for (const std::string& u : tally.out_of_order) std::cout << "  dropped " << u << "\n";
   if (tally.realtime) std::cout << realtimeSummary(*tally.realtime, tally.num_frames, args.realtime_options) << "\n";
-  std::cout
-            << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
+  std::cout << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion\n"
             << "time:         " << std::fixed << std::setprecision(1) << median(tally.totals)
@@ -500,8 +495,8 @@ std::string rpeLine(const std::vector<StampedPose>& final_trajectory, const std:
   try {
     const RpeResult rpe = computeRpe(final_trajectory, gt, 1.0);
     std::ostringstream r;
-    r << std::fixed << std::setprecision(2) << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg
-      << " deg (" << rpe.num_pairs << " pairs)";
+    r << std::fixed << std::setprecision(2) << rpe.trans_rmse_m * 100 << " cm, " << rpe.rot_rmse_deg << " deg ("
+      << rpe.num_pairs << " pairs)";
     return r.str();
   } catch (const std::exception& e) {
     return std::string("n/a (") + e.what() + ")";
@@ -522,9 +517,9 @@ void evaluateRun(const Args& args, const FrameSource& source, const RunTally& ta
   const std::string rpe_line = rpeLine(outputs.final_trajectory, gt);
   const AteResult ate_online = computeAte(outputs.trajectory, gt);
   std::ostringstream ev;
-  ev << std::fixed << std::setprecision(2) << "ATE RMSE:     " << ate.rmse_m * 100 << " cm (mean "
-     << ate.mean_m * 100 << ", median " << ate.median_m * 100 << ", max " << ate.max_m * 100
-     << ", " << ate.num_pairs << " poses; " << gt_note << ")\n"
+  ev << std::fixed << std::setprecision(2) << "ATE RMSE:     " << ate.rmse_m * 100 << " cm (mean " << ate.mean_m * 100
+     << ", median " << ate.median_m * 100 << ", max " << ate.max_m * 100 << ", " << ate.num_pairs << " poses; "
+     << gt_note << ")\n"
      << "RPE (1 s):    " << rpe_line << "\n"
      << "ATE online:   " << ate_online.rmse_m * 100
      << " cm (trajectory_online.txt, poses as published at frame time)\n";
@@ -532,13 +527,13 @@ void evaluateRun(const Args& args, const FrameSource& source, const RunTally& ta
     // Realtime: the ATE covers the frames that got a pose; how many did belongs beside it.
     const std::size_t n = tally.num_frames;
     ev << "posed:        " << tally.realtime->framesPosed() << " of " << n << " frames (fraction "
-       << std::setprecision(3) << static_cast<double>(tally.realtime->framesPosed()) / static_cast<double>(std::max<std::size_t>(n, 1))
-       << "; " << tally.realtime->framesDropped() << " dropped by --realtime have no pose)\n";
+       << std::setprecision(3)
+       << static_cast<double>(tally.realtime->framesPosed()) / static_cast<double>(std::max<std::size_t>(n, 1)) << "; "
+       << tally.realtime->framesDropped() << " dropped by --realtime have no pose)\n";
   }
   writeFileAtomically(args.out + "/evaluation.txt", [&](std::ostream& os) { os << ev.str(); });
   writeTrajectoryPlotPng(args.out + "/trajectory.png", ate, source.description());
-  std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out
-            << "/trajectory.png\n";
+  std::cout << ev.str() << "evaluation:   " << args.out << "/evaluation.txt, " << args.out << "/trajectory.png\n";
 }
 
 /// Parse options -> open the dataset -> build the pipeline -> run the frames -> write the outputs

@@ -55,8 +55,8 @@ long parseInteger(const std::string& flag, const std::string& text, long lo, lon
     used = 0;
   }
   if (used != text.size() || text.empty() || value < lo || value > hi) {
-    throw std::runtime_error(flag + " expects an integer in " + std::to_string(lo) + ".." +
-                             std::to_string(hi) + ", got '" + text + "'");
+    throw std::runtime_error(flag + " expects an integer in " + std::to_string(lo) + ".." + std::to_string(hi) +
+                             ", got '" + text + "'");
   }
   return value;
 }
@@ -169,14 +169,14 @@ int main(int argc, char** argv) {
     if (bag) bag->close();
 #endif
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::printf("dypho_synth: wrote %d frames (%.2f s of %s motion, camera path %.2f m) to %s\n",
-                s.frames, s.duration_s, dypho::tools::synthMotionName(args.options.motion).c_str(),
-                s.path_length_m, args.out_dir.c_str());
-    std::printf("  people: %d (walk %s), dynamic pixels: mean %.1f %%, max %.1f %%; depth noise: %s; "
-                "seed %u\n",
-                args.options.people, dypho::tools::synthWalkName(args.options.walk).c_str(),
-                100.0 * s.mean_dynamic_fraction, 100.0 * s.max_dynamic_fraction,
-                args.options.depth_noise ? "on" : "off", args.options.seed);
+    std::printf("dypho_synth: wrote %d frames (%.2f s of %s motion, camera path %.2f m) to %s\n", s.frames,
+                s.duration_s, dypho::tools::synthMotionName(args.options.motion).c_str(), s.path_length_m,
+                args.out_dir.c_str());
+    std::printf(
+        "  people: %d (walk %s), dynamic pixels: mean %.1f %%, max %.1f %%; depth noise: %s; "
+        "seed %u\n",
+        args.options.people, dypho::tools::synthWalkName(args.options.walk).c_str(), 100.0 * s.mean_dynamic_fraction,
+        100.0 * s.max_dynamic_fraction, args.options.depth_noise ? "on" : "off", args.options.seed);
     if (!bag_path.empty()) std::printf("  bag: %s\n", bag_path.c_str());
     std::printf("  took %.1f s (%.1f ms per frame incl. PNG writing)\n", secs, 1000.0 * secs / s.frames);
   } catch (const std::exception& e) {

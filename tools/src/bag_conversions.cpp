@@ -79,7 +79,9 @@ sensor_msgs::Image depthToMsg(const cv::Mat& depth_m, const std_msgs::Header& he
   if (encoding == enc::TYPE_16UC1) return *rc::toImageMsg(depthToMillimetres(depth_m), enc::TYPE_16UC1, header);
   cv::Mat d = depth_m.clone();
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  d.forEach<float>([nan](float& z, const int*) { if (!(z > 0.f) || !std::isfinite(z)) z = nan; });
+  d.forEach<float>([nan](float& z, const int*) {
+    if (!(z > 0.f) || !std::isfinite(z)) z = nan;
+  });
   return *rc::toImageMsg(d, enc::TYPE_32FC1, header);
 }
 
@@ -96,8 +98,7 @@ cv::Mat depthFromMsg(const sensor_msgs::Image& msg, const std::string& topic) {
 }
 
 CameraIntrinsics cameraFromMsg(const sensor_msgs::CameraInfo& msg, const std::string& topic) {
-  return withTopic(topic, "; or pass --camera NAME_OR_YAML",
-                   [&] { return rc::toCameraIntrinsics(msg); });
+  return withTopic(topic, "; or pass --camera NAME_OR_YAML", [&] { return rc::toCameraIntrinsics(msg); });
 }
 
 }  // namespace dypho::tools::bag_detail

@@ -15,9 +15,12 @@ BagLayout parseBagLayout(const std::string& name) {
 
 std::string bagLayoutName(BagLayout layout) {
   switch (layout) {
-    case BagLayout::kTum: return "tum";
-    case BagLayout::kRealSense: return "realsense";
-    case BagLayout::kOpenNi: return "openni";
+    case BagLayout::kTum:
+      return "tum";
+    case BagLayout::kRealSense:
+      return "realsense";
+    case BagLayout::kOpenNi:
+      return "openni";
   }
   throw std::invalid_argument("bagLayoutName: not a BagLayout value");
 }

@@ -122,22 +122,21 @@ BagRgbdReader::BagRgbdReader(const std::string& path, BagTopics topics, double m
     }
     if (s.rgb.empty()) {
       throw std::runtime_error("bag '" + path + "': no message on '" + s.topics.rgb + "' (" +
-                               std::to_string(rgb.messages.size()) + ") has a depth message on '" +
-                               s.topics.depth + "' (" + std::to_string(depth.messages.size()) + ") within " + std::to_string(max_dt_s) +
+                               std::to_string(rgb.messages.size()) + ") has a depth message on '" + s.topics.depth +
+                               "' (" + std::to_string(depth.messages.size()) + ") within " + std::to_string(max_dt_s) +
                                " s; check the topics or raise max_dt_s");
     }
     const auto info = s.bag_topics.find(s.topics.camera_info);
     if (info == s.bag_topics.end()) {
       s.camera_error = "bag '" + path + "' has no camera_info topic '" + s.topics.camera_info +
-                       "' (topics in the bag: " + s.topicList() +
-                       "); pass the intrinsics with --camera NAME_OR_YAML";
+                       "' (topics in the bag: " + s.topicList() + "); pass the intrinsics with --camera NAME_OR_YAML";
     } else {
       rosbag::View view(*s.bag, rosbag::TopicQuery(s.topics.camera_info));
       for (const rosbag::MessageInstance& m : view) {
         const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
         if (!msg) {
-          s.camera_error = "bag '" + path + "': topic '" + s.topics.camera_info + "' has type " +
-                           m.getDataType() + ", expected sensor_msgs/CameraInfo; pass --camera NAME_OR_YAML";
+          s.camera_error = "bag '" + path + "': topic '" + s.topics.camera_info + "' has type " + m.getDataType() +
+                           ", expected sensor_msgs/CameraInfo; pass --camera NAME_OR_YAML";
         } else {
           s.camera = bag_detail::cameraFromMsg(*msg, s.topics.camera_info);
         }
@@ -154,7 +153,8 @@ BagRgbdReader::~BagRgbdReader() = default;
 std::size_t BagRgbdReader::size() const { return impl_->rgb.size(); }
 
 Timestamp BagRgbdReader::stampNs(std::size_t i) const {
-  if (i >= size()) throw std::out_of_range("BagRgbdReader: pair " + std::to_string(i) + " of " + std::to_string(size()));
+  if (i >= size())
+    throw std::out_of_range("BagRgbdReader: pair " + std::to_string(i) + " of " + std::to_string(size()));
   return impl_->stamps_ns[i];
 }
 
@@ -178,7 +178,8 @@ std::vector<std::string> BagRgbdReader::describeTopics() const {
 
 RgbdFrame BagRgbdReader::load(std::size_t i) const {
   const Impl& s = *impl_;
-  if (i >= size()) throw std::out_of_range("BagRgbdReader: pair " + std::to_string(i) + " of " + std::to_string(size()));
+  if (i >= size())
+    throw std::out_of_range("BagRgbdReader: pair " + std::to_string(i) + " of " + std::to_string(size()));
   RgbdFrame f;
   f.camera = camera();
   sensor_msgs::ImageConstPtr rgb, depth;
@@ -196,8 +197,8 @@ RgbdFrame BagRgbdReader::load(std::size_t i) const {
   f.depth_m = bag_detail::depthFromMsg(*depth, s.topics.depth);
   if (f.bgr.size() != f.depth_m.size()) {
     throw std::runtime_error("bag '" + s.path + "': colour is " + std::to_string(f.bgr.cols) + "x" +
-                             std::to_string(f.bgr.rows) + " but depth is " + std::to_string(f.depth_m.cols) +
-                             "x" + std::to_string(f.depth_m.rows) + "; depth must be registered to colour");
+                             std::to_string(f.bgr.rows) + " but depth is " + std::to_string(f.depth_m.cols) + "x" +
+                             std::to_string(f.depth_m.rows) + "; depth must be registered to colour");
   }
   return f;
 }

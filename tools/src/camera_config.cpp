@@ -18,8 +18,8 @@ namespace fs = std::filesystem;
 namespace dypho::tools {
 namespace {
 
-const std::vector<std::string> kRequiredKeys = {"name", "width", "height", "fx", "fy",
-                                                 "cx",   "cy",    "distortion", "depth_scale"};
+const std::vector<std::string> kRequiredKeys = {"name", "width", "height",     "fx",         "fy",
+                                                "cx",   "cy",    "distortion", "depth_scale"};
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -36,9 +36,8 @@ T readScalar(const YAML::Node& root, const std::string& key, const std::string& 
   try {
     return node.as<T>();
   } catch (const YAML::Exception&) {
-    throw std::runtime_error("camera config '" + path + "': key '" + key + "' has value '" +
-                             node.Scalar() + "', which is not a valid " +
-                             (std::is_integral<T>::value ? "integer" : "number"));
+    throw std::runtime_error("camera config '" + path + "': key '" + key + "' has value '" + node.Scalar() +
+                             "', which is not a valid " + (std::is_integral<T>::value ? "integer" : "number"));
   }
 }
 
@@ -87,8 +86,7 @@ CameraConfig loadCameraConfig(const std::string& yaml_path) {
     throw std::runtime_error("camera config '" + yaml_path + "' is not valid YAML: " + e.what());
   }
   if (!root.IsMap()) {
-    throw std::runtime_error("camera config '" + yaml_path +
-                             "' must be a YAML map with keys " + joined(kRequiredKeys));
+    throw std::runtime_error("camera config '" + yaml_path + "' must be a YAML map with keys " + joined(kRequiredKeys));
   }
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
@@ -122,8 +120,8 @@ CameraConfig loadCameraConfig(const std::string& yaml_path) {
     try {
       cfg.camera.distortion[i] = dist[i].as<double>();
     } catch (const YAML::Exception&) {
-      throw std::runtime_error("camera config '" + yaml_path + "': distortion[" +
-                               std::to_string(i) + "] is not a number");
+      throw std::runtime_error("camera config '" + yaml_path + "': distortion[" + std::to_string(i) +
+                               "] is not a number");
     }
   }
 
@@ -168,8 +166,7 @@ std::string resolveCameraConfig(const std::string& name_or_path, const std::stri
   if (fs::is_regular_file(candidate)) return candidate.string();
   throw std::runtime_error("unknown camera '" + name_or_path + "': not a file and not in '" +
                            (fs::path(config_dir) / "cameras").string() +
-                           "'; known names: " + joined(listCameraNames(config_dir)) +
-                           " (or set DYPHO_CONFIG_DIR)");
+                           "'; known names: " + joined(listCameraNames(config_dir)) + " (or set DYPHO_CONFIG_DIR)");
 }
 
 std::optional<std::string> detectCameraName(const std::string& dataset_dir) {

@@ -20,8 +20,7 @@ std::vector<StampedPose> sortedByStamp(std::vector<StampedPose> poses) {
 std::string range(const std::vector<StampedPose>& poses) {
   if (poses.empty()) return "(empty)";
   const auto [lo, hi] = std::minmax_element(
-      poses.begin(), poses.end(),
-      [](const StampedPose& a, const StampedPose& b) { return a.stamp_s < b.stamp_s; });
+      poses.begin(), poses.end(), [](const StampedPose& a, const StampedPose& b) { return a.stamp_s < b.stamp_s; });
   char buf[128];
   std::snprintf(buf, sizeof(buf), "%zu poses, %.6f .. %.6f s", poses.size(), lo->stamp_s, hi->stamp_s);
   return buf;
@@ -47,8 +46,7 @@ struct PosePair {
 };
 
 std::vector<PosePair> pairWithGroundTruth(const std::vector<StampedPose>& estimate,
-                                          const std::vector<StampedPose>& groundtruth,
-                                          double max_gap_s) {
+                                          const std::vector<StampedPose>& groundtruth, double max_gap_s) {
   if (!(max_gap_s > 0.0)) throw std::runtime_error("max_gap_s must be > 0 (default 0.1 s)");
   const auto gt = sortedByStamp(groundtruth);
   std::vector<PosePair> pairs;
@@ -60,8 +58,8 @@ std::vector<PosePair> pairWithGroundTruth(const std::vector<StampedPose>& estima
 
 }  // namespace
 
-std::optional<Eigen::Isometry3d> interpolatePose(const std::vector<StampedPose>& groundtruth,
-                                                 double t_s, double max_gap_s) {
+std::optional<Eigen::Isometry3d> interpolatePose(const std::vector<StampedPose>& groundtruth, double t_s,
+                                                 double max_gap_s) {
   auto it = std::lower_bound(groundtruth.begin(), groundtruth.end(), t_s,
                              [](const StampedPose& p, double t) { return p.stamp_s < t; });
   if (it == groundtruth.end()) return std::nullopt;
@@ -76,8 +74,7 @@ std::optional<Eigen::Isometry3d> interpolatePose(const std::vector<StampedPose>&
   const Eigen::Quaterniond qb(b.T_world_camera.rotation());
   Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
   out.linear() = qa.slerp(s, qb).toRotationMatrix();
-  out.translation() =
-      (1.0 - s) * a.T_world_camera.translation() + s * b.T_world_camera.translation();
+  out.translation() = (1.0 - s) * a.T_world_camera.translation() + s * b.T_world_camera.translation();
   return out;
 }
 
@@ -88,8 +85,7 @@ Eigen::Isometry3d umeyamaAlignNoScale(const std::vector<Eigen::Vector3d>& src,
                              std::to_string(dst.size()) + " destination points");
   }
   if (src.size() < 3) {
-    throw std::runtime_error("umeyamaAlignNoScale: need at least 3 point pairs, got " +
-                             std::to_string(src.size()));
+    throw std::runtime_error("umeyamaAlignNoScale: need at least 3 point pairs, got " + std::to_string(src.size()));
   }
   const double n = static_cast<double>(src.size());
   Eigen::Vector3d mean_src = Eigen::Vector3d::Zero();
@@ -110,14 +106,14 @@ Eigen::Isometry3d umeyamaAlignNoScale(const std::vector<Eigen::Vector3d>& src,
   return T;
 }
 
-AteResult computeAte(const std::vector<StampedPose>& estimate,
-                     const std::vector<StampedPose>& groundtruth, double max_gap_s, AteAlignment alignment) {
+AteResult computeAte(const std::vector<StampedPose>& estimate, const std::vector<StampedPose>& groundtruth,
+                     double max_gap_s, AteAlignment alignment) {
   const auto pairs = pairWithGroundTruth(estimate, groundtruth, max_gap_s);
   if (pairs.size() < 3) {
     throw std::runtime_error("ATE needs at least 3 estimate poses with ground truth within " +
                              std::to_string(max_gap_s) + " s, got " + std::to_string(pairs.size()) +
-                             " (estimate: " + range(estimate) + "; ground truth: " +
-                             range(groundtruth) + "; do the stamps use the same clock?)");
+                             " (estimate: " + range(estimate) + "; ground truth: " + range(groundtruth) +
+                             "; do the stamps use the same clock?)");
   }
   AteResult r;
   std::vector<Eigen::Vector3d> est_xyz;
@@ -163,13 +159,12 @@ AteResult computeAte(const std::vector<StampedPose>& estimate,
   r.mean_m = sum / n;
   r.std_m = std::sqrt(std::max(0.0, sum_sq / n - r.mean_m * r.mean_m));
   std::sort(err.begin(), err.end());
-  r.median_m = err.size() % 2 == 1 ? err[err.size() / 2]
-                                   : 0.5 * (err[err.size() / 2 - 1] + err[err.size() / 2]);
+  r.median_m = err.size() % 2 == 1 ? err[err.size() / 2] : 0.5 * (err[err.size() / 2 - 1] + err[err.size() / 2]);
   return r;
 }
 
-RpeResult computeRpe(const std::vector<StampedPose>& estimate,
-                     const std::vector<StampedPose>& groundtruth, double delta_s, double max_gap_s) {
+RpeResult computeRpe(const std::vector<StampedPose>& estimate, const std::vector<StampedPose>& groundtruth,
+                     double delta_s, double max_gap_s) {
   if (!(delta_s > 0.0)) throw std::runtime_error("RPE delta_s must be > 0 (default 1 s)");
   const auto pairs = pairWithGroundTruth(estimate, groundtruth, max_gap_s);
   RpeResult r;
@@ -222,7 +217,7 @@ Eigen::Matrix4d bonnTRos() {
 
 Eigen::Matrix4d bonnTmPublished() {
   Eigen::Matrix4d m;
-  m << 1.0157, 0.1828, -0.2389, 0.0113,  //
+  m << 1.0157, 0.1828, -0.2389, 0.0113,   //
       0.0009, -0.8431, -0.6413, -0.0098,  //
       -0.3009, 0.6147, -0.8085, 0.0111,   //
       0, 0, 0, 1;

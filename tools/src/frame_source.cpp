@@ -11,7 +11,7 @@ namespace dypho::tools {
 namespace {
 
 bool isDirectory(const std::string& path) {
-  struct stat st{};
+  struct stat st {};
   return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
 }
 
@@ -74,8 +74,8 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& path, const std:
     if (!detected) {
       std::string known;
       for (const auto& n : listCameraNames(config_dir)) known += " " + n;
-      throw std::runtime_error("cannot tell which camera recorded '" + path +
-                               "': pass --camera with one of:" + known + " or a camera YAML path");
+      throw std::runtime_error("cannot tell which camera recorded '" + path + "': pass --camera with one of:" + known +
+                               " or a camera YAML path");
     }
     camera_name = *detected;
   }

@@ -15,9 +15,8 @@ class BagFrameSource : public FrameSource {
     if (camera_) reader_.setCamera(camera_->camera);  // --camera overrides the bag's camera_info
     // A groundtruth.txt next to the bag (as dypho_synth writes it) is used for evaluation.
     const auto slash = path.find_last_of('/');
-    const std::string gt = (slash == std::string::npos ? std::string(".") : path.substr(0, slash)) +
-                           "/groundtruth.txt";
-    struct stat st{};
+    const std::string gt = (slash == std::string::npos ? std::string(".") : path.substr(0, slash)) + "/groundtruth.txt";
+    struct stat st {};
     if (::stat(gt.c_str(), &st) == 0) groundtruth_ = readTumTrajectory(gt);
   }
 
@@ -43,8 +42,7 @@ class BagFrameSource : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path,
-                                                const std::string& camera,
+std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path, const std::string& camera,
                                                 const std::string& config_dir) {
   std::optional<CameraConfig> config;
   if (!camera.empty()) config = loadCameraConfig(resolveCameraConfig(camera, config_dir));

@@ -5,8 +5,7 @@
 
 namespace dypho::tools {
 
-std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path, const std::string&,
-                                                const std::string&) {
+std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path, const std::string&, const std::string&) {
   throw std::runtime_error("'" + bag_path + "': this build has no ROS, so bags cannot be read; " +
                            "convert the bag to a TUM folder or rebuild with catkin");
 }

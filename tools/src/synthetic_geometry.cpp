@@ -5,8 +5,7 @@
 
 namespace dypho::tools::synth_detail {
 
-Eigen::Vector2d faceUv(const TexturedBox& box, int face, const Eigen::Vector3d& n,
-                       const Eigen::Vector3d& p) {
+Eigen::Vector2d faceUv(const TexturedBox& box, int face, const Eigen::Vector3d& n, const Eigen::Vector3d& p) {
   const int axis = face / 2;
   if (axis == 2) {  // floor-like (normal up) or ceiling-like (normal down)
     return {p.x() - box.lo.x(), n.z() > 0 ? box.hi.y() - p.y() : p.y() - box.lo.y()};
@@ -24,9 +23,12 @@ Eigen::Vector2d faceUv(const TexturedBox& box, int face, const Eigen::Vector3d& 
 Eigen::Vector2d faceSize(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int face) {
   const Eigen::Vector3d e = hi - lo;
   switch (face / 2) {
-    case 0: return {e.y(), e.z()};
-    case 1: return {e.x(), e.z()};
-    default: return {e.x(), e.y()};
+    case 0:
+      return {e.y(), e.z()};
+    case 1:
+      return {e.x(), e.z()};
+    default:
+      return {e.x(), e.y()};
   }
 }
 

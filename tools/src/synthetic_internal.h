@@ -54,8 +54,7 @@ struct TexturedBox {
 
 /// Texture coordinates (u right, v down as seen by a viewer facing the face) of point `p` on
 /// face `face` (0..5 as in TexturedBox) whose normal towards the viewer is `normal`.
-Eigen::Vector2d faceUv(const TexturedBox& box, int face, const Eigen::Vector3d& normal,
-                       const Eigen::Vector3d& p);
+Eigen::Vector2d faceUv(const TexturedBox& box, int face, const Eigen::Vector3d& normal, const Eigen::Vector3d& p);
 /// Width and height [m] of the texture of face `face` (0..5) of the box [lo, hi].
 Eigen::Vector2d faceSize(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int face);
 

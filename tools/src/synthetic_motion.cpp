@@ -18,41 +18,47 @@ constexpr double kLoopSpeedMS = 0.45;
 
 std::string synthMotionName(SynthMotion motion) {
   switch (motion) {
-    case SynthMotion::kXyz: return "xyz";
-    case SynthMotion::kHalfsphere: return "halfsphere";
-    case SynthMotion::kStatic: return "static";
-    case SynthMotion::kRpy: return "rpy";
-    case SynthMotion::kLoop: return "loop";
+    case SynthMotion::kXyz:
+      return "xyz";
+    case SynthMotion::kHalfsphere:
+      return "halfsphere";
+    case SynthMotion::kStatic:
+      return "static";
+    case SynthMotion::kRpy:
+      return "rpy";
+    case SynthMotion::kLoop:
+      return "loop";
   }
   return "unknown";
 }
 
 SynthMotion parseSynthMotion(const std::string& name) {
-  for (SynthMotion m : {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic,
-                        SynthMotion::kRpy, SynthMotion::kLoop}) {
+  for (SynthMotion m :
+       {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic, SynthMotion::kRpy, SynthMotion::kLoop}) {
     if (synthMotionName(m) == name) return m;
   }
-  throw std::runtime_error("unknown synthetic motion '" + name +
-                           "'; valid names: xyz, halfsphere, static, rpy, loop");
+  throw std::runtime_error("unknown synthetic motion '" + name + "'; valid names: xyz, halfsphere, static, rpy, loop");
 }
 
 std::string synthWalkName(SynthWalk walk) {
   switch (walk) {
-    case SynthWalk::kCross: return "cross";
-    case SynthWalk::kStopAndGo: return "stop-and-go";
-    case SynthWalk::kTowards: return "towards";
-    case SynthWalk::kGroup: return "group";
+    case SynthWalk::kCross:
+      return "cross";
+    case SynthWalk::kStopAndGo:
+      return "stop-and-go";
+    case SynthWalk::kTowards:
+      return "towards";
+    case SynthWalk::kGroup:
+      return "group";
   }
   return "unknown";
 }
 
 SynthWalk parseSynthWalk(const std::string& name) {
-  for (SynthWalk w :
-       {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
+  for (SynthWalk w : {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
     if (synthWalkName(w) == name) return w;
   }
-  throw std::runtime_error("unknown walk '" + name +
-                           "'; valid names: cross, stop-and-go, towards, group");
+  throw std::runtime_error("unknown walk '" + name + "'; valid names: cross, stop-and-go, towards, group");
 }
 
 CameraIntrinsics defaultSynthCamera() {
@@ -83,12 +89,14 @@ void validatePeople(const SynthOptions& o) {
   }
   if (o.motion == SynthMotion::kLoop) {
     if (o.walk != SynthWalk::kCross) {
-      fail("walk = " + synthWalkName(o.walk) + " needs a camera that stays near its home position "
+      fail("walk = " + synthWalkName(o.walk) +
+           " needs a camera that stays near its home position "
            "(motion static, xyz, rpy or halfsphere); with the loop motion the people walk round "
            "with the camera (walk cross)");
     }
     if (o.people_distance_m != 0.0) {
-      fail(distance + " must be 0 (auto) for the loop motion: its people walk on rings around the "
+      fail(distance +
+           " must be 0 (auto) for the loop motion: its people walk on rings around the "
            "room centre");
     }
     if (o.people_in_view_at_start && o.people > synth_detail::kMaxPeopleInViewLoop) {
@@ -101,25 +109,24 @@ void validatePeople(const SynthOptions& o) {
     const double lo = synth_detail::minPeopleDistanceM(o);
     const double hi = synth_detail::maxPeopleDistanceM(o);
     if (o.people_distance_m < lo || o.people_distance_m > hi) {
-      fail(distance + " must be 0 (auto) or in [" + numberText(lo) + ", " + numberText(hi) +
-           "] m for motion " + synthMotionName(o.motion) + ", walk " + synthWalkName(o.walk) +
-           " and " + n_people + " people (nearer brings people within 0.6 m of the camera; "
+      fail(distance + " must be 0 (auto) or in [" + numberText(lo) + ", " + numberText(hi) + "] m for motion " +
+           synthMotionName(o.motion) + ", walk " + synthWalkName(o.walk) + " and " + n_people +
+           " people (nearer brings people within 0.6 m of the camera; "
            "farther leaves too little room before the furniture at the back of the room for the "
            "lanes, with >= 0.6 m of lane for everyone)");
     }
   }
-  if (o.people_in_view_at_start && o.walk == SynthWalk::kTowards &&
-      o.people > synth_detail::kMaxPeopleInViewTowards) {
+  if (o.people_in_view_at_start && o.walk == SynthWalk::kTowards && o.people > synth_detail::kMaxPeopleInViewTowards) {
     fail("people_in_view_at_start: at most " + std::to_string(synth_detail::kMaxPeopleInViewTowards) +
          " lanes of walk towards fit side by side into the view (people = " + n_people + ")");
   }
   const double distance_m = synth_detail::effectivePeopleDistanceM(o);
   const double group_min_m = synth_detail::kMinGroupTwoRankInViewDistanceM;
-  if (o.people_in_view_at_start && o.walk == SynthWalk::kGroup && o.people > 4 &&
-      distance_m < group_min_m) {
-    fail("people_in_view_at_start: a group of " + n_people + " walks in two ranks and fits into "
-         "the view at frame 0 from people_distance_m = " + numberText(group_min_m) + " m on (got " +
-         numberText(distance_m) + ")");
+  if (o.people_in_view_at_start && o.walk == SynthWalk::kGroup && o.people > 4 && distance_m < group_min_m) {
+    fail("people_in_view_at_start: a group of " + n_people +
+         " walks in two ranks and fits into "
+         "the view at frame 0 from people_distance_m = " +
+         numberText(group_min_m) + " m on (got " + numberText(distance_m) + ")");
   }
 }
 
@@ -134,8 +141,8 @@ void SynthOptions::validate() const {
     fail("start_stamp_s must be finite and >= 0 (seconds since the Unix epoch)");
   }
   if (!camera.valid() || camera.width > 4096 || camera.height > 4096) {
-    fail("camera must have fx, fy > 0 and 1..4096 x 1..4096 pixels (got " +
-         std::to_string(camera.width) + "x" + std::to_string(camera.height) + ")");
+    fail("camera must have fx, fy > 0 and 1..4096 x 1..4096 pixels (got " + std::to_string(camera.width) + "x" +
+         std::to_string(camera.height) + ")");
   }
   if (camera.distorted()) fail("camera distortion must be zero: the renderer draws a pinhole image");
   if (motion == SynthMotion::kLoop) {
@@ -144,9 +151,8 @@ void SynthOptions::validate() const {
     if (rate > kMaxLoopRateDegS) {
       const int min_frames = static_cast<int>(std::ceil(360.0 / kMaxLoopRateDegS * fps)) + 1;
       std::ostringstream ss;
-      ss << "loop motion turns 360 deg over the sequence: " << frames << " frames at " << fps
-         << " fps turn " << rate << " deg/s > " << kMaxLoopRateDegS << " deg/s; use at least "
-         << min_frames << " frames";
+      ss << "loop motion turns 360 deg over the sequence: " << frames << " frames at " << fps << " fps turn " << rate
+         << " deg/s > " << kMaxLoopRateDegS << " deg/s; use at least " << min_frames << " frames";
       fail(ss.str());
     }
   }
@@ -156,13 +162,10 @@ void SynthOptions::validate() const {
 std::string SynthOptions::toString() const {
   std::ostringstream ss;
   ss << "frames=" << frames << " motion=" << synthMotionName(motion) << " people=" << people
-     << " walk=" << synthWalkName(walk)
-     << " people_in_view_at_start=" << (people_in_view_at_start ? "true" : "false")
-     << " people_distance_m=" << people_distance_m << " seed=" << seed << " fps=" << fps
-     << " camera=" << camera.width << "x" << camera.height
-     << " fx=" << camera.fx << " fy=" << camera.fy << " cx=" << camera.cx << " cy=" << camera.cy
-     << " depth_noise=" << (depth_noise ? "true" : "false") << " start_stamp_s=" << std::fixed
-     << start_stamp_s;
+     << " walk=" << synthWalkName(walk) << " people_in_view_at_start=" << (people_in_view_at_start ? "true" : "false")
+     << " people_distance_m=" << people_distance_m << " seed=" << seed << " fps=" << fps << " camera=" << camera.width
+     << "x" << camera.height << " fx=" << camera.fx << " fy=" << camera.fy << " cx=" << camera.cx << " cy=" << camera.cy
+     << " depth_noise=" << (depth_noise ? "true" : "false") << " start_stamp_s=" << std::fixed << start_stamp_s;
   return ss.str();
 }
 
@@ -194,7 +197,7 @@ double wave(double amp, double freq_hz, double phase, double t) {
 }
 
 const Eigen::Vector3d kEye0(kCameraHomeXM, kCameraHomeYM, 1.45);  // home position [m]
-const Eigen::Vector3d kTarget0(0.0, 3.0, 1.25);  // a point on the +y wall [m]
+const Eigen::Vector3d kTarget0(0.0, 3.0, 1.25);                   // a point on the +y wall [m]
 const Eigen::Vector3d kRoomCentre(0.0, 0.0, 1.45);
 
 }  // namespace
@@ -223,16 +226,17 @@ Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
     case SynthMotion::kStatic: {
       const Eigen::Vector3d d(wave(3e-4, 0.7, 0.0, t), wave(3e-4, 0.5, 1.0, t), wave(3e-4, 0.9, 2.0, t));
       const Eigen::Matrix3d R =
-          lookAt(kEye0, kTarget0) * Eigen::AngleAxisd(wave(0.008 * kDeg, 0.6, 0.0, t), Eigen::Vector3d::UnitY()).toRotationMatrix();
+          lookAt(kEye0, kTarget0) *
+          Eigen::AngleAxisd(wave(0.008 * kDeg, 0.6, 0.0, t), Eigen::Vector3d::UnitY()).toRotationMatrix();
       return makePose(R, kEye0 + d);
     }
     case SynthMotion::kRpy: {
       // +-15 deg at 0.2/0.17/0.23 Hz: peak rates 18.8/16.0/21.7 deg/s (|w| <= 33 deg/s).
       const Eigen::Matrix3d R = lookAt(kEye0, kTarget0) *
-          (Eigen::AngleAxisd(wave(15 * kDeg, 0.23, 0.0, t), Eigen::Vector3d::UnitY()) *   // yaw
-           Eigen::AngleAxisd(wave(15 * kDeg, 0.17, 0.0, t), Eigen::Vector3d::UnitX()) *   // pitch
-           Eigen::AngleAxisd(wave(15 * kDeg, 0.20, 0.0, t), Eigen::Vector3d::UnitZ()))    // roll
-              .toRotationMatrix();
+                                (Eigen::AngleAxisd(wave(15 * kDeg, 0.23, 0.0, t), Eigen::Vector3d::UnitY()) *  // yaw
+                                 Eigen::AngleAxisd(wave(15 * kDeg, 0.17, 0.0, t), Eigen::Vector3d::UnitX()) *  // pitch
+                                 Eigen::AngleAxisd(wave(15 * kDeg, 0.20, 0.0, t), Eigen::Vector3d::UnitZ()))   // roll
+                                    .toRotationMatrix();
       return makePose(R, kEye0);
     }
     case SynthMotion::kLoop: {

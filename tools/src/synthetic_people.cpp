@@ -60,9 +60,7 @@ double firstCameraYM(const SynthOptions& o) { return cameraPoseAt(o, 0.0).transl
 int groupAbreast(int people) { return std::clamp(people, 1, kGroupMaxAbreast); }
 
 /// tan of the horizontal half field of view (to the farther image edge).
-double viewHalfTan(const CameraIntrinsics& c) {
-  return std::max(c.cx + 0.5, c.width - 0.5 - c.cx) / c.fx;
-}
+double viewHalfTan(const CameraIntrinsics& c) { return std::max(c.cx + 0.5, c.width - 0.5 - c.cx) / c.fx; }
 
 // ---------------------------------------------------------------------------------------------
 // The layout of earlier versions (legacy): kept draw for draw so that the same seed gives the
@@ -108,8 +106,7 @@ std::vector<PersonPath> legacyPaths(const SynthOptions& o, cv::RNG& rng) {
 /// Builds one cycle of legs: walks, stands and turns on the spot, back to back.
 class CycleBuilder {
  public:
-  CycleBuilder(const Eigen::Vector2d& start, double heading)
-      : position_(start), heading_(heading) {}
+  CycleBuilder(const Eigen::Vector2d& start, double heading) : position_(start), heading_(heading) {}
 
   const Eigen::Vector2d& position() const { return position_; }
 
@@ -179,8 +176,7 @@ PersonPath shuttleCycle(const Eigen::Vector2d& a, const Eigen::Vector2d& b, cv::
 }
 
 /// Walks to `to` with `stops` stops (fewer on a short way) of 1-3 s at random places on the way.
-void walkWithStops(CycleBuilder& c, const Eigen::Vector2d& to, double speed_ms, int stops,
-                   cv::RNG& rng) {
+void walkWithStops(CycleBuilder& c, const Eigen::Vector2d& to, double speed_ms, int stops, cv::RNG& rng) {
   const Eigen::Vector2d from = c.position();
   const double length = (to - from).norm();
   stops = std::clamp(std::min(stops, static_cast<int>(length / kWalkPerStopM) - 1), 0, 8);
@@ -238,8 +234,7 @@ std::vector<Lane> laneLayout(const SynthOptions& o, double distance_m) {
   for (int j = 0;; ++j) {
     const double y = kCameraHomeYM + distance_m + kLaneSpacingM * j;
     if (y > kLaneMaxYM + 1e-9) break;
-    lanes.push_back(
-        {y, std::min(tan_half * (y - camera_y) + kLaneMarginM, kMaxLaneHalfLengthM), 0});
+    lanes.push_back({y, std::min(tan_half * (y - camera_y) + kLaneMarginM, kMaxLaneHalfLengthM), 0});
   }
   if (lanes.empty()) return lanes;
   for (int k = 0; k < o.people; ++k) {
@@ -248,8 +243,7 @@ std::vector<Lane> laneLayout(const SynthOptions& o, double distance_m) {
       best = static_cast<std::size_t>(k);
     } else {
       for (std::size_t j = 1; j < lanes.size(); ++j) {
-        if (stretchLength(lanes[j], lanes[j].people + 1) >
-            stretchLength(lanes[best], lanes[best].people + 1)) {
+        if (stretchLength(lanes[j], lanes[j].people + 1) > stretchLength(lanes[best], lanes[best].people + 1)) {
           best = j;
         }
       }
@@ -278,8 +272,7 @@ std::vector<PersonPath> lanePaths(const SynthOptions& o, cv::RNG& rng) {
       const double x0 = kCameraHomeXM - l.half_length + i * (length + kLaneSpacingM);
       Eigen::Vector2d a(x0, l.y), b(x0 + length, l.y);
       if (rng.uniform(0, 2) == 0) std::swap(a, b);
-      paths.push_back(o.walk == SynthWalk::kStopAndGo ? stopAndGoCycle(a, b, rng)
-                                                      : shuttleCycle(a, b, rng));
+      paths.push_back(o.walk == SynthWalk::kStopAndGo ? stopAndGoCycle(a, b, rng) : shuttleCycle(a, b, rng));
     }
   }
   return paths;
@@ -295,9 +288,7 @@ std::vector<PersonPath> towardsPaths(const SynthOptions& o, cv::RNG& rng) {
   // shifted to the image edges), so that the lanes never come closer than at their far ends.
   const double max_far_x = 0.5 * (n - 1) * kTowardsSpacingM;
   const double edge_shift = n <= 2 ? kTowardsEdgeShiftM : 0.0;
-  const double fan = max_far_x > 0.0
-                         ? std::min(kTowardsMaxFan, (kTowardsMaxNearXM - edge_shift) / max_far_x)
-                         : 1.0;
+  const double fan = max_far_x > 0.0 ? std::min(kTowardsMaxFan, (kTowardsMaxNearXM - edge_shift) / max_far_x) : 1.0;
   std::vector<PersonPath> paths;
   for (int k = 0; k < n; ++k) {
     const double far_x = kCameraHomeXM + (k - 0.5 * (n - 1)) * kTowardsSpacingM;
@@ -306,9 +297,8 @@ std::vector<PersonPath> towardsPaths(const SynthOptions& o, cv::RNG& rng) {
                                                 : (rng.uniform(0, 2) == 0 ? -1.0 : 1.0);
     const double near_x = kCameraHomeXM + fan * (far_x - kCameraHomeXM) + side * edge_shift;
     // All lanes are straight lines through (far_x, kTowardsFarYM) and (near_x, near_y).
-    const double far_y = std::abs(far_x - kCameraHomeXM) <= kTowardsCentreHalfWidthM
-                             ? kTowardsFarYM
-                             : kTowardsSideFarYM;
+    const double far_y =
+        std::abs(far_x - kCameraHomeXM) <= kTowardsCentreHalfWidthM ? kTowardsFarYM : kTowardsSideFarYM;
     const double along = (kTowardsFarYM - far_y) / (kTowardsFarYM - near_y);
     Eigen::Vector2d a(far_x + (near_x - far_x) * along, far_y), b(near_x, near_y);
     if (rng.uniform(0, 2) == 0) std::swap(a, b);
@@ -335,9 +325,8 @@ std::vector<PersonPath> groupPaths(const SynthOptions& o, cv::RNG& rng) {
   }
   const double distance_m = effectivePeopleDistanceM(o);
   const double y = kCameraHomeYM + distance_m;
-  const double half =
-      std::min(viewHalfTan(o.camera) * (y - firstCameraYM(o)) + kLaneMarginM + max_abs_x,
-               kMaxLaneHalfLengthM - max_abs_x);
+  const double half = std::min(viewHalfTan(o.camera) * (y - firstCameraYM(o)) + kLaneMarginM + max_abs_x,
+                               kMaxLaneHalfLengthM - max_abs_x);
   Eigen::Vector2d a(kCameraHomeXM - half, y), b(kCameraHomeXM + half, y);
   if (rng.uniform(0, 2) == 0) std::swap(a, b);
   const PersonPath leader = shuttleCycle(a, b, rng);
@@ -367,10 +356,8 @@ std::vector<PersonPath> loopFormation(const SynthOptions& o, cv::RNG& rng) {
   // The wobble keeps da/dt > 0 and the speed (<= da/dt max(ax, ay)) <= kMaxWalkSpeedMS; the
   // shortest loop (9 s) walks the outer ring at 1.2 m/s without it.
   const double speed_cap =
-      std::max(0.0, kMaxWalkSpeedMS / std::max(outer_ax, outer_ay) - base.omega) /
-      base.wobble_omega;
-  base.wobble_amp =
-      std::min({rng.uniform(0.15, 0.3), 0.8 * base.omega / base.wobble_omega, speed_cap});
+      std::max(0.0, kMaxWalkSpeedMS / std::max(outer_ax, outer_ay) - base.omega) / base.wobble_omega;
+  base.wobble_amp = std::min({rng.uniform(0.15, 0.3), 0.8 * base.omega / base.wobble_omega, speed_cap});
   const double shift = rng.uniform(-0.05, 0.05);
   std::vector<PersonPath> paths;
   for (int ring = 0; ring < 2; ++ring) {
@@ -390,8 +377,8 @@ std::vector<PersonPath> loopFormation(const SynthOptions& o, cv::RNG& rng) {
 
 /// State of a piecewise path at cycle time `tc` in [0, cycle_s).
 PersonState legStateAt(const PersonPath& p, double tc) {
-  auto it = std::upper_bound(p.legs.begin(), p.legs.end(), tc,
-                             [](double t, const PathLeg& leg) { return t < leg.start_s; });
+  auto it =
+      std::upper_bound(p.legs.begin(), p.legs.end(), tc, [](double t, const PathLeg& leg) { return t < leg.start_s; });
   const PathLeg& leg = *(it == p.legs.begin() ? it : std::prev(it));
   const double tau = std::clamp(tc - leg.start_s, 0.0, leg.duration_s);
   Eigen::Vector2d position = leg.from;
@@ -407,8 +394,7 @@ PersonState legStateAt(const PersonPath& p, double tc) {
                                           : 0.5 * v * ramp + v * (tau - ramp);
     position = leg.from + (leg.to - leg.from) * (s / length);
   } else if (leg.heading_to != leg.heading_from) {
-    heading +=
-        (leg.heading_to - leg.heading_from) * 0.5 * (1.0 - std::cos(kPi * tau / leg.duration_s));
+    heading += (leg.heading_to - leg.heading_from) * 0.5 * (1.0 - std::cos(kPi * tau / leg.duration_s));
   }
   PersonState st;
   st.position = position + p.offset;
@@ -454,8 +440,8 @@ std::pair<double, double> visibleShares(const std::vector<Interval>& all) {
 /// puts all their members inside the first image, preferring times at which everyone is least
 /// hidden by nearer people (at random among the nearly best); then twice more, each unit again
 /// with all the others placed.
-void chooseStarts(const SynthOptions& o, std::vector<PersonPath>& paths,
-                  const std::vector<std::vector<int>>& units, cv::RNG& rng) {
+void chooseStarts(const SynthOptions& o, std::vector<PersonPath>& paths, const std::vector<std::vector<int>>& units,
+                  cv::RNG& rng) {
   if (!o.people_in_view_at_start) {
     for (const auto& unit : units) {
       const double start_s = rng.uniform(0.0, paths[unit.front()].cycle_s);
@@ -483,13 +469,10 @@ void chooseStarts(const SynthOptions& o, std::vector<PersonPath>& paths,
         double in_image = 1.0;
         for (int m : unit) {
           // At t = 0 the cycle time is the start time.
-          const BodySpan s = bodySpan(legStateAt(paths[m], cycle_s * i / samples).position,
-                                      T_world_camera, o.camera);
+          const BodySpan s = bodySpan(legStateAt(paths[m], cycle_s * i / samples).position, T_world_camera, o.camera);
           inside = inside && s.inside;
           const double clipped = std::min(s.u_hi, width - 0.5) - std::max(s.u_lo, -0.5);
-          in_image =
-              std::min(in_image,
-                       s.in_front ? std::max(0.0, clipped) / std::max(s.u_hi - s.u_lo, 1e-9) : 0.0);
+          in_image = std::min(in_image, s.in_front ? std::max(0.0, clipped) / std::max(s.u_hi - s.u_lo, 1e-9) : 0.0);
           spans[i].push_back({s.u_lo, s.u_hi, s.depth_m});
         }
         double key = in_image;
@@ -516,8 +499,7 @@ void chooseStarts(const SynthOptions& o, std::vector<PersonPath>& paths,
 }  // namespace
 
 bool usesLegacyPeopleLayout(const SynthOptions& o) {
-  return o.people <= 3 && !o.people_in_view_at_start && o.walk == SynthWalk::kCross &&
-         o.people_distance_m == 0.0;
+  return o.people <= 3 && !o.people_in_view_at_start && o.walk == SynthWalk::kCross && o.people_distance_m == 0.0;
 }
 
 double minPeopleDistanceM(const SynthOptions& o) {
@@ -632,8 +614,8 @@ BodySpan bodySpan(const Eigen::Vector2d& position, const Eigen::Isometry3d& T_wo
   const Eigen::Vector3d chest = T_camera_world * Eigen::Vector3d(position.x(), position.y(), 1.2);
   span.depth_m = chest.z();
   if (chest.z() > 1e-6) span.v_chest = camera.fy * chest.y() / chest.z() + camera.cy;
-  span.inside = span.in_front && span.u_lo >= -0.5 && span.u_hi <= camera.width - 0.5 &&
-                span.v_chest >= -0.5 && span.v_chest <= camera.height - 0.5;
+  span.inside = span.in_front && span.u_lo >= -0.5 && span.u_hi <= camera.width - 0.5 && span.v_chest >= -0.5 &&
+                span.v_chest <= camera.height - 0.5;
   return span;
 }
 

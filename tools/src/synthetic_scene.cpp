@@ -23,9 +23,9 @@ namespace {
 double kinectSigmaM(double z) { return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4); }
 
 constexpr double kDepthQuantumM = 1.0 / 5000.0;  ///< TUM PNG depth step [m]
-constexpr double kMaxRangeM = 8.0;                ///< no return beyond [m]
-constexpr double kDropoutRate = 0.01;             ///< random invalid pixels (fraction)
-constexpr float kAmbient = 0.45f;                 ///< ambient share of the shading
+constexpr double kMaxRangeM = 8.0;               ///< no return beyond [m]
+constexpr double kDropoutRate = 0.01;            ///< random invalid pixels (fraction)
+constexpr float kAmbient = 0.45f;                ///< ambient share of the shading
 
 /// Builds a box with `faces` textures drawn by makeWallTexture (bottom face plain).
 TexturedBox makeBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double density, cv::RNG& rng) {
@@ -34,9 +34,9 @@ TexturedBox makeBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double
   box.hi = hi;
   for (int f = 0; f < 6; ++f) {
     const Eigen::Vector2d size = synth_detail::faceSize(lo, hi, f);
-    box.faces[f] = f == 4 ? Texture(cv::Mat(8, 8, CV_8UC3, cv::Scalar(40, 40, 40)), 1.0)
-                          : Texture(synth_detail::makeWallTexture(size.x(), size.y(), density, rng),
-                                    synth_detail::kTexelM);
+    box.faces[f] =
+        f == 4 ? Texture(cv::Mat(8, 8, CV_8UC3, cv::Scalar(40, 40, 40)), 1.0)
+               : Texture(synth_detail::makeWallTexture(size.x(), size.y(), density, rng), synth_detail::kTexelM);
   }
   return box;
 }
@@ -102,18 +102,18 @@ SyntheticScene::SyntheticScene(const SynthOptions& options) {
   impl->room.hi = Eigen::Vector3d(3.5, 3.0, 3.0);
   for (int f = 0; f < 6; ++f) {
     const Eigen::Vector2d size = synth_detail::faceSize(impl->room.lo, impl->room.hi, f);
-    cv::Mat tex = f == 4 ? synth_detail::makeFloorTexture(size.x(), size.y(), tex_rng)
-                : f == 5 ? synth_detail::makeCeilingTexture(size.x(), size.y(), tex_rng)
-                         : synth_detail::makeWallTexture(size.x(), size.y(), f == 3 ? 2.2 : 1.6, tex_rng);
+    cv::Mat tex = f == 4   ? synth_detail::makeFloorTexture(size.x(), size.y(), tex_rng)
+                  : f == 5 ? synth_detail::makeCeilingTexture(size.x(), size.y(), tex_rng)
+                           : synth_detail::makeWallTexture(size.x(), size.y(), f == 3 ? 2.2 : 1.6, tex_rng);
     impl->room.faces[f] = Texture(tex, synth_detail::kTexelM);
   }
   // Furniture against the walls, clear of the people's paths and of the camera.
   const std::pair<Eigen::Vector3d, Eigen::Vector3d> boxes[] = {
-      {{-3.0, 2.45, 0.0}, {-1.6, 3.0, 0.75}},   // desk at the +y wall
-      {{1.7, 2.55, 0.0}, {2.6, 3.0, 1.9}},      // cabinet at the +y wall
-      {{3.0, -1.2, 0.0}, {3.5, 0.4, 1.3}},      // shelf at the +x wall
-      {{-3.5, -0.5, 0.0}, {-2.9, 0.6, 0.9}},    // crate at the -x wall
-      {{-0.8, -3.0, 0.0}, {0.6, -2.5, 1.0}}};   // sideboard at the -y wall
+      {{-3.0, 2.45, 0.0}, {-1.6, 3.0, 0.75}},  // desk at the +y wall
+      {{1.7, 2.55, 0.0}, {2.6, 3.0, 1.9}},     // cabinet at the +y wall
+      {{3.0, -1.2, 0.0}, {3.5, 0.4, 1.3}},     // shelf at the +x wall
+      {{-3.5, -0.5, 0.0}, {-2.9, 0.6, 0.9}},   // crate at the -x wall
+      {{-0.8, -3.0, 0.0}, {0.6, -2.5, 1.0}}};  // sideboard at the -y wall
   for (const auto& b : boxes) impl->furniture.push_back(makeBox(b.first, b.second, 3.0, tex_rng));
 
   cv::RNG people_rng(0x77E1ULL ^ (static_cast<std::uint64_t>(options.seed) * 40503ULL + 1));
@@ -195,8 +195,8 @@ double boxEntry(const TexturedBox& box, const Eigen::Vector3d& o, const Eigen::V
 
 /// Pixel rectangle containing the projection of the world box [lo, hi]; the whole image when a
 /// corner is behind or very close to the camera (then no culling is safe).
-cv::Rect projectedRect(const Eigen::Isometry3d& T_camera_world, const CameraIntrinsics& cam,
-                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+cv::Rect projectedRect(const Eigen::Isometry3d& T_camera_world, const CameraIntrinsics& cam, const Eigen::Vector3d& lo,
+                       const Eigen::Vector3d& hi) {
   const cv::Rect image(0, 0, cam.width, cam.height);
   double u0 = 1e18, v0 = 1e18, u1 = -1e18, v1 = -1e18;
   for (int c = 0; c < 8; ++c) {
@@ -204,12 +204,16 @@ cv::Rect projectedRect(const Eigen::Isometry3d& T_camera_world, const CameraIntr
     const Eigen::Vector3d pc = T_camera_world * pw;
     if (pc.z() < 0.05) return image;
     const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
-    u0 = std::min(u0, u); u1 = std::max(u1, u);
-    v0 = std::min(v0, v); v1 = std::max(v1, v);
+    u0 = std::min(u0, u);
+    u1 = std::max(u1, u);
+    v0 = std::min(v0, v);
+    v1 = std::max(v1, v);
   }
   // The convex hull of the corners contains the box's projection; 2 px margin for rounding.
-  u0 = std::max(u0 - 2.0, -1.0); v0 = std::max(v0 - 2.0, -1.0);
-  u1 = std::min(u1 + 2.0, cam.width + 1.0); v1 = std::min(v1 + 2.0, cam.height + 1.0);
+  u0 = std::max(u0 - 2.0, -1.0);
+  v0 = std::max(v0 - 2.0, -1.0);
+  u1 = std::min(u1 + 2.0, cam.width + 1.0);
+  v1 = std::min(v1 + 2.0, cam.height + 1.0);
   if (u1 <= u0 || v1 <= v0) return cv::Rect();
   const cv::Rect r(static_cast<int>(std::floor(u0)), static_cast<int>(std::floor(v0)),
                    static_cast<int>(std::ceil(u1 - u0)) + 1, static_cast<int>(std::ceil(v1 - v0)) + 1);
@@ -242,10 +246,9 @@ SynthFrame SyntheticScene::render(int index) const {
   for (const auto& box : s.furniture) box_rects.push_back(projectedRect(T_camera_world, cam, box.lo, box.hi));
   for (const auto& p : people) {
     const double r = synth_detail::kBodyHalfWidthM + 0.01;
-    person_rects.push_back(projectedRect(T_camera_world, cam,
-                                         Eigen::Vector3d(p.position.x() - r, p.position.y() - r, 0.0),
-                                         Eigen::Vector3d(p.position.x() + r, p.position.y() + r,
-                                                         synth_detail::kPersonHeightM + 0.01)));
+    person_rects.push_back(
+        projectedRect(T_camera_world, cam, Eigen::Vector3d(p.position.x() - r, p.position.y() - r, 0.0),
+                      Eigen::Vector3d(p.position.x() + r, p.position.y() + r, synth_detail::kPersonHeightM + 0.01)));
   }
 
   cv::parallel_for_(cv::Range(0, cam.height), [&](const cv::Range& rows) {

@@ -28,8 +28,7 @@ cv::Mat lowFrequencyField(cv::Size size, int cells_x, cv::RNG& rng) {
 }
 
 /// Base colour, low-frequency shading and fine plaster noise (amplitudes in grey levels).
-cv::Mat baseSurface(cv::Size size, const cv::Scalar& colour, double low_amp, double noise_amp,
-                    cv::RNG& rng) {
+cv::Mat baseSurface(cv::Size size, const cv::Scalar& colour, double low_amp, double noise_amp, cv::RNG& rng) {
   const cv::Mat low = lowFrequencyField(size, 8, rng);
   // Plaster grain: white noise at half resolution, bilinearly upsampled (= blurred by ~1 texel).
   cv::Mat half((size.height + 1) / 2, (size.width + 1) / 2, CV_32FC1), noise;
@@ -85,8 +84,8 @@ void drawBlobs(cv::Mat& roi, cv::RNG& rng) {
     const cv::Point c(rng.uniform(0, roi.cols), rng.uniform(0, roi.rows));
     const int a = rng.uniform(4, std::max(5, roi.cols / 5));
     const int b = rng.uniform(4, std::max(5, roi.rows / 5));
-    cv::ellipse(roi, c, cv::Size(a, b), rng.uniform(0.0, 180.0), 0, 360, randomColour(rng, 0, 200),
-                cv::FILLED, cv::LINE_AA);
+    cv::ellipse(roi, c, cv::Size(a, b), rng.uniform(0.0, 180.0), 0, 360, randomColour(rng, 0, 200), cv::FILLED,
+                cv::LINE_AA);
   }
 }
 
@@ -132,11 +131,21 @@ void drawPoster(cv::Mat& tex, cv::RNG& rng) {
   const cv::Rect r(rng.uniform(0, tex.cols - w), rng.uniform(0, tex.rows - h), w, h);
   cv::Mat roi = tex(r);
   switch (rng.uniform(0, 5)) {
-    case 0: drawChecker(roi, rng); break;
-    case 1: drawCollage(roi, rng); break;
-    case 2: drawBlobs(roi, rng); break;
-    case 3: drawText(roi, rng); break;
-    default: drawScribbles(roi, rng); break;
+    case 0:
+      drawChecker(roi, rng);
+      break;
+    case 1:
+      drawCollage(roi, rng);
+      break;
+    case 2:
+      drawBlobs(roi, rng);
+      break;
+    case 3:
+      drawText(roi, rng);
+      break;
+    default:
+      drawScribbles(roi, rng);
+      break;
   }
   cv::rectangle(tex, r, randomColour(rng, 0, 90), rng.uniform(3, 10));
 }
@@ -172,8 +181,8 @@ inline cv::Vec3f bilinear(const cv::Mat& img, double x, double y) {
 }  // namespace
 
 cv::Vec3f Texture::sample(double u_m, double v_m, double footprint_m) const {
-  const double level = std::clamp(std::log2(std::max(footprint_m / texel_m_, 1e-6)), 0.0,
-                                  static_cast<double>(levels_.size() - 1));
+  const double level =
+      std::clamp(std::log2(std::max(footprint_m / texel_m_, 1e-6)), 0.0, static_cast<double>(levels_.size() - 1));
   const int l0 = static_cast<int>(level);
   const int l1 = std::min<int>(l0 + 1, static_cast<int>(levels_.size()) - 1);
   const float w1 = static_cast<float>(level - l0);

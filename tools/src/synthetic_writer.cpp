@@ -33,9 +33,12 @@ std::string stampText(Timestamp stamp_ns) {
 void writePngAtomically(const std::string& path, const cv::Mat& img) {
   std::vector<std::uint8_t> png;
   if (!cv::imencode(".png", img, png)) throw std::runtime_error("PNG encoding failed for '" + path + "'");
-  writeFileAtomically(path, [&](std::ostream& os) {
-    os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-  }, true);
+  writeFileAtomically(
+      path,
+      [&](std::ostream& os) {
+        os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+      },
+      true);
 }
 
 cv::Mat depthToPng16(const cv::Mat& depth_m) {
@@ -53,11 +56,14 @@ cv::Mat depthToPng16(const cv::Mat& depth_m) {
 
 const char* walkText(SynthWalk walk) {
   switch (walk) {
-    case SynthWalk::kCross: return "back and forth across the view";
+    case SynthWalk::kCross:
+      return "back and forth across the view";
     case SynthWalk::kStopAndGo:
       return "across the view, standing still for 1-3 s at irregular intervals";
-    case SynthWalk::kTowards: return "towards the camera and away again along its view direction";
-    case SynthWalk::kGroup: return "side by side as one group";
+    case SynthWalk::kTowards:
+      return "towards the camera and away again along its view direction";
+    case SynthWalk::kGroup:
+      return "side by side as one group";
   }
   return "";
 }
@@ -76,9 +82,15 @@ std::string peopleLayoutText(const SynthOptions& o) {
   }
   const double d = synth_detail::effectivePeopleDistanceM(o);
   switch (o.walk) {
-    case SynthWalk::kTowards: ss << "lanes along the view from 3.2 m to " << d << " m"; break;
-    case SynthWalk::kGroup: ss << "front row " << d << " m"; break;
-    default: ss << "nearest lane " << d << " m, lanes 0.55 m apart"; break;
+    case SynthWalk::kTowards:
+      ss << "lanes along the view from 3.2 m to " << d << " m";
+      break;
+    case SynthWalk::kGroup:
+      ss << "front row " << d << " m";
+      break;
+    default:
+      ss << "nearest lane " << d << " m, lanes 0.55 m apart";
+      break;
   }
   ss << " in front of the camera's home position" << (o.people_distance_m == 0.0 ? " (auto)" : "");
   return ss.str();
@@ -91,8 +103,7 @@ std::string readme(const SynthOptions& o, const SynthWriteOptions& w, const Synt
      << "procedurally textured walls, floor, ceiling and five furniture boxes, and " << o.people << "\n"
      << "walking people (elliptic cylinders 0.5 m wide, 1.7 m tall, textured clothing).\n"
      << "People: walk " << synthWalkName(o.walk) << " (" << walkText(o.walk) << "); "
-     << (o.people_in_view_at_start ? "all inside the image at frame 0" : "random start positions")
-     << "; "
+     << (o.people_in_view_at_start ? "all inside the image at frame 0" : "random start positions") << "; "
      << peopleLayoutText(o) << ".\n"
      << "Rendered by ray casting with Lambertian shading (one point light + ambient).\n\n"
      << "Options: " << o.toString() << "\n"
@@ -126,8 +137,8 @@ std::string synthCameraYaml(const CameraIntrinsics& c, double depth_scale) {
      << "name: synthetic\n"
      << "width: " << c.width << "\nheight: " << c.height << "\n"
      << "fx: " << c.fx << "\nfy: " << c.fy << "\ncx: " << c.cx << "\ncy: " << c.cy << "\n"
-     << "distortion: [" << c.distortion[0] << ", " << c.distortion[1] << ", " << c.distortion[2]
-     << ", " << c.distortion[3] << ", " << c.distortion[4] << "]\n"
+     << "distortion: [" << c.distortion[0] << ", " << c.distortion[1] << ", " << c.distortion[2] << ", "
+     << c.distortion[3] << ", " << c.distortion[4] << "]\n"
      << "depth_scale: " << depth_scale << "\n";
   return ss.str();
 }
@@ -166,8 +177,8 @@ SynthWriteSummary writeSyntheticDataset(const SynthOptions& options, const std::
     Eigen::Quaterniond q(f.T_world_camera.linear());
     if (q.w() < 0) q.coeffs() *= -1.0;
     const Eigen::Vector3d t = f.T_world_camera.translation();
-    gt_txt << stamp << std::setprecision(9) << " " << t.x() << " " << t.y() << " " << t.z() << " "
-           << q.x() << " " << q.y() << " " << q.z() << " " << q.w() << "\n";
+    gt_txt << stamp << std::setprecision(9) << " " << t.x() << " " << t.y() << " " << t.z() << " " << q.x() << " "
+           << q.y() << " " << q.z() << " " << q.w() << "\n";
 
     const double dyn = cv::countNonZero(f.mask_gt) / static_cast<double>(f.mask_gt.total());
     dynamic_sum += dyn;

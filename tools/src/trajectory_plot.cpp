@@ -122,8 +122,8 @@ void drawGrid(cv::Mat& img, const PlotView& view) {
     text(img, tickLabel(v, step), {8, w + 5}, 0.45);
   }
   cv::rectangle(img, frame, kGtColour, 1);
-  text(img, std::string(1, kAxisNames[view.ax]) + " [m]",
-       {frame.x + frame.width / 2 - 20, frame.y + frame.height + 48}, 0.55);
+  text(img, std::string(1, kAxisNames[view.ax]) + " [m]", {frame.x + frame.width / 2 - 20, frame.y + frame.height + 48},
+       0.55);
   text(img, std::string(1, kAxisNames[view.ay]) + " [m]", {8, frame.y - 12}, 0.55);
 }
 
@@ -132,17 +132,17 @@ void drawTrajectories(cv::Mat& img, const AteResult& ate, const PlotView& view) 
   // Error segments, then the trajectories.
   // Every point lies inside `frame` (the bounds include both trajectories), so draw on `img`.
   for (std::size_t i = 0; i < ate.gt_xyz.size(); ++i) {
-    cv::line(img, toFixedPoint(view.toPx(ate.gt_xyz[i])), toFixedPoint(view.toPx(ate.est_aligned_xyz[i])),
-             kErrColour, 1, cv::LINE_AA, kShift);
+    cv::line(img, toFixedPoint(view.toPx(ate.gt_xyz[i])), toFixedPoint(view.toPx(ate.est_aligned_xyz[i])), kErrColour,
+             1, cv::LINE_AA, kShift);
   }
   // Estimate first, ground truth (the reference) on top.
   for (std::size_t i = 1; i < ate.gt_xyz.size(); ++i) {
-    cv::line(img, toFixedPoint(view.toPx(ate.est_aligned_xyz[i - 1])),
-             toFixedPoint(view.toPx(ate.est_aligned_xyz[i])), kEstColour, 2, cv::LINE_AA, kShift);
+    cv::line(img, toFixedPoint(view.toPx(ate.est_aligned_xyz[i - 1])), toFixedPoint(view.toPx(ate.est_aligned_xyz[i])),
+             kEstColour, 2, cv::LINE_AA, kShift);
   }
   for (std::size_t i = 1; i < ate.gt_xyz.size(); ++i) {
-    cv::line(img, toFixedPoint(view.toPx(ate.gt_xyz[i - 1])), toFixedPoint(view.toPx(ate.gt_xyz[i])), kGtColour,
-             2, cv::LINE_AA, kShift);
+    cv::line(img, toFixedPoint(view.toPx(ate.gt_xyz[i - 1])), toFixedPoint(view.toPx(ate.gt_xyz[i])), kGtColour, 2,
+             cv::LINE_AA, kShift);
   }
   cv::circle(img, toFixedPoint(view.toPx(ate.gt_xyz.front())), 5 << kShift, kGtColour, 2, cv::LINE_AA, kShift);
 }
@@ -163,8 +163,7 @@ void drawLegend(cv::Mat& img, const AteResult& ate, const std::string& title, co
                 kAxisNames[view.ax], kAxisNames[view.ay], tickLabel(view.step_m, view.step_m).c_str());
   text(img, buf, {kMarginLeft, ly + 28}, 0.5);
   std::snprintf(buf, sizeof(buf), "ATE rmse %.2f cm, mean %.2f cm, median %.2f cm, max %.2f cm, %zu poses",
-                ate.rmse_m * 100.0, ate.mean_m * 100.0, ate.median_m * 100.0, ate.max_m * 100.0,
-                ate.num_pairs);
+                ate.rmse_m * 100.0, ate.mean_m * 100.0, ate.median_m * 100.0, ate.max_m * 100.0, ate.num_pairs);
   text(img, buf, {kMarginLeft, ly + 52}, 0.5);
 }
 

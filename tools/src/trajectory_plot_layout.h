@@ -17,14 +17,14 @@ constexpr int kHeight = 800;
 constexpr int kMarginLeft = 90;
 constexpr int kMarginRight = 30;
 constexpr int kMarginTop = 60;
-constexpr int kMarginBottom = 150;  // room for tick labels, legend and ATE text
+constexpr int kMarginBottom = 150;                                 // room for tick labels, legend and ATE text
 constexpr int kPlotWidth = kWidth - kMarginLeft - kMarginRight;    ///< plot area [px]
 constexpr int kPlotHeight = kHeight - kMarginTop - kMarginBottom;  ///< plot area [px]
 
 /// The two plotted axes (0 = x, 1 = y, 2 = z) and the ground-truth bounds they came from.
 struct PlotAxes {
-  int ax = 0;  ///< drawn to the right
-  int ay = 1;  ///< drawn up
+  int ax = 0;                                         ///< drawn to the right
+  int ay = 1;                                         ///< drawn up
   Eigen::Vector3d gt_lo_m = Eigen::Vector3d::Zero();  ///< per-axis minimum of the ground truth [m]
   Eigen::Vector3d gt_hi_m = Eigen::Vector3d::Zero();  ///< per-axis maximum of the ground truth [m]
 };

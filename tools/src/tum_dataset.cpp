@@ -84,7 +84,8 @@ std::vector<StampedFile> readStampedFileList(const std::string& list_path, std::
     if (path.empty() || !parseSecondsToNs(stamp_text, &f.stamp_ns)) {
       const std::string message = list_path + ":" + std::to_string(line_no) +
                                   ": expected \"timestamp filename\" (e.g. \"1305031229.528748 "
-                                  "rgb/1305031229.528748.png\"), got '" + line + "'";
+                                  "rgb/1305031229.528748.png\"), got '" +
+                                  line + "'";
       if (skipped == nullptr) throw DatasetError(message);
       skipped->push_back(message + " (line skipped)");
       continue;
@@ -97,13 +98,11 @@ std::vector<StampedFile> readStampedFileList(const std::string& list_path, std::
 }
 
 std::vector<std::pair<std::size_t, std::size_t>> associateStamps(const std::vector<double>& first,
-                                                                 const std::vector<double>& second,
-                                                                 double max_dt_s) {
+                                                                 const std::vector<double>& second, double max_dt_s) {
   // Candidates within the window, found by binary search over `second` sorted by stamp.
   std::vector<std::size_t> order(second.size());
   for (std::size_t j = 0; j < order.size(); ++j) order[j] = j;
-  std::sort(order.begin(), order.end(),
-            [&second](std::size_t a, std::size_t b) { return second[a] < second[b]; });
+  std::sort(order.begin(), order.end(), [&second](std::size_t a, std::size_t b) { return second[a] < second[b]; });
   std::vector<double> sorted(second.size());
   for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = second[order[k]];
 
@@ -122,8 +121,7 @@ std::vector<std::pair<std::size_t, std::size_t>> associateStamps(const std::vect
   }
   // associate.py sorts (diff, a, b) tuples: ties broken by the smaller stamps.
   std::sort(candidates.begin(), candidates.end(), [&](const Candidate& a, const Candidate& b) {
-    return std::make_tuple(a.diff, first[a.i], second[a.j]) <
-           std::make_tuple(b.diff, first[b.i], second[b.j]);
+    return std::make_tuple(a.diff, first[a.i], second[a.j]) < std::make_tuple(b.diff, first[b.i], second[b.j]);
   });
   std::vector<bool> used_first(first.size(), false);
   std::vector<bool> used_second(second.size(), false);
@@ -133,9 +131,8 @@ std::vector<std::pair<std::size_t, std::size_t>> associateStamps(const std::vect
     used_first[c.i] = used_second[c.j] = true;
     matches.emplace_back(c.i, c.j);
   }
-  std::sort(matches.begin(), matches.end(), [&first](const auto& a, const auto& b) {
-    return first[a.first] < first[b.first];
-  });
+  std::sort(matches.begin(), matches.end(),
+            [&first](const auto& a, const auto& b) { return first[a.first] < first[b.first]; });
   return matches;
 }
 
@@ -176,8 +173,8 @@ TumDataset TumDataset::open(const std::string& dir, const CameraConfig& camera, 
     ds.entries_.push_back(std::move(e));
   }
   if (ds.entries_.empty()) {
-    throw DatasetError("no rgb.txt stamp in '" + dir + "' has a depth.txt stamp within " +
-                       std::to_string(max_dt_s) + " s (wrong files, or raise max_dt_s)");
+    throw DatasetError("no rgb.txt stamp in '" + dir + "' has a depth.txt stamp within " + std::to_string(max_dt_s) +
+                       " s (wrong files, or raise max_dt_s)");
   }
 
   const fs::path gt = root / "groundtruth.txt";
@@ -193,8 +190,8 @@ TumDataset TumDataset::open(const std::string& dir, const CameraConfig& camera, 
 
 const DatasetEntry& TumDataset::entry(std::size_t i) const {
   if (i >= entries_.size()) {
-    throw std::out_of_range("TumDataset::entry(" + std::to_string(i) + "): only " +
-                            std::to_string(entries_.size()) + " entries");
+    throw std::out_of_range("TumDataset::entry(" + std::to_string(i) + "): only " + std::to_string(entries_.size()) +
+                            " entries");
   }
   return entries_[i];
 }
@@ -214,9 +211,8 @@ RgbdFrame TumDataset::load(std::size_t i) const {
                        "' (missing or not an image; check that the file listed in rgb.txt exists)");
   }
   if (frame.bgr.cols != w || frame.bgr.rows != h) {
-    throw DatasetError("colour image '" + e.rgb_path + "' is " + describeMat(frame.bgr) +
-                       ", camera '" + camera_.name + "' expects " + expected +
-                       " (use the camera config that matches this dataset)");
+    throw DatasetError("colour image '" + e.rgb_path + "' is " + describeMat(frame.bgr) + ", camera '" + camera_.name +
+                       "' expects " + expected + " (use the camera config that matches this dataset)");
   }
   const cv::Mat raw = cv::imread(e.depth_path, cv::IMREAD_UNCHANGED);
   if (raw.empty()) {
@@ -229,9 +225,8 @@ RgbdFrame TumDataset::load(std::size_t i) const {
                        "do not convert depth to 8 bit");
   }
   if (raw.cols != w || raw.rows != h) {
-    throw DatasetError("depth image '" + e.depth_path + "' is " + describeMat(raw) + ", camera '" +
-                       camera_.name + "' expects " + expected +
-                       " (depth must be registered to the colour image)");
+    throw DatasetError("depth image '" + e.depth_path + "' is " + describeMat(raw) + ", camera '" + camera_.name +
+                       "' expects " + expected + " (depth must be registered to the colour image)");
   }
   raw.convertTo(frame.depth_m, CV_32FC1, 1.0 / camera_.depth_scale);  // 0 stays 0
   return frame;

@@ -18,9 +18,9 @@
 
 namespace fs = std::filesystem;
 using dypho::RgbdFrame;
+using dypho::tools::BagLayout;
 using dypho::tools::BagRgbdReader;
 using dypho::tools::BagRgbdWriter;
-using dypho::tools::BagLayout;
 using dypho::tools::BagTopics;
 
 namespace {
@@ -31,8 +31,12 @@ std::string tempBag(const std::string& name) {
 
 dypho::CameraIntrinsics testCamera() {
   dypho::CameraIntrinsics c;
-  c.fx = 517.3; c.fy = 516.5; c.cx = 318.6; c.cy = 255.3;
-  c.width = 64; c.height = 48;
+  c.fx = 517.3;
+  c.fy = 516.5;
+  c.cx = 318.6;
+  c.cy = 255.3;
+  c.width = 64;
+  c.height = 48;
   c.distortion = {{0.26, -0.95, -0.005, 0.003, 1.16}};
   return c;
 }
@@ -46,14 +50,16 @@ RgbdFrame randomFrame(int i, cv::RNG& rng) {
   f.depth_m.create(48, 64, CV_32FC1);
   rng.fill(f.depth_m, cv::RNG::UNIFORM, 0.5, 5.0);
   f.depth_m.forEach<float>([](float& z, const int*) { z = std::round(z * 5000.f) / 5000.f; });  // TUM steps
-  f.depth_m(cv::Rect(0, 0, 10, 5)).setTo(0.f);  // no measurement
+  f.depth_m(cv::Rect(0, 0, 10, 5)).setTo(0.f);                                                  // no measurement
   return f;
 }
 
 sensor_msgs::Image rawImage(int w, int h, const std::string& enc, int bytes_per_px, double stamp_s) {
   sensor_msgs::Image m;
   m.header.stamp = ros::Time(stamp_s);
-  m.width = w; m.height = h; m.encoding = enc;
+  m.width = w;
+  m.height = h;
+  m.encoding = enc;
   m.step = w * bytes_per_px;
   m.data.assign(static_cast<std::size_t>(m.step) * h, 7);
   return m;
@@ -69,7 +75,8 @@ void writeRawBag(const std::string& path, const sensor_msgs::Image& rgb, const s
   if (with_info) {
     sensor_msgs::CameraInfo info;
     info.header = rgb.header;
-    info.width = rgb.width; info.height = rgb.height;
+    info.width = rgb.width;
+    info.height = rgb.height;
     info.K = {500, 0, 10, 0, 500, 8, 0, 0, 1};
     info.distortion_model = "plumb_bob";
     info.D = {0, 0, 0, 0, 0};
@@ -173,7 +180,9 @@ TEST(BagIo, AcceptsMono8Bgr8AndOpenNiMillimetres) {
     EXPECT_DOUBLE_EQ(f.camera.fx, 500.0);
   }
   auto bgr = rawImage(20, 16, "bgr8", 3, 10.0);
-  bgr.data[0] = 10; bgr.data[1] = 20; bgr.data[2] = 30;
+  bgr.data[0] = 10;
+  bgr.data[1] = 20;
+  bgr.data[2] = 30;
   auto depth = rawImage(20, 16, "32FC1", 4, 10.0);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::memcpy(depth.data.data(), &nan, 4);
@@ -182,7 +191,8 @@ TEST(BagIo, AcceptsMono8Bgr8AndOpenNiMillimetres) {
   const std::string msg = errorOf([&] { r.load(0); });
   EXPECT_NE(msg.find("--camera"), std::string::npos) << "no camera_info must ask for --camera: " << msg;
   dypho::CameraIntrinsics c = testCamera();
-  c.width = 20; c.height = 16;
+  c.width = 20;
+  c.height = 16;
   r.setCamera(c);
   const RgbdFrame f = r.load(0);
   EXPECT_EQ(f.bgr.at<cv::Vec3b>(0, 0), cv::Vec3b(10, 20, 30));
@@ -251,8 +261,8 @@ TEST(BagLayout, RealSenseWritesMillimetresWithZeroForNoDepth) {
   const float inf = std::numeric_limits<float>::infinity();
   // {metres written, millimetres expected}
   const std::vector<std::pair<float, std::uint16_t>> cases = {
-      {1.2344f, 1234}, {1.2346f, 1235}, {0.0006f, 1}, {0.0004f, 0}, {0.f, 0}, {nan, 0},
-      {-1.f, 0},       {inf, 0},        {65.535f, 65535}, {65.6f, 0}, {3.f, 3000}};
+      {1.2344f, 1234}, {1.2346f, 1235}, {0.0006f, 1},     {0.0004f, 0}, {0.f, 0},   {nan, 0},
+      {-1.f, 0},       {inf, 0},        {65.535f, 65535}, {65.6f, 0},   {3.f, 3000}};
   for (std::size_t i = 0; i < cases.size(); ++i) f.depth_m.at<float>(47, static_cast<int>(i)) = cases[i].first;
   {
     BagRgbdWriter w(path, topics);

@@ -155,21 +155,20 @@ TEST(CameraConfig, DefaultConfigDir) {
 TEST(CameraConfig, DetectFromHeaderFolderNameAndFile) {
   const fs::path dir = makeTempDir("plain");  // name contains no camera hint
   EXPECT_EQ(detectCameraName(dir.string()), std::nullopt);
-  writeText(dir / "rgb.txt",
-            "# color images\n# file: 'rgbd_dataset_freiburg2_desk.bag'\n# timestamp filename\n");
+  writeText(dir / "rgb.txt", "# color images\n# file: 'rgbd_dataset_freiburg2_desk.bag'\n# timestamp filename\n");
   EXPECT_EQ(detectCameraName(dir.string()), std::optional<std::string>("tum_fr2"));
   writeText(dir / "camera.yaml", kValidYaml);  // an explicit camera file wins
   EXPECT_EQ(detectCameraName(dir.string()), std::optional<std::string>((dir / "camera.yaml").string()));
   fs::remove_all(dir);
 
   const fs::path parent = makeTempDir("parent");
-  for (const auto& [folder, expected] : std::vector<std::pair<std::string, std::string>>{
-           {"rgbd_dataset_freiburg3_walking_xyz", "tum_fr3"},
-           {"fr1_desk", "tum_fr1"},
-           {"my_fr2", "tum_fr2"},
-           {"rgbd_bonn_balloon", "bonn"},
-           {"frame12", ""},
-           {"fr10", ""}}) {
+  for (const auto& [folder, expected] :
+       std::vector<std::pair<std::string, std::string>>{{"rgbd_dataset_freiburg3_walking_xyz", "tum_fr3"},
+                                                        {"fr1_desk", "tum_fr1"},
+                                                        {"my_fr2", "tum_fr2"},
+                                                        {"rgbd_bonn_balloon", "bonn"},
+                                                        {"frame12", ""},
+                                                        {"fr10", ""}}) {
     fs::create_directory(parent / folder);
     const auto got = detectCameraName((parent / folder).string());
     if (expected.empty()) {

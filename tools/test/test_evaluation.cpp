@@ -37,9 +37,9 @@ std::vector<StampedPose> curvyTrajectory(double rate_hz, double duration_s, doub
     StampedPose p;
     p.stamp_s = t0 + t;
     p.T_world_camera.translation() = Eigen::Vector3d(std::cos(0.5 * t) * 2.0, std::sin(0.7 * t), 0.3 * t);
-    p.T_world_camera.linear() =
-        (Eigen::AngleAxisd(0.3 * t, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.1 * std::sin(t), Eigen::Vector3d::UnitX()))
-            .toRotationMatrix();
+    p.T_world_camera.linear() = (Eigen::AngleAxisd(0.3 * t, Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(0.1 * std::sin(t), Eigen::Vector3d::UnitX()))
+                                    .toRotationMatrix();
     out.push_back(p);
   }
   return out;
@@ -93,9 +93,9 @@ TEST(Interpolation, LinearPositionSlerpRotation) {
   ASSERT_TRUE(interpolatePose(gt, 10.08, 0.1).has_value());  // exact stamp -> that sample
   EXPECT_TRUE(interpolatePose(gt, 10.08, 0.1)->isApprox(b.T_world_camera, 1e-12));
   EXPECT_TRUE(interpolatePose(gt, 10.0, 0.01)->isApprox(a.T_world_camera, 1e-12));  // exact even with small gap
-  EXPECT_FALSE(interpolatePose(gt, 9.99, 0.1).has_value());   // before the ground truth
-  EXPECT_FALSE(interpolatePose(gt, 10.09, 0.1).has_value());  // after it
-  EXPECT_FALSE(interpolatePose(gt, 10.04, 0.05).has_value()); // samples 0.08 s apart > 0.05 s
+  EXPECT_FALSE(interpolatePose(gt, 9.99, 0.1).has_value());                         // before the ground truth
+  EXPECT_FALSE(interpolatePose(gt, 10.09, 0.1).has_value());                        // after it
+  EXPECT_FALSE(interpolatePose(gt, 10.04, 0.05).has_value());                       // samples 0.08 s apart > 0.05 s
 }
 
 TEST(Ate, ZeroForRigidlyTransformedCopy) {
@@ -120,7 +120,8 @@ TEST(Ate, WithScaleRemovesAScaleErrorAndReportsIt) {
   const auto gt = curvyTrajectory(30.0, 10.0);
   std::vector<StampedPose> shrunk = gt;
   const Eigen::Vector3d centre(1.0, -2.0, 0.5);
-  for (StampedPose& p : shrunk) p.T_world_camera.translation() = centre + 0.9 * (p.T_world_camera.translation() - centre);
+  for (StampedPose& p : shrunk)
+    p.T_world_camera.translation() = centre + 0.9 * (p.T_world_camera.translation() - centre);
   const auto est = transformed(randomRigid(rng), shrunk);
   const AteResult rigid = computeAte(est, gt);
   const AteResult scaled = computeAte(est, gt, 0.1, AteAlignment::kWithScale);
@@ -182,7 +183,8 @@ TEST(Ate, InterpolatesGroundTruthBetweenSamples) {
     StampedPose p;
     p.stamp_s = 50.0 + 0.01 * i;
     p.T_world_camera.translation() = Eigen::Vector3d(0.3, -0.2, 0.1) * (p.stamp_s - 50.0) + Eigen::Vector3d(1, 2, 3);
-    p.T_world_camera.linear() = Eigen::AngleAxisd(0.5 * (p.stamp_s - 50.0), Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+    p.T_world_camera.linear() =
+        Eigen::AngleAxisd(0.5 * (p.stamp_s - 50.0), Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
     gt.push_back(p);
   }
   for (int i = 0; i < 140; ++i) {

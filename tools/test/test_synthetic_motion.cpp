@@ -7,9 +7,9 @@
 
 #include "dypho/tools/synthetic_scene.h"
 
+using dypho::tools::SyntheticScene;
 using dypho::tools::SynthMotion;
 using dypho::tools::SynthOptions;
-using dypho::tools::SyntheticScene;
 
 namespace {
 
@@ -59,8 +59,8 @@ TEST_P(SynthMotionTest, IsSmoothAndWithinHandHeldSpeeds) {
   const SyntheticScene scene(o);
   const MotionStats s = measure(scene);
   std::printf("%s: max %.3f m/s %.1f deg/s, max acc %.3f m/s^2 %.1f deg/s^2, path %.2f m, max rot %.1f deg\n",
-              dypho::tools::synthMotionName(o.motion).c_str(), s.max_speed_ms, s.max_rate_degs,
-              s.max_acc_ms2, s.max_ang_acc_degs2, s.path_m, s.max_rotation_from_start_deg);
+              dypho::tools::synthMotionName(o.motion).c_str(), s.max_speed_ms, s.max_rate_degs, s.max_acc_ms2,
+              s.max_ang_acc_degs2, s.path_m, s.max_rotation_from_start_deg);
   // TUM hand-held sequences stay under ~0.5 m/s and ~40 deg/s.
   EXPECT_LE(s.max_speed_ms, 0.5);
   EXPECT_LE(s.max_rate_degs, 40.0);

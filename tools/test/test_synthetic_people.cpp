@@ -37,8 +37,8 @@ dypho::CameraIntrinsics smallCamera() {
   return c;
 }
 
-SynthOptions options(SynthMotion motion, int people, SynthWalk walk = SynthWalk::kCross,
-                     bool in_view = false, double distance_m = 0.0) {
+SynthOptions options(SynthMotion motion, int people, SynthWalk walk = SynthWalk::kCross, bool in_view = false,
+                     double distance_m = 0.0) {
   SynthOptions o;
   o.motion = motion;
   o.people = people;
@@ -57,8 +57,8 @@ std::vector<sd::PersonPath> pathsOf(const SynthOptions& o) {
 }
 
 /// States of every person at `fps` over `duration_s` ([sample][person]).
-std::vector<std::vector<sd::PersonState>> trackStates(const std::vector<sd::PersonPath>& paths,
-                                                      double duration_s, double fps = 30.0) {
+std::vector<std::vector<sd::PersonState>> trackStates(const std::vector<sd::PersonPath>& paths, double duration_s,
+                                                      double fps = 30.0) {
   std::vector<std::vector<sd::PersonState>> out;
   for (int i = 0; i <= static_cast<int>(duration_s * fps); ++i) {
     out.emplace_back();
@@ -68,8 +68,8 @@ std::vector<std::vector<sd::PersonState>> trackStates(const std::vector<sd::Pers
 }
 
 /// Positions of every person at `fps` over `duration_s` ([sample][person]).
-std::vector<std::vector<Eigen::Vector2d>> track(const std::vector<sd::PersonPath>& paths,
-                                                double duration_s, double fps = 30.0) {
+std::vector<std::vector<Eigen::Vector2d>> track(const std::vector<sd::PersonPath>& paths, double duration_s,
+                                                double fps = 30.0) {
   std::vector<std::vector<Eigen::Vector2d>> out;
   for (const auto& states : trackStates(paths, duration_s, fps)) {
     out.emplace_back();
@@ -80,8 +80,8 @@ std::vector<std::vector<Eigen::Vector2d>> track(const std::vector<sd::PersonPath
 
 /// Runs [first, last] of >= 1 s of samples at which person `k` stands: same position and same
 /// heading (turning round on the spot is not standing).
-std::vector<std::pair<int, int>> stands(const std::vector<std::vector<sd::PersonState>>& states,
-                                        std::size_t k, double fps) {
+std::vector<std::pair<int, int>> stands(const std::vector<std::vector<sd::PersonState>>& states, std::size_t k,
+                                        double fps) {
   std::vector<std::pair<int, int>> out;
   int first = 0;
   const int n = static_cast<int>(states.size());
@@ -106,9 +106,7 @@ std::uint64_t fnv1a(const cv::Mat& m, std::uint64_t h = 1469598103934665603ULL) 
   return h;
 }
 
-double coverage(const SynthFrame& f) {
-  return cv::countNonZero(f.mask_gt) / static_cast<double>(f.mask_gt.total());
-}
+double coverage(const SynthFrame& f) { return cv::countNonZero(f.mask_gt) / static_cast<double>(f.mask_gt.total()); }
 
 std::string describe(const SynthOptions& o) { return o.toString(); }
 
@@ -149,8 +147,8 @@ std::vector<sd::PersonPath> layoutBeforeWalkStyles(const SynthOptions& o, cv::RN
 // Defaults
 
 TEST(SynthPeople, DefaultPathsAreDrawnAsBefore) {
-  for (SynthMotion m : {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic,
-                        SynthMotion::kRpy, SynthMotion::kLoop}) {
+  for (SynthMotion m :
+       {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic, SynthMotion::kRpy, SynthMotion::kLoop}) {
     for (int people = 0; people <= 3; ++people) {
       for (std::uint32_t seed : {1u, 2u, 77u}) {
         SynthOptions o = options(m, people);
@@ -192,12 +190,9 @@ TEST(SynthPeople, DefaultFramesAreBitIdenticalToBefore) {
     std::uint64_t bgr, depth, mask;
   };
   const Golden goldens[] = {
-      {SynthMotion::kStatic, 3, 4, 40, 25, 0x3e3b56e79b07bef3ULL, 0x12e7d9e9d611e736ULL,
-       0xd1a2c2e19736da54ULL},
-      {SynthMotion::kHalfsphere, 2, 1, 40, 12, 0x6eabfba7dc324398ULL, 0x36509cab344e2c45ULL,
-       0xb7589472e57c86e5ULL},
-      {SynthMotion::kLoop, 3, 5, 300, 100, 0x8f644bbf53a0a0dbULL, 0xbcd90e373914170aULL,
-       0xf3bce62e29f3e79fULL},
+      {SynthMotion::kStatic, 3, 4, 40, 25, 0x3e3b56e79b07bef3ULL, 0x12e7d9e9d611e736ULL, 0xd1a2c2e19736da54ULL},
+      {SynthMotion::kHalfsphere, 2, 1, 40, 12, 0x6eabfba7dc324398ULL, 0x36509cab344e2c45ULL, 0xb7589472e57c86e5ULL},
+      {SynthMotion::kLoop, 3, 5, 300, 100, 0x8f644bbf53a0a0dbULL, 0xbcd90e373914170aULL, 0xf3bce62e29f3e79fULL},
   };
   for (const Golden& g : goldens) {
     SynthOptions o;  // defaults, noise on
@@ -243,8 +238,7 @@ TEST(SynthPeople, EveryPersonIsInsideTheFirstImage) {
       {SynthMotion::kStatic, 1, SynthWalk::kCross, 0.0, true},
       {SynthMotion::kStatic, 5, SynthWalk::kStopAndGo, 0.0, true},
       {SynthMotion::kStatic, 5, SynthWalk::kTowards, 0.0, true},
-      {SynthMotion::kStatic, 8, SynthWalk::kGroup, 0.0,
-       false},  // two ranks: members may hide each other
+      {SynthMotion::kStatic, 8, SynthWalk::kGroup, 0.0, false},  // two ranks: members may hide each other
       {SynthMotion::kStatic, 8, SynthWalk::kCross, 0.7, false},
       {SynthMotion::kHalfsphere, 8, SynthWalk::kStopAndGo, 0.0, false},
       {SynthMotion::kXyz, 3, SynthWalk::kTowards, 1.2, true},
@@ -260,10 +254,9 @@ TEST(SynthPeople, EveryPersonIsInsideTheFirstImage) {
       const auto paths = pathsOf(o);
       ASSERT_EQ(static_cast<int>(paths.size()), c.people);
       for (int k = 0; k < c.people; ++k) {
-        const sd::BodySpan span =
-            sd::bodySpan(sd::personStateAt(paths[k], 0.0).position, f.T_world_camera, o.camera);
-        EXPECT_TRUE(span.inside) << "person " << k << " columns " << span.u_lo << ".." << span.u_hi
-                                 << ", " << describe(o);
+        const sd::BodySpan span = sd::bodySpan(sd::personStateAt(paths[k], 0.0).position, f.T_world_camera, o.camera);
+        EXPECT_TRUE(span.inside) << "person " << k << " columns " << span.u_lo << ".." << span.u_hi << ", "
+                                 << describe(o);
         const int pixels = cv::countNonZero(f.person_id_gt == k + 1);
         EXPECT_GT(pixels, 0) << "person " << k << " is not in the image, " << describe(o);
         // 0.5 % of the image: more than a head peeking out behind someone.
@@ -292,8 +285,7 @@ TEST(SynthPeople, DensityOptionFillsAStaticView) {
   // (b) dypho_synth --motion static --people 8 --people-distance 0.8
   const Case cases[] = {{6, true, 0.9, 0.30, 0.45}, {8, false, 0.8, 0.42, 0.55}};
   for (const Case& c : cases) {
-    const SynthOptions o =
-        options(SynthMotion::kStatic, c.people, SynthWalk::kCross, c.in_view, c.distance_m);
+    const SynthOptions o = options(SynthMotion::kStatic, c.people, SynthWalk::kCross, c.in_view, c.distance_m);
     const SyntheticScene scene(o);
     double sum = 0.0, max = 0.0;
     const int frames = 60;
@@ -302,8 +294,8 @@ TEST(SynthPeople, DensityOptionFillsAStaticView) {
       sum += cov;
       max = std::max(max, cov);
     }
-    std::printf("%d people at %.1f m: mean coverage %.3f, max %.3f over %d frames\n", c.people,
-                c.distance_m, sum / frames, max, frames);
+    std::printf("%d people at %.1f m: mean coverage %.3f, max %.3f over %d frames\n", c.people, c.distance_m,
+                sum / frames, max, frames);
     EXPECT_GE(sum / frames, c.min_mean) << describe(o);
     EXPECT_GE(max, c.min_max) << describe(o);
     EXPECT_LE(max, 0.8) << "the room must stay visible, " << describe(o);
@@ -322,15 +314,13 @@ TEST(SynthPeople, StopAndGoStandsStillWhileOthersWalk) {
     const auto states = trackStates(paths, 60.0, fps);
     for (std::size_t k = 0; k < paths.size(); ++k) {
       const auto runs = stands(states, k, fps);
-      ASSERT_GE(runs.size(), 3u) << "person " << k << " stands still for >= 1 s only "
-                                 << runs.size() << " times in 60 s, seed " << seed;
+      ASSERT_GE(runs.size(), 3u) << "person " << k << " stands still for >= 1 s only " << runs.size()
+                                 << " times in 60 s, seed " << seed;
       // While person k stands, somebody else walks (the sequence is not frozen).
       const auto [a, b] = runs.front();
       double others_moved = 0.0;
       for (std::size_t j = 0; j < paths.size(); ++j) {
-        if (j != k)
-          others_moved =
-              std::max(others_moved, (states[b][j].position - states[a][j].position).norm());
+        if (j != k) others_moved = std::max(others_moved, (states[b][j].position - states[a][j].position).norm());
       }
       EXPECT_GT(others_moved, 0.1) << "person " << k << ", seed " << seed;
       // Irregular: the times between stands differ by more than half a second.
@@ -343,8 +333,7 @@ TEST(SynthPeople, StopAndGoStandsStillWhileOthersWalk) {
       EXPECT_GT(longest - shortest, 0.5) << "person " << k << ", seed " << seed;
       // Smooth: no jumps between frames (1.5 m/s is 5 cm per frame).
       for (std::size_t i = 1; i < states.size(); ++i) {
-        ASSERT_LE((states[i][k].position - states[i - 1][k].position).norm(), 1.5 / fps)
-            << "sample " << i;
+        ASSERT_LE((states[i][k].position - states[i - 1][k].position).norm(), 1.5 / fps) << "sample " << i;
         ASSERT_TRUE(std::isfinite(states[i][k].heading));
       }
     }
@@ -352,8 +341,7 @@ TEST(SynthPeople, StopAndGoStandsStillWhileOthersWalk) {
   // People crossing the view only stop to turn round.
   const auto paths = pathsOf(options(SynthMotion::kStatic, 4, SynthWalk::kCross, false, 1.0));
   const auto states = trackStates(paths, 60.0, fps);
-  for (std::size_t k = 0; k < paths.size(); ++k)
-    EXPECT_TRUE(stands(states, k, fps).empty()) << "person " << k;
+  for (std::size_t k = 0; k < paths.size(); ++k) EXPECT_TRUE(stands(states, k, fps).empty()) << "person " << k;
 }
 
 TEST(SynthPeople, TowardsWalksAlongTheViewFromFarToNear) {
@@ -435,17 +423,14 @@ TEST(SynthPeople, NobodyRunsOrWalksIntoAnybodyOrTheCamera) {
         w.furniture = std::min({w.furniture, 3.5 - std::abs(p.x()), 3.0 - std::abs(p.y())});
         if (i >= 1) w.speed = std::max(w.speed, (p - pos[i - 1][k]).norm() * fps);
         if (i >= 2)
-          w.acceleration =
-              std::max(w.acceleration, (p - 2 * pos[i - 1][k] + pos[i - 2][k]).norm() * fps * fps);
+          w.acceleration = std::max(w.acceleration, (p - 2 * pos[i - 1][k] + pos[i - 2][k]).norm() * fps * fps);
       }
     }
     return w;
   };
   int checked = 0;
-  for (SynthMotion m :
-       {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kRpy}) {
-    for (SynthWalk walk :
-         {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
+  for (SynthMotion m : {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kRpy}) {
+    for (SynthWalk walk : {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
       for (int people : {3, 8}) {
         for (double distance_m : {0.0, sd::minPeopleDistanceM(options(m, people, walk))}) {
           SynthOptions o = options(m, people, walk, people == 3, distance_m);
@@ -475,8 +460,7 @@ TEST(SynthPeople, NobodyRunsOrWalksIntoAnybodyOrTheCamera) {
   }
   // The layout of earlier versions keeps people away from the camera too (their speeds and
   // spacing are as they were: up to about 2 m/s on short loops, and lanes can touch).
-  for (SynthMotion m :
-       {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kLoop}) {
+  for (SynthMotion m : {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kLoop}) {
     const SynthOptions o = options(m, 3);
     EXPECT_GE(check(o).camera, 0.6) << describe(o);
   }
@@ -494,17 +478,14 @@ TEST(SynthPeople, NewLayoutsAreDeterministicAndSeeded) {
   ASSERT_EQ(first.size(), second.size());
   int differ = 0;
   for (std::size_t k = 0; k < first.size(); ++k) {
-    differ +=
-        (sd::personStateAt(first[k], 3.0).position - sd::personStateAt(second[k], 3.0).position)
-            .norm() > 1e-6;
+    differ += (sd::personStateAt(first[k], 3.0).position - sd::personStateAt(second[k], 3.0).position).norm() > 1e-6;
   }
   EXPECT_GT(differ, 0);
   // The lane layout does not depend on the sequence length.
   o.frames = 40;
   const auto shorter = pathsOf(o);
   for (std::size_t k = 0; k < second.size(); ++k) {
-    EXPECT_EQ(sd::personStateAt(second[k], 1.0).position,
-              sd::personStateAt(shorter[k], 1.0).position);
+    EXPECT_EQ(sd::personStateAt(second[k], 1.0).position, sd::personStateAt(shorter[k], 1.0).position);
   }
 }
 
@@ -522,30 +503,23 @@ TEST(SynthPeople, RejectsImpossibleRequestsWithClearErrors) {
   };
   auto expectError = [&](const SynthOptions& o, const std::string& part) {
     const std::string e = error(o);
-    EXPECT_NE(e.find(part), std::string::npos)
-        << "expected '" << part << "' in '" << e << "' for " << describe(o);
+    EXPECT_NE(e.find(part), std::string::npos) << "expected '" << part << "' in '" << e << "' for " << describe(o);
   };
   expectError(options(SynthMotion::kStatic, 9), "people = 9 must be in 0..8");
   expectError(options(SynthMotion::kLoop, 3, SynthWalk::kTowards), "walk = towards");
-  expectError(options(SynthMotion::kLoop, 3, SynthWalk::kCross, false, 1.0),
-              "must be 0 (auto) for the loop");
+  expectError(options(SynthMotion::kLoop, 3, SynthWalk::kCross, false, 1.0), "must be 0 (auto) for the loop");
   expectError(options(SynthMotion::kLoop, 6, SynthWalk::kCross, true), "at most 5 people");
   expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, 0.5), "in [0.6, ");
   expectError(options(SynthMotion::kXyz, 2, SynthWalk::kCross, false, 0.7), "in [0.8, ");
   expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, 3.0), "furniture");
-  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kTowards, false, 2.5),
-              "people_distance_m = 2.5");
+  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kTowards, false, 2.5), "people_distance_m = 2.5");
   expectError(options(SynthMotion::kStatic, 6, SynthWalk::kTowards, true), "at most 5 lanes");
   expectError(options(SynthMotion::kStatic, 8, SynthWalk::kGroup, true, 0.9), "two ranks");
-  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, -1.0),
-              "people_distance_m = -1");
-  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, std::nan("")),
-              "people_distance_m = nan");
+  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, -1.0), "people_distance_m = -1");
+  expectError(options(SynthMotion::kStatic, 2, SynthWalk::kCross, false, std::nan("")), "people_distance_m = nan");
   // What the documentation promises is accepted.
-  for (SynthMotion m :
-       {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kRpy}) {
-    for (SynthWalk walk :
-         {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
+  for (SynthMotion m : {SynthMotion::kStatic, SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kRpy}) {
+    for (SynthWalk walk : {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
       for (int people = 0; people <= 8; ++people) {
         const SynthOptions o = options(m, people, walk, walk != SynthWalk::kTowards || people <= 5);
         EXPECT_EQ(error(o), "") << describe(o);
@@ -561,15 +535,12 @@ TEST(SynthPeople, RejectsImpossibleRequestsWithClearErrors) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("stop-and-go"), std::string::npos) << e.what();
   }
-  for (SynthWalk w :
-       {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
+  for (SynthWalk w : {SynthWalk::kCross, SynthWalk::kStopAndGo, SynthWalk::kTowards, SynthWalk::kGroup}) {
     EXPECT_EQ(dypho::tools::parseSynthWalk(dypho::tools::synthWalkName(w)), w);
   }
-  const std::string text =
-      options(SynthMotion::kStatic, 5, SynthWalk::kStopAndGo, true, 0.9).toString();
-  EXPECT_NE(
-      text.find("people=5 walk=stop-and-go people_in_view_at_start=true people_distance_m=0.9"),
-      std::string::npos)
+  const std::string text = options(SynthMotion::kStatic, 5, SynthWalk::kStopAndGo, true, 0.9).toString();
+  EXPECT_NE(text.find("people=5 walk=stop-and-go people_in_view_at_start=true people_distance_m=0.9"),
+            std::string::npos)
       << text;
 }
 

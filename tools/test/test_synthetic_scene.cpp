@@ -13,10 +13,10 @@
 
 #include "dypho/tools/synthetic_scene.h"
 
+using dypho::tools::SyntheticScene;
 using dypho::tools::SynthFrame;
 using dypho::tools::SynthMotion;
 using dypho::tools::SynthOptions;
-using dypho::tools::SyntheticScene;
 
 namespace {
 
@@ -87,7 +87,10 @@ TEST(SyntheticScene, DepthNoiseMatchesKinectModel) {
   // Residuals over 4 frames, normalised by the model sigma(z) combined with the uniform
   // quantisation error (step^2 / 12), binned by depth.
   const double q = 1.0 / 5000.0;
-  struct Bin { double sum = 0, sum2 = 0; long n = 0; };
+  struct Bin {
+    double sum = 0, sum2 = 0;
+    long n = 0;
+  };
   std::vector<Bin> bins(10);  // 0.5 m bins from 0 to 5 m
   long zero = 0, total = 0, off_grid = 0;
   for (int i = 0; i < 4; ++i) {
@@ -97,12 +100,17 @@ TEST(SyntheticScene, DepthNoiseMatchesKinectModel) {
         const double z = f.static_depth_m.at<float>(v, u);
         const double d = f.frame.depth_m.at<float>(v, u);
         ++total;
-        if (d == 0.0) { ++zero; continue; }
+        if (d == 0.0) {
+          ++zero;
+          continue;
+        }
         if (std::abs(d / q - std::round(d / q)) > 0.01) ++off_grid;
         const double sigma = 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4);
         const double e = (d - z) / std::sqrt(sigma * sigma + q * q / 12.0);
         Bin& b = bins[std::min<std::size_t>(bins.size() - 1, static_cast<std::size_t>(z / 0.5))];
-        b.sum += e; b.sum2 += e * e; ++b.n;
+        b.sum += e;
+        b.sum2 += e * e;
+        ++b.n;
       }
     }
   }
@@ -149,13 +157,13 @@ TEST(SyntheticScene, PeopleCoverAGoodPartOfTheImage) {
       const SynthFrame f = scene.render(i);
       coverage.push_back(cv::countNonZero(f.mask_gt) / static_cast<double>(f.mask_gt.total()));
     }
-    const double in_range = std::count_if(coverage.begin(), coverage.end(),
-                                          [](double c) { return c >= 0.2 && c <= 0.5; }) /
-                            static_cast<double>(coverage.size());
+    const double in_range =
+        std::count_if(coverage.begin(), coverage.end(), [](double c) { return c >= 0.2 && c <= 0.5; }) /
+        static_cast<double>(coverage.size());
     const double mean = std::accumulate(coverage.begin(), coverage.end(), 0.0) / coverage.size();
     const double max = *std::max_element(coverage.begin(), coverage.end());
-    std::printf("%d people: mean coverage %.3f, max %.3f, frames in [0.2, 0.5]: %.0f %%\n", people,
-                mean, max, 100 * in_range);
+    std::printf("%d people: mean coverage %.3f, max %.3f, frames in [0.2, 0.5]: %.0f %%\n", people, mean, max,
+                100 * in_range);
     // Requirement: with 2-3 people, 20-50 % of the image for a good part of the sequence.
     EXPECT_GE(in_range, people == 3 ? 0.4 : 0.25);
     EXPECT_LE(max, 0.65) << "people must not fill the whole view";

@@ -72,8 +72,8 @@ TEST(SyntheticWriter, FolderMatchesTheRenderedFrames) {
   EXPECT_EQ(summary.frames, o.frames);
   EXPECT_EQ(callbacks, o.frames);
 
-  const auto rgb = dataLines(dir / "rgb.txt"), depth = dataLines(dir / "depth.txt"),
-             mask = dataLines(dir / "mask.txt"), gt = dataLines(dir / "groundtruth.txt");
+  const auto rgb = dataLines(dir / "rgb.txt"), depth = dataLines(dir / "depth.txt"), mask = dataLines(dir / "mask.txt"),
+             gt = dataLines(dir / "groundtruth.txt");
   ASSERT_EQ(rgb.size(), 6u);
   ASSERT_EQ(depth.size(), 6u);
   ASSERT_EQ(mask.size(), 6u);
@@ -114,8 +114,8 @@ TEST(SyntheticWriter, TumDatasetReadsTheFolderBack) {
   dypho::tools::writeSyntheticDataset(o, dir.string());
   const auto detected = dypho::tools::detectCameraName(dir.string());
   ASSERT_TRUE(detected.has_value());
-  const auto cfg = dypho::tools::loadCameraConfig(
-      dypho::tools::resolveCameraConfig(*detected, dypho::tools::defaultConfigDir()));
+  const auto cfg =
+      dypho::tools::loadCameraConfig(dypho::tools::resolveCameraConfig(*detected, dypho::tools::defaultConfigDir()));
   EXPECT_EQ(cfg.name, "synthetic");
   EXPECT_EQ(cfg.camera.width, o.camera.width);
   EXPECT_DOUBLE_EQ(cfg.camera.fx, o.camera.fx);
@@ -153,9 +153,8 @@ TEST(SyntheticWriter, ReadmeRecordsThePeopleOptions) {
   const auto summary = dypho::tools::writeSyntheticDataset(o, dir.string());
   EXPECT_GT(summary.mean_dynamic_fraction, 0.0) << "people in view from frame 0";
   const std::string readme = readText(dir / "README.txt");
-  for (const char* part :
-       {"people=3 walk=towards people_in_view_at_start=true people_distance_m=1.2",
-        "People: walk towards", "all inside the image at frame 0", "from 3.2 m to 1.2 m"}) {
+  for (const char* part : {"people=3 walk=towards people_in_view_at_start=true people_distance_m=1.2",
+                           "People: walk towards", "all inside the image at frame 0", "from 3.2 m to 1.2 m"}) {
     EXPECT_NE(readme.find(part), std::string::npos) << "'" << part << "' missing in:\n" << readme;
   }
   fs::remove_all(dir);

@@ -73,8 +73,7 @@ void expectDatasetError(Fn fn, const std::string& needle) {
     fn();
     ADD_FAILURE() << "no DatasetError (expected one mentioning '" << needle << "')";
   } catch (const DatasetError& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos)
-        << "'" << needle << "' not in: " << e.what();
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << "'" << needle << "' not in: " << e.what();
   } catch (const std::exception& e) {
     ADD_FAILURE() << "wrong exception type: " << e.what();
   }
@@ -82,8 +81,7 @@ void expectDatasetError(Fn fn, const std::string& needle) {
 
 /// Straightforward re-implementation of TUM associate.py (all pairs, sort, greedy) as reference.
 std::vector<std::pair<std::size_t, std::size_t>> referenceAssociate(const std::vector<double>& a,
-                                                                    const std::vector<double>& b,
-                                                                    double max_dt) {
+                                                                    const std::vector<double>& b, double max_dt) {
   std::vector<std::tuple<double, double, double, std::size_t, std::size_t>> cand;
   for (std::size_t i = 0; i < a.size(); ++i)
     for (std::size_t j = 0; j < b.size(); ++j)
@@ -103,8 +101,7 @@ std::vector<std::pair<std::size_t, std::size_t>> referenceAssociate(const std::v
 
 bool sharedDataPresent() {
   if (fs::is_directory(kDataDir)) return true;
-  std::printf("skipping: shared data folder %s is absent (set DYPHO_SHARED_DIR at configure time)\n",
-              kDataDir.c_str());
+  std::printf("skipping: shared data folder %s is absent (set DYPHO_SHARED_DIR at configure time)\n", kDataDir.c_str());
   return false;
 }
 
@@ -277,8 +274,8 @@ TEST(TumDataset, RealTumFr1) {
     EXPECT_LE(hi, 10.0f);
     std::nth_element(valid.begin(), valid.begin() + valid.size() / 2, valid.end());
     const float median = valid[valid.size() / 2];
-    std::printf("fr1 frame %zu: %zu valid depth px, median %.3f m, range %.3f..%.3f m\n", i, valid.size(),
-                median, lo, hi);
+    std::printf("fr1 frame %zu: %zu valid depth px, median %.3f m, range %.3f..%.3f m\n", i, valid.size(), median, lo,
+                hi);
     EXPECT_GT(median, 0.5f);
     EXPECT_LT(median, 4.0f);
   }

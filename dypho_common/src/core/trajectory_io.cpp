@@ -29,21 +29,19 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path) {
     for (double& x : v) {
       if (!(ss >> x)) {
         throw std::runtime_error(path + ":" + std::to_string(line_no) +
-                                 ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw', got '" +
-                                 line + "'");
+                                 ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw', got '" + line + "'");
       }
     }
     std::string rest;
     if (ss >> rest) {
-      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": unexpected extra text '" +
-                               rest + "' after 8 numbers");
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": unexpected extra text '" + rest +
+                               "' after 8 numbers");
     }
     bool finite = true;
     for (double x : v) finite = finite && std::isfinite(x);
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     if (!finite || q.norm() < 1e-9) {
-      throw std::runtime_error(path + ":" + std::to_string(line_no) +
-                               ": non-finite value or zero quaternion");
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": non-finite value or zero quaternion");
     }
     StampedPose p;
     p.stamp_s = v[0];
@@ -62,8 +60,8 @@ void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>&
       Eigen::Quaterniond q(p.T_world_camera.rotation());
       if (q.w() < 0) q.coeffs() *= -1.0;
       const Eigen::Vector3d t = p.T_world_camera.translation();
-      std::snprintf(buf, sizeof(buf), "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", p.stamp_s, t.x(),
-                    t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+      std::snprintf(buf, sizeof(buf), "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", p.stamp_s, t.x(), t.y(), t.z(),
+                    q.x(), q.y(), q.z(), q.w());
       out << buf;
     }
   });

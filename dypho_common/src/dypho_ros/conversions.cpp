@@ -23,10 +23,9 @@ CameraIntrinsics toCameraIntrinsics(const sensor_msgs::CameraInfo& info) {
   camera.width = static_cast<int>(info.width);
   camera.height = static_cast<int>(info.height);
   if (!camera.valid()) {
-    throw ConversionError(
-        "camera_info has no calibration (K = [" + std::to_string(info.K[0]) + ", ...], size " +
-        std::to_string(info.width) + "x" + std::to_string(info.height) +
-        "): calibrate the camera or publish a CameraInfo with K, width and height set");
+    throw ConversionError("camera_info has no calibration (K = [" + std::to_string(info.K[0]) + ", ...], size " +
+                          std::to_string(info.width) + "x" + std::to_string(info.height) +
+                          "): calibrate the camera or publish a CameraInfo with K, width and height set");
   }
   const std::string& model = info.distortion_model;
   if (!model.empty() && model != "plumb_bob" && model != "rational_polynomial") {
@@ -37,8 +36,9 @@ CameraIntrinsics toCameraIntrinsics(const sensor_msgs::CameraInfo& info) {
   // accepted only when they are zero (then it is plumb_bob), never cut off silently.
   for (std::size_t i = camera.distortion.size(); i < info.D.size(); ++i) {
     if (info.D[i] != 0.0) {
-      throw ConversionError("camera_info distortion_model '" + model + "' has D[" + std::to_string(i) + "] = " +
-                            std::to_string(info.D[i]) + "; only the plumb_bob coefficients k1 k2 p1 p2 k3 are "
+      throw ConversionError("camera_info distortion_model '" + model + "' has D[" + std::to_string(i) +
+                            "] = " + std::to_string(info.D[i]) +
+                            "; only the plumb_bob coefficients k1 k2 p1 p2 k3 are "
                             "supported: publish rectified images (image_proc) or a plumb_bob calibration");
     }
   }
@@ -48,8 +48,7 @@ CameraIntrinsics toCameraIntrinsics(const sensor_msgs::CameraInfo& info) {
   return camera;
 }
 
-sensor_msgs::CameraInfo toCameraInfoMsg(const CameraIntrinsics& camera,
-                                        const std_msgs::Header& header) {
+sensor_msgs::CameraInfo toCameraInfoMsg(const CameraIntrinsics& camera, const std_msgs::Header& header) {
   sensor_msgs::CameraInfo info;
   info.header = header;
   info.width = static_cast<std::uint32_t>(camera.width);
@@ -91,8 +90,7 @@ cv::Mat toDepthMetres(const sensor_msgs::Image& image) {
 
 cv::Mat toMask(const sensor_msgs::Image& image) {
   if (image.encoding != enc::MONO8 && image.encoding != enc::TYPE_8UC1) {
-    throw ConversionError("mask has encoding '" + image.encoding +
-                          "'; expected mono8 with 255 = dynamic, 0 = static");
+    throw ConversionError("mask has encoding '" + image.encoding + "'; expected mono8 with 255 = dynamic, 0 = static");
   }
   return cv_bridge::toCvCopy(image, enc::MONO8)->image;
 }
@@ -105,22 +103,19 @@ RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& d
   frame.bgr = toBgr(rgb);
   frame.depth_m = toDepthMetres(depth);
   if (frame.bgr.size() != frame.depth_m.size()) {
-    throw ConversionError("rgb is " + std::to_string(rgb.width) + "x" + std::to_string(rgb.height) +
-                          " but depth is " + std::to_string(depth.width) + "x" +
-                          std::to_string(depth.height) +
+    throw ConversionError("rgb is " + std::to_string(rgb.width) + "x" + std::to_string(rgb.height) + " but depth is " +
+                          std::to_string(depth.width) + "x" + std::to_string(depth.height) +
                           ": use a depth image registered to the colour camera");
   }
   if (frame.bgr.cols != frame.camera.width || frame.bgr.rows != frame.camera.height) {
-    throw ConversionError("camera_info says " + std::to_string(info.width) + "x" +
-                          std::to_string(info.height) + " but the images are " +
-                          std::to_string(rgb.width) + "x" + std::to_string(rgb.height) +
+    throw ConversionError("camera_info says " + std::to_string(info.width) + "x" + std::to_string(info.height) +
+                          " but the images are " + std::to_string(rgb.width) + "x" + std::to_string(rgb.height) +
                           ": the camera_info topic does not belong to this image");
   }
   return frame;
 }
 
-sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding,
-                                 const std_msgs::Header& header) {
+sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding, const std_msgs::Header& header) {
   return cv_bridge::CvImage(header, encoding, image).toImageMsg();  // one copy, into the message
 }
 
@@ -138,8 +133,7 @@ geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T) {
 }
 
 Eigen::Isometry3d toIsometry(const geometry_msgs::Pose& pose) {
-  Eigen::Quaterniond q(pose.orientation.w, pose.orientation.x, pose.orientation.y,
-                       pose.orientation.z);
+  Eigen::Quaterniond q(pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   if (!(q.norm() > 1e-9)) {
     // A zero (or NaN) quaternion is no rotation: the pose is marked non-finite, which every
@@ -170,9 +164,8 @@ dypho_slam::KeyframePtr toKeyframeMsg(const Keyframe& keyframe, const std::strin
   // Each image is copied once, straight into the message's buffer.
   cv_bridge::CvImage(header, enc::BGR8, keyframe.frame.bgr).toImageMsg(msg->rgb);
   cv_bridge::CvImage(header, enc::TYPE_32FC1, keyframe.frame.depth_m).toImageMsg(msg->depth);
-  const cv::Mat mask = keyframe.mask.empty()
-                           ? cv::Mat(keyframe.frame.bgr.size(), CV_8UC1, cv::Scalar(kMaskStatic))
-                           : keyframe.mask;
+  const cv::Mat mask =
+      keyframe.mask.empty() ? cv::Mat(keyframe.frame.bgr.size(), CV_8UC1, cv::Scalar(kMaskStatic)) : keyframe.mask;
   cv_bridge::CvImage(header, enc::MONO8, mask).toImageMsg(msg->mask);
   msg->camera_info = toCameraInfoMsg(keyframe.frame.camera, header);
   msg->T_world_camera = toPoseMsg(keyframe.T_world_camera);
@@ -214,8 +207,7 @@ PoseUpdate toPoseUpdate(const dypho_slam::TrackingStatus& status) {
   update.restarted = status.restarted;
   const Eigen::Isometry3d T_correction = toIsometry(status.T_correction);
   // A message without the field (all zeros: no valid rotation) or a broken one: no correction.
-  const bool valid = T_correction.matrix().allFinite() &&
-                     std::abs(T_correction.linear().determinant() - 1.0) < 1e-3;
+  const bool valid = T_correction.matrix().allFinite() && std::abs(T_correction.linear().determinant() - 1.0) < 1e-3;
   update.T_correction = valid ? T_correction : Eigen::Isometry3d::Identity();
   return update;
 }
@@ -244,7 +236,8 @@ KeyframePoseCorrections toCorrections(const dypho_slam::KeyframeCorrections& msg
   return corrections;
 }
 
-sensor_msgs::PointCloud2Ptr toPointCloudMsg(const std::vector<cv::Point3f>& p_camera_m, const std_msgs::Header& header) {
+sensor_msgs::PointCloud2Ptr toPointCloudMsg(const std::vector<cv::Point3f>& p_camera_m,
+                                            const std_msgs::Header& header) {
   auto msg = boost::make_shared<sensor_msgs::PointCloud2>();
   msg->header = header;
   sensor_msgs::PointCloud2Modifier modifier(*msg);

@@ -50,8 +50,7 @@ RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& d
                       const sensor_msgs::CameraInfo& info);
 
 /// Image message sharing nothing with the input (deep copy) with the given encoding.
-sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding,
-                                 const std_msgs::Header& header);
+sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding, const std_msgs::Header& header);
 
 /// Pose conversions.
 geometry_msgs::Pose toPoseMsg(const Eigen::Isometry3d& T);

@@ -35,8 +35,8 @@ inline bool startOrStayIdle(const std::string& name, const std::function<void()>
     start();
     return true;
   } catch (const std::exception& e) {
-    ROS_FATAL_STREAM_NAMED(name, "not started: " << e.what()
-                                                         << " (this nodelet stays idle; fix the configuration and restart it)");
+    ROS_FATAL_STREAM_NAMED(
+        name, "not started: " << e.what() << " (this nodelet stays idle; fix the configuration and restart it)");
     return false;
   }
 }

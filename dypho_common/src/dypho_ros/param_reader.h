@@ -59,8 +59,8 @@ class RosParamReader {
       if (known_.count(key) == 0) unknown += " " + key;
     }
     if (!unknown.empty()) {
-      throw std::invalid_argument("unknown private parameter(s) in " + pnh_.getNamespace() + ":" +
-                                  unknown + " (typo? see config/*.yaml for the valid keys)");
+      throw std::invalid_argument("unknown private parameter(s) in " + pnh_.getNamespace() + ":" + unknown +
+                                  " (typo? see config/*.yaml for the valid keys)");
     }
   }
 
@@ -75,7 +75,8 @@ class RosParamReader {
     if (!pnh_.hasParam(key)) return;
     V v = value;
     if (!pnh_.getParam(key, v)) {
-      throw std::invalid_argument("~" + key + " has a value of the wrong type (check config/*.yaml and the launch file)");
+      throw std::invalid_argument("~" + key +
+                                  " has a value of the wrong type (check config/*.yaml and the launch file)");
     }
     value = v;
   }

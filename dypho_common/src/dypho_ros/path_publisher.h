@@ -23,7 +23,8 @@ class ThrottledPathPublisher {
       : max_poses_(static_cast<std::size_t>(max_poses)) {
     path_.header.frame_id = frame_id;
     pub_ = nh.advertise<nav_msgs::Path>(topic, 2, true);
-    timer_ = nh.createWallTimer(ros::WallDuration(period_s), [this](const ros::WallTimerEvent&) { publishIfChanged(); });
+    timer_ =
+        nh.createWallTimer(ros::WallDuration(period_s), [this](const ros::WallTimerEvent&) { publishIfChanged(); });
   }
   ~ThrottledPathPublisher() { timer_.stop(); }
   ThrottledPathPublisher(const ThrottledPathPublisher&) = delete;

@@ -17,12 +17,11 @@ class SyncWatchdog {
   /// `timeout_s` seconds while no set was received. `topics` are the resolved topic names;
   /// `has_approx_sync`: the nodelet has an ~approx_sync parameter to suggest (else only
   /// ~queue_size is suggested).
-  SyncWatchdog(ros::NodeHandle& nh, const std::string& name, std::vector<std::string> topics,
-               double timeout_s, bool has_approx_sync)
+  SyncWatchdog(ros::NodeHandle& nh, const std::string& name, std::vector<std::string> topics, double timeout_s,
+               bool has_approx_sync)
       : name_(name), topics_(std::move(topics)), timeout_s_(timeout_s), has_approx_sync_(has_approx_sync) {
     if (timeout_s_ > 0.0) {
-      timer_ = nh.createWallTimer(ros::WallDuration(timeout_s_),
-                                  [this](const ros::WallTimerEvent&) { check(); });
+      timer_ = nh.createWallTimer(ros::WallDuration(timeout_s_), [this](const ros::WallTimerEvent&) { check(); });
     }
   }
 
@@ -35,8 +34,7 @@ class SyncWatchdog {
     if (last_ns > 0 && (ros::WallTime::now().toNSec() - last_ns) * 1e-9 < timeout_s_) return;
     std::string list;
     for (const auto& t : topics_) list += "\n  " + t;
-    ROS_WARN_STREAM("[" << name_ << "] no synchronised input for " << timeout_s_
-                        << " s. Waiting for:" << list
+    ROS_WARN_STREAM("[" << name_ << "] no synchronised input for " << timeout_s_ << " s. Waiting for:" << list
                         << "\nCheck the topics with 'rostopic hz', the remaps in the launch file, "
                         << (has_approx_sync_ ? "and raise ~queue_size or set ~approx_sync true if stamps differ."
                                              : "and raise ~queue_size if the stamps of the inputs differ a lot."));

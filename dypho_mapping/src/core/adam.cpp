@@ -30,7 +30,8 @@ AdamStepSizes Adam::nextStep() {
   ++steps_;
   float c1 = 1.f, c2 = 1.f;
   adamBiasCorrections(steps_, c1, c2);
-  const double lr[kNumGaussianParams] = {rates_.position, rates_.log_scale, rates_.rotation, rates_.opacity, rates_.sh_dc};
+  const double lr[kNumGaussianParams] = {rates_.position, rates_.log_scale, rates_.rotation, rates_.opacity,
+                                         rates_.sh_dc};
   AdamStepSizes s;
   static_assert(kNumGaussianParams == 5, "AdamStepSizes holds five blocks");
   for (int p = 0; p < kNumGaussianParams; ++p) s.step[p] = static_cast<float>(lr[p]) / c1;

@@ -5,9 +5,7 @@
 namespace dypho {
 namespace mapping {
 
-const char* toString(ComputeDevice device) {
-  return device == ComputeDevice::kCuda ? "cuda" : "cpu";
-}
+const char* toString(ComputeDevice device) { return device == ComputeDevice::kCuda ? "cuda" : "cpu"; }
 
 #ifdef DYPHO_HAVE_CUDA
 bool builtWithCuda() { return true; }
@@ -17,8 +15,9 @@ bool builtWithCuda() { return false; }
 
 int cudaDeviceCount(std::string* reason) {
   if (reason != nullptr) {
-    *reason = "dypho_mapping was built without CUDA (no nvcc found at configure time, or "
-              "DYPHO_WITH_CUDA=OFF)";
+    *reason =
+        "dypho_mapping was built without CUDA (no nvcc found at configure time, or "
+        "DYPHO_WITH_CUDA=OFF)";
   }
   return 0;
 }

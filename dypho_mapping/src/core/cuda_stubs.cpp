@@ -17,7 +17,9 @@ void CudaRasterizer::forward(const GaussianParamsView<float>&, const gs::Pinhole
 void CudaRasterizer::setParams(const GaussianParamsView<float>&) {}
 void CudaRasterizer::forwardUploaded(const gs::PinholeView<float>&, RenderResult<float>&) {}
 void CudaRasterizer::backward(const PixelGrads<float>&, GaussianGrads<float>&) {}
-DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>&, const gs::PinholeView<float>&) { return {}; }
+DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>&, const gs::PinholeView<float>&) {
+  return {};
+}
 DeviceGrads CudaRasterizer::backwardOnDevice(const PixelGrads<float>&, float*) { return {}; }
 std::size_t CudaRasterizer::numTileEntries() const { return 0; }
 std::size_t CudaRasterizer::numVisible() const { return 0; }

@@ -73,7 +73,10 @@ std::size_t GaussianMap::transformAnchored(std::int64_t keyframe_id, const Eigen
     p = R * p + t;
     float* q = &params_[kParamRotation][4 * i];
     const Eigen::Quaternionf qn = qR * Eigen::Quaternionf(q[0], q[1], q[2], q[3]);
-    q[0] = qn.w(); q[1] = qn.x(); q[2] = qn.y(); q[3] = qn.z();
+    q[0] = qn.w();
+    q[1] = qn.x();
+    q[2] = qn.y();
+    q[3] = qn.z();
     if (sh_degree_ > 0) gs::rotateSh(sh_rot, sh_degree_, &params_[kParamSh][sh_width * i]);
     ++moved;
   }

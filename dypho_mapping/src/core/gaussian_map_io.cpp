@@ -26,7 +26,8 @@ std::vector<GaussianCentre> gaussianCentres(const GaussianMap& m) {
 }
 
 void saveGaussianPly(const std::string& path, const GaussianMap& map) {
-  writeFileAtomically(path, [&](std::ostream& os) { writeGaussianPly(os, map); }, true);
+  writeFileAtomically(
+      path, [&](std::ostream& os) { writeGaussianPly(os, map); }, true);
 }
 
 GaussianMap loadGaussianPly(const std::string& path, int sh_degree, std::size_t capacity, std::string* note) {
@@ -36,16 +37,20 @@ GaussianMap loadGaussianPly(const std::string& path, int sh_degree, std::size_t 
 }
 
 void saveCentresPcd(const std::string& path, const std::vector<GaussianCentre>& pts) {
-  writeFileAtomically(path, [&](std::ostream& os) {
-    os << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\n"
-       << "TYPE F F F U\nCOUNT 1 1 1 1\nWIDTH " << pts.size() << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
-       << pts.size() << "\nDATA binary\n";
-    for (const auto& p : pts) {
-      const std::uint32_t rgb = (static_cast<std::uint32_t>(p.r) << 16) | (static_cast<std::uint32_t>(p.g) << 8) | p.b;
-      os.write(reinterpret_cast<const char*>(&p.x), 12);
-      os.write(reinterpret_cast<const char*>(&rgb), 4);
-    }
-  }, true);
+  writeFileAtomically(
+      path,
+      [&](std::ostream& os) {
+        os << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\n"
+           << "TYPE F F F U\nCOUNT 1 1 1 1\nWIDTH " << pts.size() << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS "
+           << pts.size() << "\nDATA binary\n";
+        for (const auto& p : pts) {
+          const std::uint32_t rgb =
+              (static_cast<std::uint32_t>(p.r) << 16) | (static_cast<std::uint32_t>(p.g) << 8) | p.b;
+          os.write(reinterpret_cast<const char*>(&p.x), 12);
+          os.write(reinterpret_cast<const char*>(&rgb), 4);
+        }
+      },
+      true);
 }
 
 }  // namespace dypho::mapping

@@ -214,7 +214,7 @@ double GaussianMapper::finish(std::optional<double> budget_s) {
   const auto within_budget = [&] {
     return !budget_s || std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < *budget_s;
   };
-  idle_paused_ = true;  // the refinement below replaces the idle training
+  idle_paused_ = true;          // the refinement below replaces the idle training
   if (budget_s) hurry_ = true;  // queued keyframes: added to the map, not trained
   waitUntilIdle();
   hurry_ = false;

@@ -33,14 +33,17 @@ void GaussianMapperOptions::validate() const {
   require(ssim_weight >= 0, "ssim_weight", ">= 0");
   require(lr_exposure >= 0, "lr_exposure", ">= 0");
   require(global_sample_ratio >= 0 && global_sample_ratio <= 1, "global_sample_ratio", "in [0, 1]");
-  require(valid_min_depth_m >= 0 && valid_max_depth_m > valid_min_depth_m, "valid_min_depth_m/valid_max_depth_m", ">= 0 and max > min");
+  require(valid_min_depth_m >= 0 && valid_max_depth_m > valid_min_depth_m, "valid_min_depth_m/valid_max_depth_m",
+          ">= 0 and max > min");
   require(initial_opacity > 0 && initial_opacity < 1, "initial_opacity", "in (0, 1)");
   require(feature_samples >= 0, "feature_samples", ">= 0");
   require(feature_sample_radius_px > 0, "feature_sample_radius_px", "> 0");
   require(coverage_stride_px >= 1, "coverage_stride_px", ">= 1");
   require(coverage_alpha_threshold >= 0 && coverage_alpha_threshold <= 1, "coverage_alpha_threshold", "in [0, 1]");
   require(coverage_depth_error_ratio > 0, "coverage_depth_error_ratio", "> 0");
-  require(lr_position >= 0 && lr_log_scale >= 0 && lr_rotation >= 0 && lr_opacity >= 0 && lr_sh_dc >= 0 && lr_sh_rest >= 0, "lr_*", ">= 0");
+  require(
+      lr_position >= 0 && lr_log_scale >= 0 && lr_rotation >= 0 && lr_opacity >= 0 && lr_sh_dc >= 0 && lr_sh_rest >= 0,
+      "lr_*", ">= 0");
   require(densify_interval >= 0, "densify_interval", ">= 0");
   require(densify_grad_threshold > 0, "densify_grad_threshold", "> 0");
   require(densify_scale_threshold_m > 0, "densify_scale_threshold_m", "> 0");

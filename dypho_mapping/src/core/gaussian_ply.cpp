@@ -130,7 +130,8 @@ std::vector<float> readPlyPayload(std::istream& in, std::size_t count, std::size
   in.seekg(data_start);
   if (available < 0 || count > static_cast<std::size_t>(available) / row_bytes) {
     throw loadError(path, "truncated: " + std::to_string(count) + " Gaussians of " + std::to_string(row_bytes) +
-                              " bytes each need more data than the " + std::to_string(available) + " bytes the file has");
+                              " bytes each need more data than the " + std::to_string(available) +
+                              " bytes the file has");
   }
   std::vector<float> data(count * stride);
   in.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(count * row_bytes));
@@ -177,8 +178,15 @@ PlyLoadCounts addPlyRows(const std::vector<float>& data, std::size_t count, std:
 /// What the load changed: SH degree adapted, Gaussians dropped or skipped (empty: nothing).
 std::string plyLoadNote(int file_K, int map_K, int map_degree, std::size_t count, const PlyLoadCounts& n) {
   std::ostringstream os;
-  if (file_K != map_K) os << "SH degree adapted from " << (file_K == 1 ? 0 : file_K == 4 ? 1 : file_K == 9 ? 2 : 3) << " to " << map_degree << "; ";
-  if (n.loaded + n.non_finite < count) os << (count - n.loaded - n.non_finite) << " Gaussians beyond the capacity dropped; ";
+  if (file_K != map_K)
+    os << "SH degree adapted from "
+       << (file_K == 1   ? 0
+           : file_K == 4 ? 1
+           : file_K == 9 ? 2
+                         : 3)
+       << " to " << map_degree << "; ";
+  if (n.loaded + n.non_finite < count)
+    os << (count - n.loaded - n.non_finite) << " Gaussians beyond the capacity dropped; ";
   if (n.non_finite) os << n.non_finite << " Gaussians with non-finite values skipped; ";
   return os.str();
 }

@@ -214,8 +214,9 @@ bool seedUnexplainedNodes(Seeder& seeder, const CoverageGrid& g, const RenderRes
       if (!(d > 0.f)) continue;
       const float dr = a > 1e-3f ? rendered.depth[tv * tw + tu] / a : 0.f;
       // A node without a measurement is unexplained only when nothing is rendered there.
-      const bool unexplained = a < options.coverage_alpha_threshold ||
-                               (!g.filled.at<std::uint8_t>(gv, gu) && std::abs(dr - d) > options.coverage_depth_error_ratio * d);
+      const bool unexplained =
+          a < options.coverage_alpha_threshold ||
+          (!g.filled.at<std::uint8_t>(gv, gu) && std::abs(dr - d) > options.coverage_depth_error_ratio * d);
       if (unexplained) room = seeder.add(u, v, 0.5f * stride, d);
     }
   }
@@ -255,7 +256,8 @@ std::string checkKeyframe(const Keyframe& kf) {
   if (kf.frame.bgr.empty() || kf.frame.bgr.type() != CV_8UC3) return "colour image empty or not CV_8UC3 BGR";
   if (kf.frame.depth_m.empty()) return "depth image is empty";
   if (kf.frame.depth_m.type() != CV_32FC1) return "depth image is not CV_32FC1 metres";
-  if (kf.frame.bgr.cols != cam.width || kf.frame.bgr.rows != cam.height || kf.frame.depth_m.size() != kf.frame.bgr.size()) {
+  if (kf.frame.bgr.cols != cam.width || kf.frame.bgr.rows != cam.height ||
+      kf.frame.depth_m.size() != kf.frame.bgr.size()) {
     return "image sizes differ from each other or from the camera intrinsics";
   }
   if (!kf.mask.empty() && (kf.mask.type() != CV_8UC1 || kf.mask.size() != kf.frame.bgr.size())) {
@@ -287,12 +289,14 @@ AddKeyframeResult GaussianTrainer::integrate(const Keyframe& kf) {
   const cv::Mat& bgr = img.bgr;
   const cv::Mat& mask = img.mask;
   // 2. Valid depth: finite and within range; dynamic pixels excluded everywhere.
-  const float dmin = static_cast<float>(options.valid_min_depth_m), dmax = static_cast<float>(options.valid_max_depth_m);
+  const float dmin = static_cast<float>(options.valid_min_depth_m),
+              dmax = static_cast<float>(options.valid_max_depth_m);
   std::size_t usable = 0;
   const cv::Mat depth_valid = rangeCheckedDepth(img.depth_m, mask, dmin, dmax, usable);
   if (usable == 0) {
     result.message = "keyframe " + std::to_string(kf.id) + " has no static pixel with valid depth in [" +
-                     std::to_string(options.valid_min_depth_m) + ", " + std::to_string(options.valid_max_depth_m) + "] m; skipped";
+                     std::to_string(options.valid_min_depth_m) + ", " + std::to_string(options.valid_max_depth_m) +
+                     "] m; skipped";
     return result;
   }
   // 3. Training-resolution copy.

@@ -112,8 +112,8 @@ struct GaussianTrainer {
   std::string device_fallback;        ///< why training left the GPU (empty: it did not)
   /// Where the training state is current: both, the host only (edited), the device only (trained).
   enum class Current { kBoth, kHost, kDevice } current = Current::kBoth;
-  std::vector<float> target_rgb;      ///< scratch: a keyframe's planar RGB (loss, CudaTrainer::setTarget)
-  std::vector<float> target_depth;    ///< scratch: its depth (continuous rows)
+  std::vector<float> target_rgb;          ///< scratch: a keyframe's planar RGB (loss, CudaTrainer::setTarget)
+  std::vector<float> target_depth;        ///< scratch: its depth (continuous rows)
   std::vector<std::uint8_t> target_mask;  ///< scratch: its static mask
   GaussianMap map;
   ThreadPool pool;
@@ -123,7 +123,7 @@ struct GaussianTrainer {
   std::mt19937 rng;
   std::vector<TrainingKeyframe> keyframes;  ///< insertion order
   std::vector<Undistorter> undistorters;
-  UndistortedRayCache rays;                 ///< distorted-pixel rays for mapping renders back
+  UndistortedRayCache rays;  ///< distorted-pixel rays for mapping renders back
   std::int64_t iterations = 0;
   double last_loss = 0.0;
   std::size_t skipped = 0, capacity_hits = 0;
@@ -132,10 +132,10 @@ struct GaussianTrainer {
   RenderResult<float> train_out, seed_out, view_out;
   GaussianGrads<float> grads;
   std::vector<float> pix_gc, pix_gd, pix_ga;
-  std::vector<std::size_t> sample_all;    ///< scratch: indices of keyframes with images
-  std::vector<std::size_t> refine_order;  ///< keyframes left in the current refinement pass
-  SsimLoss<float> ssim;             ///< structural term of the loss (options.ssim_weight > 0)
-  std::vector<float> shown;         ///< [3, H, W] the colour the loss compares (SSIM term)
+  std::vector<std::size_t> sample_all;                      ///< scratch: indices of keyframes with images
+  std::vector<std::size_t> refine_order;                    ///< keyframes left in the current refinement pass
+  SsimLoss<float> ssim;                                     ///< structural term of the loss (options.ssim_weight > 0)
+  std::vector<float> shown;                                 ///< [3, H, W] the colour the loss compares (SSIM term)
   float exposure_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< dL/d exposure of the last loss
 };
 

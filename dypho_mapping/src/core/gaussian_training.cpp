@@ -68,8 +68,8 @@ void GaussianTrainer::syncToHost() {
 }
 
 void GaussianTrainer::leaveGpu(const std::string& reason) {
-  device_fallback = "CUDA training failed (" + reason +
-                    "); training continues on the CPU from the map as last copied from the GPU";
+  device_fallback =
+      "CUDA training failed (" + reason + "); training continues on the CPU from the map as last copied from the GPU";
   cuda.reset();
   device = ComputeDevice::kCpu;
   current = Current::kBoth;
@@ -105,7 +105,7 @@ double GaussianTrainer::iterateCuda(TrainingKeyframe& kf, bool fixed_exposure) {
 }
 
 void GaussianTrainer::renderPinhole(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& pinhole,
-                                         Rasterizer<float>& r, RenderResult<float>& out) {
+                                    Rasterizer<float>& r, RenderResult<float>& out) {
   r.forward(params(), makePinholeView<float>(T_world_camera, pinhole), out);
 }
 
@@ -161,7 +161,8 @@ double GaussianTrainer::lossAndGradient(const TrainingKeyframe& kf, const Render
                                   static_cast<float>(options.ssim_weight), pix_gc.data());
     loss += options.ssim_weight * (1.0 - s);
     if (L.defer_exposure) {
-      for (std::size_t i = 0; i < npix; ++i) train::exposureChain(static_cast<int>(i), L, shown.data(), pix_gc.data(), sums);
+      for (std::size_t i = 0; i < npix; ++i)
+        train::exposureChain(static_cast<int>(i), L, shown.data(), pix_gc.data(), sums);
     }
   }
   for (int k = 0; k < 6; ++k) exposure_grad[k] = static_cast<float>(sums[3 + k]);
@@ -291,7 +292,8 @@ void GaussianTrainer::densifyAndPrune() {
   // Children are appended in parent order; the first that does not fit ends the pass (the device
   // pass cuts its appended rows at the same place).
   for (std::size_t i = 0; i < n0 && !full; ++i) {
-    const std::uint32_t children = train::densifyChildren(grad_accum[i], grad_count[i], map.data(kParamLogScale) + 3 * i, s);
+    const std::uint32_t children =
+        train::densifyChildren(grad_accum[i], grad_count[i], map.data(kParamLogScale) + 3 * i, s);
     if (children == 1 && map.duplicate(i) < 0) full = true;  // small: clone in place
     if (children != 2) continue;
     for (std::uint32_t k = 0; k < 2 && !full; ++k) {  // large: split into two samples
@@ -310,7 +312,8 @@ void GaussianTrainer::densifyAndPrune() {
   // Prune: transparent, too large or non-finite (new Gaussians included).
   remove.resize(map.size(), 0);
   for (std::size_t i = 0; i < map.size(); ++i) {
-    if (train::isPruned(map.data(kParamLogScale) + 3 * i, map.data(kParamOpacity)[i], map.data(kParamPosition)[3 * i], s)) {
+    if (train::isPruned(map.data(kParamLogScale) + 3 * i, map.data(kParamOpacity)[i], map.data(kParamPosition)[3 * i],
+                        s)) {
       remove[i] = 1;
     }
   }

@@ -19,9 +19,7 @@ namespace dypho {
 namespace mapping {
 namespace {
 
-std::string sizeString(const cv::Mat& m) {
-  return std::to_string(m.cols) + "x" + std::to_string(m.rows);
-}
+std::string sizeString(const cv::Mat& m) { return std::to_string(m.cols) + "x" + std::to_string(m.rows); }
 
 void checkPose(const Eigen::Isometry3d& T, const std::string& what) {
   if (!T.matrix().allFinite()) {
@@ -30,7 +28,8 @@ void checkPose(const Eigen::Isometry3d& T, const std::string& what) {
   const Eigen::Matrix3d R = T.linear();
   const double err = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (err > 1e-4 || R.determinant() < 0.0) {
-    throw std::invalid_argument(what + ": pose T_world_camera is not a rigid transform "
+    throw std::invalid_argument(what +
+                                ": pose T_world_camera is not a rigid transform "
                                 "(rotation not orthonormal, |R^T R - I| = " +
                                 std::to_string(err) + "); re-orthonormalise it");
   }
@@ -53,17 +52,16 @@ void checkKeyframe(const Keyframe& kf) {
     throw std::invalid_argument(what + ": depth must be CV_32FC1 in metres (convert 16UC1 mm first)");
   }
   if (f.depth_m.size() != f.bgr.size()) {
-    throw std::invalid_argument(what + ": depth " + sizeString(f.depth_m) +
-                                " does not match colour " + sizeString(f.bgr));
+    throw std::invalid_argument(what + ": depth " + sizeString(f.depth_m) + " does not match colour " +
+                                sizeString(f.bgr));
   }
   if (!kf.mask.empty() && (kf.mask.type() != CV_8UC1 || kf.mask.size() != f.bgr.size())) {
-    throw std::invalid_argument(what + ": mask must be CV_8UC1 of the colour size " +
-                                sizeString(f.bgr) + ", got " + sizeString(kf.mask));
+    throw std::invalid_argument(what + ": mask must be CV_8UC1 of the colour size " + sizeString(f.bgr) + ", got " +
+                                sizeString(kf.mask));
   }
   if (!f.camera.valid() || f.camera.width != f.bgr.cols || f.camera.height != f.bgr.rows) {
-    throw std::invalid_argument(what + ": camera intrinsics invalid or not for a " +
-                                sizeString(f.bgr) + " image (got " +
-                                std::to_string(f.camera.width) + "x" +
+    throw std::invalid_argument(what + ": camera intrinsics invalid or not for a " + sizeString(f.bgr) +
+                                " image (got " + std::to_string(f.camera.width) + "x" +
                                 std::to_string(f.camera.height) + ")");
   }
 }
@@ -83,8 +81,7 @@ double safeLeaf(const Eigen::Vector4f& min_p, const Eigen::Vector4f& max_p, doub
 
 }  // namespace
 
-KeyframeCloudMap::KeyframeCloudMap(const CloudMapOptions& options)
-    : options_((options.validate(), options)) {}
+KeyframeCloudMap::KeyframeCloudMap(const CloudMapOptions& options) : options_((options.validate(), options)) {}
 
 std::size_t KeyframeCloudMap::addKeyframe(const Keyframe& keyframe) {
   checkKeyframe(keyframe);
@@ -95,8 +92,7 @@ std::size_t KeyframeCloudMap::addKeyframe(const Keyframe& keyframe) {
   const int stride = options_.pixel_stride;
   const float min_d = static_cast<float>(options_.min_depth_m);
   const float max_d = static_cast<float>(options_.max_depth_m);
-  points->reserve(static_cast<std::size_t>((f.bgr.rows / stride + 1) *
-                                                        (f.bgr.cols / stride + 1)));
+  points->reserve(static_cast<std::size_t>((f.bgr.rows / stride + 1) * (f.bgr.cols / stride + 1)));
   for (int v = 0; v < f.bgr.rows; v += stride) {
     const float* depth = f.depth_m.ptr<float>(v);
     const cv::Vec3b* bgr = f.bgr.ptr<cv::Vec3b>(v);
@@ -177,9 +173,8 @@ KeyframeCloudSnapshot::Cloud::Ptr buildCloud(const KeyframeCloudSnapshot& snapsh
     r.coarser_leaf = true;
     r.message = "voxel_size_m " + std::to_string(voxel_size_m) +
                 " would overflow pcl::VoxelGrid's 32-bit indices for a map extent of " +
-                std::to_string(max_p[0] - min_p[0]) + " x " + std::to_string(max_p[1] - min_p[1]) +
-                " x " + std::to_string(max_p[2] - min_p[2]) + " m; used leaf " +
-                std::to_string(r.leaf_size_m) + " m instead";
+                std::to_string(max_p[0] - min_p[0]) + " x " + std::to_string(max_p[1] - min_p[1]) + " x " +
+                std::to_string(max_p[2] - min_p[2]) + " m; used leaf " + std::to_string(r.leaf_size_m) + " m instead";
   }
   Cloud::Ptr filtered(new Cloud);
   pcl::VoxelGrid<pcl::PointXYZRGB> grid;
@@ -195,12 +190,10 @@ void KeyframeCloudMap::savePcd(const std::string& path) const {
   namespace fs = std::filesystem;
   const std::string prefix = "KeyframeCloudMap::savePcd('" + path + "'): ";
   if (path.empty()) throw std::runtime_error(prefix + "empty path");
-  const fs::path folder = fs::path(path).parent_path().empty() ? fs::path(".")
-                                                              : fs::path(path).parent_path();
+  const fs::path folder = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
-    throw std::runtime_error(prefix + "folder '" + folder.string() +
-                             "' does not exist (create it first)");
+    throw std::runtime_error(prefix + "folder '" + folder.string() + "' does not exist (create it first)");
   }
   const Cloud::Ptr cloud = buildCloud();
   const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." +
@@ -214,8 +207,8 @@ void KeyframeCloudMap::savePcd(const std::string& path) const {
   }
   if (rc != 0) {
     std::remove(tmp.c_str());
-    throw std::runtime_error(prefix + "writing the temporary file '" + tmp +
-                             "' failed (folder writable? disk full?) " + detail);
+    throw std::runtime_error(prefix + "writing the temporary file '" + tmp + "' failed (folder writable? disk full?) " +
+                             detail);
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());

@@ -75,7 +75,8 @@ RenderedView MapRenderer::renderImpl(const GaussianMap& map, const std::shared_p
     float* a = view.alpha.ptr<float>(v);
     for (int u = 0; u < r.width; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * r.width + u;
-      for (int ch = 0; ch < 3; ++ch) c[u][2 - ch] = cv::saturate_cast<std::uint8_t>(r.color[ch * npix + i] * 255.f + 0.5f);
+      for (int ch = 0; ch < 3; ++ch)
+        c[u][2 - ch] = cv::saturate_cast<std::uint8_t>(r.color[ch * npix + i] * 255.f + 0.5f);
       a[u] = r.alpha[i];
       d[u] = r.alpha[i] >= 0.5f ? r.depth[i] / r.alpha[i] : 0.f;
     }
@@ -88,7 +89,8 @@ RenderedView MapRenderer::renderImpl(const GaussianMap& map, const std::shared_p
     const cv::Vec2f* ray = rays->ptr<cv::Vec2f>(v);
     cv::Vec2f* m = map_px.ptr<cv::Vec2f>(v);
     for (int u = 0; u < camera.width; ++u)
-      m[u] = cv::Vec2f(static_cast<float>(camera.fx * ray[u][0] + camera.cx), static_cast<float>(camera.fy * ray[u][1] + camera.cy));
+      m[u] = cv::Vec2f(static_cast<float>(camera.fx * ray[u][0] + camera.cx),
+                       static_cast<float>(camera.fy * ray[u][1] + camera.cy));
   }
   RenderedView distorted;
   cv::remap(view.bgr, distorted.bgr, map_px, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);

@@ -142,9 +142,7 @@ KeyframeEvaluation MappingStage::writeEvaluation(const std::string& dir) {
   return eval;
 }
 
-std::size_t MappingStage::loadMap(const std::string& path, std::string* note) {
-  return gaussians_.loadPly(path, note);
-}
+std::size_t MappingStage::loadMap(const std::string& path, std::string* note) { return gaussians_.loadPly(path, note); }
 
 void MappingStage::reset() {
   gaussians_.reset();

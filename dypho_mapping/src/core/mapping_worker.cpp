@@ -27,7 +27,8 @@ bool MappingWorker::push(MappingJob job, bool block_when_full) {
       cv_.wait(lock, [&] { return stop_ || queue_.size() < capacity_; });
       if (stop_) return false;
     } else if (queue_.size() >= capacity_ && job.keyframe) {
-      const auto oldest = std::find_if(queue_.begin(), queue_.end(), [](const MappingJob& j) { return j.keyframe != nullptr; });
+      const auto oldest =
+          std::find_if(queue_.begin(), queue_.end(), [](const MappingJob& j) { return j.keyframe != nullptr; });
       if (oldest != queue_.end()) {
         if (oldest->corrections.empty()) {
           queue_.erase(oldest);
@@ -104,12 +105,8 @@ void MappingWorker::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-std::size_t MappingWorker::queued() const {
-  return queued_;
-}
+std::size_t MappingWorker::queued() const { return queued_; }
 
-std::size_t MappingWorker::dropped() const {
-  return dropped_;
-}
+std::size_t MappingWorker::dropped() const { return dropped_; }
 
 }  // namespace dypho::mapping

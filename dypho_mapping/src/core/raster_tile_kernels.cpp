@@ -41,8 +41,8 @@ void forEachTileRow(int tx0, int ty0, int tx1, int ty1, int image_width, CopyRow
 template <typename T>
 struct BackwardTileState {
   /// Transmittance, and colour / depth / alpha accumulated behind the current Gaussian.
-  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels],
-      BD[gs::kTilePixels], BA[gs::kTilePixels];
+  alignas(64) T Tc[gs::kTilePixels], Br[gs::kTilePixels], Bg[gs::kTilePixels], Bb[gs::kTilePixels], BD[gs::kTilePixels],
+      BA[gs::kTilePixels];
   /// Loss gradients w.r.t. the pixel's colour, depth and alpha (zero where none is given).
   alignas(64) T gR[gs::kTilePixels], gG[gs::kTilePixels], gB[gs::kTilePixels], gD[gs::kTilePixels], gA[gs::kTilePixels];
   alignas(64) std::uint32_t last[gs::kTilePixels];  ///< one past the last entry the pixel used
@@ -110,32 +110,32 @@ void backwardGaussianInTile(const PackedGaussian<T>& p, std::uint32_t k, int tx0
     // transmittance and its accumulators unchanged and contributes nothing.
     for (int xb = xb0; xb < xb1; xb += 8)
 #pragma omp simd
-    for (int j = 0; j < 8; ++j) {
-      const int x = xb + j;
-      const int i = row + x;
-      const T dx = mu0 - T(x);
-      const T power = gs::conicPower(a, bdy, row_term, dx);
-      const gs::PixelLossGrad<T> lg{st.gR[i], st.gG[i], st.gB[i], st.gD[i], st.gA[i]};
-      gs::BackwardPixel<T> px{st.Tc[i], st.Br[i], st.Bg[i], st.Bb[i], st.BD[i], st.BA[i]};
-      const gs::ScreenGrad<T> s =
-          gs::blendBackwardStep(p, dx, dy, power, k < st.last[i] ? T(1) : T(0), min_alpha, lg, px);
-      st.Tc[i] = px.transmittance;
-      st.Br[i] = px.behind_r;
-      st.Bg[i] = px.behind_g;
-      st.Bb[i] = px.behind_b;
-      st.BD[i] = px.behind_depth;
-      st.BA[i] = px.behind_alpha;
-      l_mu[j] += s.mean_u;
-      l_mv[j] += s.mean_v;
-      l_a[j] += s.conic_a;
-      l_b[j] += s.conic_b;
-      l_c[j] += s.conic_c;
-      l_o[j] += s.opacity;
-      l_c0[j] += s.color[0];
-      l_c1[j] += s.color[1];
-      l_c2[j] += s.color[2];
-      l_d[j] += s.depth;
-    }
+      for (int j = 0; j < 8; ++j) {
+        const int x = xb + j;
+        const int i = row + x;
+        const T dx = mu0 - T(x);
+        const T power = gs::conicPower(a, bdy, row_term, dx);
+        const gs::PixelLossGrad<T> lg{st.gR[i], st.gG[i], st.gB[i], st.gD[i], st.gA[i]};
+        gs::BackwardPixel<T> px{st.Tc[i], st.Br[i], st.Bg[i], st.Bb[i], st.BD[i], st.BA[i]};
+        const gs::ScreenGrad<T> s =
+            gs::blendBackwardStep(p, dx, dy, power, k < st.last[i] ? T(1) : T(0), min_alpha, lg, px);
+        st.Tc[i] = px.transmittance;
+        st.Br[i] = px.behind_r;
+        st.Bg[i] = px.behind_g;
+        st.Bb[i] = px.behind_b;
+        st.BD[i] = px.behind_depth;
+        st.BA[i] = px.behind_alpha;
+        l_mu[j] += s.mean_u;
+        l_mv[j] += s.mean_v;
+        l_a[j] += s.conic_a;
+        l_b[j] += s.conic_b;
+        l_c[j] += s.conic_c;
+        l_o[j] += s.opacity;
+        l_c0[j] += s.color[0];
+        l_c1[j] += s.color[1];
+        l_c2[j] += s.color[2];
+        l_d[j] += s.depth;
+      }
   }
 }
 
@@ -199,18 +199,18 @@ void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& ou
       const int row = (py - ty0) * S;
       for (int xb = xb0; xb < xb1; xb += 8)
 #pragma omp simd
-      for (int x = xb; x < xb + 8; ++x) {
-        const int i = row + x;
-        const T dx = mu0 - T(x);
-        const T power = gs::conicPower(a, bdy, row_term, dx);
-        const gs::ForwardStep<T> step = gs::blendForwardStep(power, o, live[i], min_alpha, min_T, Tr[i]);
-        Cr[i] += step.weight * c0;
-        Cg[i] += step.weight * c1;
-        Cb[i] += step.weight * c2;
-        D[i] += step.weight * dep;
-        last[i] = step.use > T(0) ? k + 1 : last[i];
-        live[i] -= step.stop;
-      }
+        for (int x = xb; x < xb + 8; ++x) {
+          const int i = row + x;
+          const T dx = mu0 - T(x);
+          const T power = gs::conicPower(a, bdy, row_term, dx);
+          const gs::ForwardStep<T> step = gs::blendForwardStep(power, o, live[i], min_alpha, min_T, Tr[i]);
+          Cr[i] += step.weight * c0;
+          Cg[i] += step.weight * c1;
+          Cb[i] += step.weight * c2;
+          D[i] += step.weight * dep;
+          last[i] = step.use > T(0) ? k + 1 : last[i];
+          live[i] -= step.stop;
+        }
     }
     if (((k - begin) & 31) == 31) {
       T any = T(0);
@@ -269,6 +269,7 @@ void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& 
 template void forwardTile<float>(const TileLists<float>&, int, const ForwardImages<float>&);
 template void forwardTile<double>(const TileLists<double>&, int, const ForwardImages<double>&);
 template void backwardTile<float>(const TileLists<float>&, int, const BackwardInputs<float>&, gs::ScreenGrad<float>*);
-template void backwardTile<double>(const TileLists<double>&, int, const BackwardInputs<double>&, gs::ScreenGrad<double>*);
+template void backwardTile<double>(const TileLists<double>&, int, const BackwardInputs<double>&,
+                                   gs::ScreenGrad<double>*);
 
 }  // namespace dypho::mapping::raster::DYPHO_RASTER_ISA

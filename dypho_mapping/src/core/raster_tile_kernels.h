@@ -7,13 +7,12 @@
 
 namespace dypho::mapping::raster {
 
-#define DYPHO_DECLARE_TILE_KERNELS(ISA)                                                            \
-  namespace ISA {                                                                                  \
-  template <typename T>                                                                            \
-  void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& out);             \
-  template <typename T>                                                                            \
-  void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& in,              \
-                    gs::ScreenGrad<T>* acc);                                                       \
+#define DYPHO_DECLARE_TILE_KERNELS(ISA)                                                                        \
+  namespace ISA {                                                                                              \
+  template <typename T>                                                                                        \
+  void forwardTile(const TileLists<T>& lists, int tile, const ForwardImages<T>& out);                          \
+  template <typename T>                                                                                        \
+  void backwardTile(const TileLists<T>& lists, int tile, const BackwardInputs<T>& in, gs::ScreenGrad<T>* acc); \
   }
 DYPHO_DECLARE_TILE_KERNELS(generic)
 DYPHO_DECLARE_TILE_KERNELS(avx2)

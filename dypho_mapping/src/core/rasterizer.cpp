@@ -16,9 +16,12 @@ namespace dypho::mapping {
 
 const char* rasterIsaName(RasterIsa isa) {
   switch (isa) {
-    case RasterIsa::kAuto: return "auto";
-    case RasterIsa::kGeneric: return "generic";
-    case RasterIsa::kAvx2: return "avx2";
+    case RasterIsa::kAuto:
+      return "auto";
+    case RasterIsa::kGeneric:
+      return "generic";
+    case RasterIsa::kAvx2:
+      return "avx2";
   }
   return "unknown";
 }
@@ -96,9 +99,9 @@ void Rasterizer<T>::preprocess() {
       visible_[i] = 0;
       if (may[i - begin] == T(0)) continue;
       gs::Projected<T> pr;
-      if (!gs::projectGaussian(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
-                               params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
-                               params_.sh_degree, radius_sigma, min_alpha, pr)) {
+      if (!gs::projectGaussian(view_, params_.position + 3 * i, params_.log_scale + 3 * i, params_.rotation + 4 * i,
+                               params_.opacity_logit[i], params_.sh + K3 * i, params_.sh_degree, radius_sigma,
+                               min_alpha, pr)) {
         continue;
       }
       visible_[i] = gs::packProjected(pr, width, height, tiles_x_, tiles_y_, packed_[i]) ? 1 : 0;

@@ -30,7 +30,8 @@ void zeroGradRows(int begin, int end, int K3, GaussianGrads<T>& out) {
   std::fill(out.log_scale.begin() + 3 * begin, out.log_scale.begin() + 3 * end, T(0));
   std::fill(out.rotation.begin() + 4 * begin, out.rotation.begin() + 4 * end, T(0));
   std::fill(out.opacity_logit.begin() + begin, out.opacity_logit.begin() + end, T(0));
-  std::fill(out.sh.begin() + static_cast<std::size_t>(K3) * begin, out.sh.begin() + static_cast<std::size_t>(K3) * end, T(0));
+  std::fill(out.sh.begin() + static_cast<std::size_t>(K3) * begin, out.sh.begin() + static_cast<std::size_t>(K3) * end,
+            T(0));
   std::fill(out.mean2d_norm.begin() + begin, out.mean2d_norm.begin() + end, T(0));
 }
 
@@ -41,9 +42,13 @@ gs::ScreenGrad<T> sumThreadGrads(const std::vector<std::vector<gs::ScreenGrad<T>
   gs::ScreenGrad<T> sg = thread_grads[0][j];
   for (int t = 1; t < threads; ++t) {
     const gs::ScreenGrad<T>& s = thread_grads[t][j];
-    sg.mean_u += s.mean_u; sg.mean_v += s.mean_v;
-    sg.conic_a += s.conic_a; sg.conic_b += s.conic_b; sg.conic_c += s.conic_c;
-    sg.opacity += s.opacity; sg.depth += s.depth;
+    sg.mean_u += s.mean_u;
+    sg.mean_v += s.mean_v;
+    sg.conic_a += s.conic_a;
+    sg.conic_b += s.conic_b;
+    sg.conic_c += s.conic_c;
+    sg.opacity += s.opacity;
+    sg.depth += s.depth;
     for (int ch = 0; ch < 3; ++ch) sg.color[ch] += s.color[ch];
   }
   return sg;
@@ -52,9 +57,8 @@ gs::ScreenGrad<T> sumThreadGrads(const std::vector<std::vector<gs::ScreenGrad<T>
 /// True when every component of the screen gradient is zero.
 template <typename T>
 bool isZeroScreenGrad(const gs::ScreenGrad<T>& sg) {
-  return sg.mean_u == T(0) && sg.mean_v == T(0) && sg.conic_a == T(0) && sg.conic_b == T(0) &&
-         sg.conic_c == T(0) && sg.opacity == T(0) && sg.depth == T(0) && sg.color[0] == T(0) &&
-         sg.color[1] == T(0) && sg.color[2] == T(0);
+  return sg.mean_u == T(0) && sg.mean_v == T(0) && sg.conic_a == T(0) && sg.conic_b == T(0) && sg.conic_c == T(0) &&
+         sg.opacity == T(0) && sg.depth == T(0) && sg.color[0] == T(0) && sg.color[1] == T(0) && sg.color[2] == T(0);
 }
 
 /// Writes Gaussian i's parameter gradients into its output rows and adds its pose gradient to `pose`.
@@ -118,9 +122,8 @@ void Rasterizer<T>::backward(const PixelGrads<T>& grads, GaussianGrads<T>& out) 
       if (isZeroScreenGrad(sg)) continue;
       out.mean2d_norm[i] = std::sqrt(sg.mean_u * sg.mean_u + sg.mean_v * sg.mean_v);
       gs::ParamGrad<T> pg;
-      gs::projectGaussianBackward(view_, params_.position + 3 * i, params_.log_scale + 3 * i,
-                                  params_.rotation + 4 * i, params_.opacity_logit[i], params_.sh + K3 * i,
-                                  params_.sh_degree, sg, pg);
+      gs::projectGaussianBackward(view_, params_.position + 3 * i, params_.log_scale + 3 * i, params_.rotation + 4 * i,
+                                  params_.opacity_logit[i], params_.sh + K3 * i, params_.sh_degree, sg, pg);
       writeParamGrad(pg, i, K3, out, pose);
     }
   });

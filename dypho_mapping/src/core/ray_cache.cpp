@@ -8,19 +8,16 @@
 
 namespace dypho {
 namespace mapping {
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 UndistortedRayCache::UndistortedRayCache(std::size_t max_cameras)
     : max_cameras_(std::max<std::size_t>(1, max_cameras)) {}
 
 cv::Mat UndistortedRayCache::computeRays(const CameraIntrinsics& camera) {
   if (!camera.valid()) {
-    throw std::invalid_argument(
-        "UndistortedRayCache: invalid camera (fx, fy, width and height must be > 0; got fx=" +
-        std::to_string(camera.fx) + " fy=" + std::to_string(camera.fy) + " size " +
-        std::to_string(camera.width) + "x" + std::to_string(camera.height) + ")");
+    throw std::invalid_argument("UndistortedRayCache: invalid camera (fx, fy, width and height must be > 0; got fx=" +
+                                std::to_string(camera.fx) + " fy=" + std::to_string(camera.fy) + " size " +
+                                std::to_string(camera.width) + "x" + std::to_string(camera.height) + ")");
   }
   cv::Mat rays(camera.height, camera.width, CV_32FC2);
   if (!camera.distorted()) {

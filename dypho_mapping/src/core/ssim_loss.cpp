@@ -177,12 +177,18 @@ double SsimLoss<T>::compute(const T* rendered, const T* target, const std::uint8
   const bool want_grad = grad != nullptr && n_static > 0;
   auto forRows = [&](const auto& fn) {
     if (pool_) {
-      pool_->parallelFor(3 * H, [&](int r, int thread) { fn(r, thread); }, 4);
+      pool_->parallelFor(
+          3 * H, [&](int r, int thread) { fn(r, thread); }, 4);
     } else {
       for (int r = 0; r < 3 * H; ++r) fn(r, 0);
     }
   };
-  const SsimPlanes<T> planes{W, H, taps_, static_.data(), x_.data(), y_.data(),
+  const SsimPlanes<T> planes{W,
+                             H,
+                             taps_,
+                             static_.data(),
+                             x_.data(),
+                             y_.data(),
                              {h_[0].data(), h_[1].data(), h_[2].data(), h_[3].data(), h_[4].data()},
                              {p_[0].data(), p_[1].data(), p_[2].data()}};
 

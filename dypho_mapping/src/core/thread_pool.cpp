@@ -75,9 +75,7 @@ void ThreadPool::parallelFor(int n, const std::function<void(int, int)>& fn, int
   run(n, fn, chunk, /*fixed=*/false);
 }
 
-void ThreadPool::parallelForStatic(int n, const std::function<void(int, int)>& fn) {
-  run(n, fn, 1, /*fixed=*/true);
-}
+void ThreadPool::parallelForStatic(int n, const std::function<void(int, int)>& fn) { run(n, fn, 1, /*fixed=*/true); }
 
 void ThreadPool::run(int n, const std::function<void(int, int)>& fn, int chunk, bool fixed) {
   if (n <= 0) return;

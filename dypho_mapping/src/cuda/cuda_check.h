@@ -55,7 +55,8 @@ class DeviceBuffer {
 
 #define DYPHO_CUDA_CHECK(call) ::dypho::mapping::cuda::check((call), #call, __FILE__, __LINE__)
 /// After a kernel launch: launch errors (bad configuration, no kernel image for this GPU).
-#define DYPHO_CUDA_CHECK_LAUNCH(kernel) ::dypho::mapping::cuda::check(cudaGetLastError(), "launch of " kernel, __FILE__, __LINE__)
+#define DYPHO_CUDA_CHECK_LAUNCH(kernel) \
+  ::dypho::mapping::cuda::check(cudaGetLastError(), "launch of " kernel, __FILE__, __LINE__)
 
 namespace dypho::mapping::cuda {
 

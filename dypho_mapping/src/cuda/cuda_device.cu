@@ -14,8 +14,7 @@ int cudaDeviceCount(std::string* reason) {
   if (err != cudaSuccess) {
     (void)cudaGetLastError();  // clear the sticky-free error state of the runtime
     if (reason != nullptr) {
-      *reason = std::string("CUDA runtime: ") + cudaGetErrorName(err) + ": " +
-                cudaGetErrorString(err);
+      *reason = std::string("CUDA runtime: ") + cudaGetErrorName(err) + ": " + cudaGetErrorString(err);
     }
     return 0;
   }

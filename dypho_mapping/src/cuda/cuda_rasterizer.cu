@@ -48,10 +48,9 @@ __global__ void tileRangesKernel(std::uint32_t total, const unsigned long long* 
 }
 
 /// Front-to-back compositing, one thread per pixel, one 16x16 block per tile.
-__global__ void __launch_bounds__(S * S) forwardKernel(int width, int height, int tiles_x, const TileRange* ranges,
-                                                       const std::uint32_t* values, const Packed* packed,
-                                                       float min_alpha, float min_transmittance,
-                                                       cuda_body::ForwardOut out) {
+__global__ void __launch_bounds__(S* S)
+    forwardKernel(int width, int height, int tiles_x, const TileRange* ranges, const std::uint32_t* values,
+                  const Packed* packed, float min_alpha, float min_transmittance, cuda_body::ForwardOut out) {
   const TilePixel t = cuda_body::tilePixel(blockIdx.x, blockIdx.y, threadIdx.x, threadIdx.y, width, height);
   cuda_body::forwardPixel(t, width, height, ranges[blockIdx.y * tiles_x + blockIdx.x], values, packed, min_alpha,
                           min_transmittance, out);
@@ -69,12 +68,11 @@ __device__ inline double warpSum(double v) {
 /// Back-to-front pass, one 16x16 block per tile: the block walks the tile's list in lockstep from
 /// the largest last entry of its pixels (as the CPU tile kernel does), each warp sums its pixels'
 /// contributions and adds them to the Gaussian's screen gradient.
-__global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, int tiles_x, const TileRange* ranges,
-                                                        const std::uint32_t* values, const Packed* packed,
-                                                        float min_alpha, const float* final_T,
-                                                        const std::uint32_t* last_entry, const float* grad_color,
-                                                        const float* grad_depth, const float* grad_alpha,
-                                                        gs::ScreenGrad<float>* screen) {
+__global__ void __launch_bounds__(S* S)
+    backwardKernel(int width, int height, int tiles_x, const TileRange* ranges, const std::uint32_t* values,
+                   const Packed* packed, float min_alpha, const float* final_T, const std::uint32_t* last_entry,
+                   const float* grad_color, const float* grad_depth, const float* grad_alpha,
+                   gs::ScreenGrad<float>* screen) {
   __shared__ std::uint32_t block_last;
   const TilePixel t = cuda_body::tilePixel(blockIdx.x, blockIdx.y, threadIdx.x, threadIdx.y, width, height);
   const TileRange range = ranges[blockIdx.y * tiles_x + blockIdx.x];
@@ -90,12 +88,12 @@ __global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, i
     gs::ScreenGrad<float> s{};
     const bool touched = cuda_body::backwardPixelStep(t, k, packed[gi], min_alpha, b, s);
     if (!__any_sync(kFullWarp, touched)) continue;
-    const float sums[10] = {warpSum(s.mean_u),   warpSum(s.mean_v),   warpSum(s.conic_a), warpSum(s.conic_b),
-                            warpSum(s.conic_c),  warpSum(s.opacity),  warpSum(s.color[0]), warpSum(s.color[1]),
+    const float sums[10] = {warpSum(s.mean_u),   warpSum(s.mean_v),  warpSum(s.conic_a),  warpSum(s.conic_b),
+                            warpSum(s.conic_c),  warpSum(s.opacity), warpSum(s.color[0]), warpSum(s.color[1]),
                             warpSum(s.color[2]), warpSum(s.depth)};
     if (lane == 0) {
       gs::ScreenGrad<float>& out = screen[gi];
-      float* const fields[10] = {&out.mean_u,  &out.mean_v,  &out.conic_a,  &out.conic_b,  &out.conic_c,
+      float* const fields[10] = {&out.mean_u,  &out.mean_v,   &out.conic_a,  &out.conic_b,  &out.conic_c,
                                  &out.opacity, &out.color[0], &out.color[1], &out.color[2], &out.depth};
       for (int f = 0; f < 10; ++f)
         if (sums[f] != 0.f) atomicAdd(fields[f], sums[f]);
@@ -104,9 +102,8 @@ __global__ void __launch_bounds__(S * S) backwardKernel(int width, int height, i
 }
 
 /// Chain rule per Gaussian; the pose gradient is summed per warp, then in double across warps.
-__global__ void chainKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam,
-                            const std::uint32_t* tiles_touched, const gs::ScreenGrad<float>* screen,
-                            cuda_body::ParamGradsOut out, double* pose) {
+__global__ void chainKernel(GaussianParamsView<float> P, gs::PinholeView<float> cam, const std::uint32_t* tiles_touched,
+                            const gs::ScreenGrad<float>* screen, cuda_body::ParamGradsOut out, double* pose) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float pose_part[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   if (i < P.count) {
@@ -304,7 +301,8 @@ void CudaRasterizer::Impl::composite() {
   DYPHO_CUDA_CHECK(cudaEventRecord(events[3], st));
 }
 
-DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& params, const gs::PinholeView<float>& view) {
+DeviceImages CudaRasterizer::forwardOnDevice(const GaussianParamsView<float>& params,
+                                             const gs::PinholeView<float>& view) {
   checkForwardInputs(params, view);
   Impl& m = *impl_;
   m.params = params;
@@ -346,14 +344,15 @@ DeviceGrads CudaRasterizer::backwardOnDevice(const PixelGrads<float>& grads, flo
   DYPHO_CUDA_CHECK(cudaMemsetAsync(m.screen.get(), 0, n * sizeof(gs::ScreenGrad<float>), st));
   DYPHO_CUDA_CHECK(cudaMemsetAsync(m.pose.get(), 0, 6 * sizeof(double), st));
   const dim3 grid(m.tiles_x, m.tiles_y), block(S, S);
-  backwardKernel<<<grid, block, 0, st>>>(m.view.width, m.view.height, m.tiles_x, m.ranges.get(), m.values_sorted.reserve(1),
-                                         m.packed.get(), static_cast<float>(m.settings.min_alpha), m.final_T.get(),
-                                         m.last_entry.get(), grads.color, grads.depth, grads.alpha, m.screen.get());
+  backwardKernel<<<grid, block, 0, st>>>(m.view.width, m.view.height, m.tiles_x, m.ranges.get(),
+                                         m.values_sorted.reserve(1), m.packed.get(),
+                                         static_cast<float>(m.settings.min_alpha), m.final_T.get(), m.last_entry.get(),
+                                         grads.color, grads.depth, grads.alpha, m.screen.get());
   DYPHO_CUDA_CHECK_LAUNCH("backwardKernel");
   DYPHO_CUDA_CHECK(cudaEventRecord(m.events[4], st));
   if (n > 0) {
-    const cuda_body::ParamGradsOut out{m.g_pos.get(), m.g_log_scale.get(), m.g_rot.get(),
-                                       m.g_opacity.get(), m.g_sh.get(),       m.g_norm.get()};
+    const cuda_body::ParamGradsOut out{m.g_pos.get(),     m.g_log_scale.get(), m.g_rot.get(),
+                                       m.g_opacity.get(), m.g_sh.get(),        m.g_norm.get()};
     chainKernel<<<blocksFor(n), kThreads, 0, st>>>(m.params, m.view, m.tiles_touched.get(), m.screen.get(), out,
                                                    m.pose.get());
     DYPHO_CUDA_CHECK_LAUNCH("chainKernel");

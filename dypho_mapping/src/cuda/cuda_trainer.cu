@@ -46,10 +46,10 @@ __device__ void blockSum(const float (&s)[N], double* out) {
 }
 
 /// The loss per pixel (train::l1LossPixel); the block's sums go to `sums` in double.
-__global__ void __launch_bounds__(kThreads) l1LossKernel(LossParams L, const float* color, const float* depth,
-                                                         const float* alpha, const float* t_rgb, const float* t_depth,
-                                                         const std::uint8_t* mask, float* g_color, float* g_depth,
-                                                         float* g_alpha, double* sums, float* shown) {
+__global__ void __launch_bounds__(kThreads)
+    l1LossKernel(LossParams L, const float* color, const float* depth, const float* alpha, const float* t_rgb,
+                 const float* t_depth, const std::uint8_t* mask, float* g_color, float* g_depth, float* g_alpha,
+                 double* sums, float* shown) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float s[kLossSums] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   if (i < L.npix) {
@@ -85,8 +85,8 @@ __global__ void ssimHorizontalKernel(cuda_body::SsimImages im, ssim::Taps<float>
 }
 
 /// Window statistics -> SSIM (summed over static pixels into sum[0]) and the backward terms.
-__global__ void __launch_bounds__(kThreads) ssimVerticalKernel(cuda_body::SsimImages im, ssim::Taps<float> taps,
-                                                               Planes5 h, Planes3 terms, double* sum) {
+__global__ void __launch_bounds__(kThreads)
+    ssimVerticalKernel(cuda_body::SsimImages im, ssim::Taps<float> taps, Planes5 h, Planes3 terms, double* sum) {
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   float s[1] = {0.f};
   if (i < 3 * static_cast<std::size_t>(im.width) * im.height) {
@@ -128,8 +128,8 @@ __global__ void ssimGradientKernel(cuda_body::SsimImages im, ssim::Taps<float> t
   g_color[i] += ssim::ssimGradient(scale, G[0], G[1], G[2], x, y);
 }
 
-__global__ void __launch_bounds__(kThreads) exposureChainKernel(LossParams L, const float* shown, float* g_color,
-                                                                double* sums) {
+__global__ void __launch_bounds__(kThreads)
+    exposureChainKernel(LossParams L, const float* shown, float* g_color, double* sums) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   float s[kLossSums] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
   if (i < L.npix) train::exposureChain(i, L, shown, g_color, s);
@@ -255,7 +255,8 @@ void CudaTrainer::upload(const TrainingStateView& host) {
     float* dst[3] = {d.params[p].reserve(values), d.m[p].reserve(values), d.v[p].reserve(values)};
     const float* src[3] = {host.params[p], host.first_moment[p], host.second_moment[p]};
     for (int k = 0; k < 3; ++k)
-      if (values > 0) DYPHO_CUDA_CHECK(cudaMemcpyAsync(dst[k], src[k], values * sizeof(float), cudaMemcpyHostToDevice, st));
+      if (values > 0)
+        DYPHO_CUDA_CHECK(cudaMemcpyAsync(dst[k], src[k], values * sizeof(float), cudaMemcpyHostToDevice, st));
     d.widths[p] = host.widths[p];
   }
   d.accum.reserve(n);
@@ -283,7 +284,8 @@ void CudaTrainer::download(const TrainingStateView& host) {
     const float* src[3] = {d.params[p].get(), d.m[p].get(), d.v[p].get()};
     float* dst[3] = {host.params[p], host.first_moment[p], host.second_moment[p]};
     for (int k = 0; k < 3; ++k)
-      if (values > 0) DYPHO_CUDA_CHECK(cudaMemcpyAsync(dst[k], src[k], values * sizeof(float), cudaMemcpyDeviceToHost, st));
+      if (values > 0)
+        DYPHO_CUDA_CHECK(cudaMemcpyAsync(dst[k], src[k], values * sizeof(float), cudaMemcpyDeviceToHost, st));
   }
   if (n > 0) {
     DYPHO_CUDA_CHECK(cudaMemcpyAsync(host.grad_accum, d.accum.get(), n * sizeof(float), cudaMemcpyDeviceToHost, st));
@@ -308,7 +310,8 @@ void CudaTrainer::setTarget(std::int64_t id, int width, int height, const float*
     if (depth_m[i] > 0.f) ++t->depth_pixels;
   }
   cudaStream_t st = d.stream();
-  DYPHO_CUDA_CHECK(cudaMemcpyAsync(t->rgb.reserve(3 * npix), rgb, 3 * npix * sizeof(float), cudaMemcpyHostToDevice, st));
+  DYPHO_CUDA_CHECK(
+      cudaMemcpyAsync(t->rgb.reserve(3 * npix), rgb, 3 * npix * sizeof(float), cudaMemcpyHostToDevice, st));
   DYPHO_CUDA_CHECK(cudaMemcpyAsync(t->depth.reserve(npix), depth_m, npix * sizeof(float), cudaMemcpyHostToDevice, st));
   DYPHO_CUDA_CHECK(cudaMemcpyAsync(t->mask.reserve(npix), static_mask, npix, cudaMemcpyHostToDevice, st));
   DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
@@ -341,7 +344,8 @@ void CudaTrainer::downloadRender(RenderResult<float>& out) {
   out.color.resize(3 * npix);
   out.depth.resize(npix);
   out.alpha.resize(npix);
-  DYPHO_CUDA_CHECK(cudaMemcpyAsync(out.color.data(), d.last.color, 3 * npix * sizeof(float), cudaMemcpyDeviceToHost, st));
+  DYPHO_CUDA_CHECK(
+      cudaMemcpyAsync(out.color.data(), d.last.color, 3 * npix * sizeof(float), cudaMemcpyDeviceToHost, st));
   DYPHO_CUDA_CHECK(cudaMemcpyAsync(out.depth.data(), d.last.depth, npix * sizeof(float), cudaMemcpyDeviceToHost, st));
   DYPHO_CUDA_CHECK(cudaMemcpyAsync(out.alpha.data(), d.last.alpha, npix * sizeof(float), cudaMemcpyDeviceToHost, st));
   DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
@@ -366,8 +370,8 @@ CudaLossResult CudaTrainer::loss(std::int64_t id, double lambda_depth, double al
   CudaLossResult result;
   const double nc = static_cast<double>(t.static_pixels);
   const bool with_ssim = ssim_weight > 0.0 && nc > 0;
-  const LossParams L = train::lossParams(npix, t.static_pixels, t.depth_pixels, lambda_depth, alpha_weight, exposure,
-                                         with_ssim);
+  const LossParams L =
+      train::lossParams(npix, t.static_pixels, t.depth_pixels, lambda_depth, alpha_weight, exposure, with_ssim);
   float* shown = with_ssim ? d.shown.reserve(3 * npix) : nullptr;
   DYPHO_CUDA_CHECK(cudaMemsetAsync(d.sums.get(), 0, kSums * sizeof(double), st));
   l1LossKernel<<<blocksFor(npix), kThreads, 0, st>>>(L, d.last.color, d.last.depth, d.last.alpha, t.rgb.get(),
@@ -441,7 +445,8 @@ void CudaTrainer::backwardAndStep(const AdamStepSizes& step) {
     DYPHO_CUDA_CHECK_LAUNCH("adamKernel");
   }
   if (d.count > 0) {
-    statisticsKernel<<<blocksFor(d.count), kThreads, 0, st>>>(d.count, g.mean2d_norm, d.accum.get(), d.grad_count.get());
+    statisticsKernel<<<blocksFor(d.count), kThreads, 0, st>>>(d.count, g.mean2d_norm, d.accum.get(),
+                                                              d.grad_count.get());
     DYPHO_CUDA_CHECK_LAUNCH("statisticsKernel");
   }
 }
@@ -480,8 +485,8 @@ DensifyOutcome CudaTrainer::densifyAndPrune(const DensifySettings& settings, std
   d.remove.reserve(n1);
   d.keep.reserve(n1);
   d.keep_offsets.reserve(n1);
-  pruneKernel<<<blocksFor(n1), kThreads, 0, st>>>(n1, n0, d.split_done.get(), d.blocks(false), settings,
-                                                  d.remove.get(), d.keep.get());
+  pruneKernel<<<blocksFor(n1), kThreads, 0, st>>>(n1, n0, d.split_done.get(), d.blocks(false), settings, d.remove.get(),
+                                                  d.keep.get());
   DYPHO_CUDA_CHECK_LAUNCH("pruneKernel");
   const std::size_t kept = d.exclusiveScan(d.keep.get(), d.keep_offsets.get(), n1);
   for (int p = 0; p < kTrainingBlocks; ++p) {

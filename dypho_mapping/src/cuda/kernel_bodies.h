@@ -239,9 +239,9 @@ DYPHO_HOST_DEVICE inline void chain(int i, const GaussianParamsView<float>& P, c
 
 /// The images the SSIM term compares: x' = static ? shown : target, y = target.
 struct SsimImages {
-  const float* shown;         ///< [3, H, W] the colour the loss compares
-  const float* target;        ///< [3, H, W]
-  const std::uint8_t* mask;   ///< [H, W] non-zero = static
+  const float* shown;        ///< [3, H, W] the colour the loss compares
+  const float* target;       ///< [3, H, W]
+  const std::uint8_t* mask;  ///< [H, W] non-zero = static
   int width, height;
 };
 
@@ -289,7 +289,8 @@ DYPHO_HOST_DEVICE inline float verticalAt(const float* planes, const ssim::Taps<
   const int k0 = ssim::kRadius - v > 0 ? ssim::kRadius - v : 0;
   const int k1 = height - v + ssim::kRadius < ssim::kWindow ? height - v + ssim::kRadius : ssim::kWindow;
   float acc = 0.f;
-  for (int k = k0; k < k1; ++k) acc += taps.t[k] * planes[plane + static_cast<std::size_t>(v + k - ssim::kRadius) * width + u];
+  for (int k = k0; k < k1; ++k)
+    acc += taps.t[k] * planes[plane + static_cast<std::size_t>(v + k - ssim::kRadius) * width + u];
   return acc;
 }
 
@@ -353,7 +354,8 @@ DYPHO_HOST_DEVICE inline bool pruned(std::size_t r, bool split_done, const State
 }
 
 /// Copies kept row r to its place `dst_row` in the compacted blocks.
-DYPHO_HOST_DEVICE inline void moveRow(std::size_t r, std::size_t dst_row, const StateBlocks& src, const StateBlocks& dst) {
+DYPHO_HOST_DEVICE inline void moveRow(std::size_t r, std::size_t dst_row, const StateBlocks& src,
+                                      const StateBlocks& dst) {
   for (int p = 0; p < 5; ++p) {
     const int w = src.widths[p];
     for (int c = 0; c < w; ++c) {

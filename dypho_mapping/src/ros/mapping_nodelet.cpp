@@ -51,19 +51,19 @@ namespace rc = dypho::ros_conversions;
 
 /// Frames, rates and queues of the nodelet (not part of the core options).
 struct MappingRosParams {
-  std::string map_frame = "map";     ///< frame of the published clouds (the tracking world frame)
-  double publish_period_s = 1.0;     ///< cloud publication period [s] (only with subscribers), > 0
-  double render_period_s = 0.2;      ///< minimum interval of rendered/color and rendered/depth [s]
+  std::string map_frame = "map";  ///< frame of the published clouds (the tracking world frame)
+  double publish_period_s = 1.0;  ///< cloud publication period [s] (only with subscribers), > 0
+  double render_period_s = 0.2;   ///< minimum interval of rendered/color and rendered/depth [s]
   /// rendered/color and rendered/depth at this fraction of the input resolution, (0, 1]; below 1
   /// for a viewer on another host (0.5 = a quarter of the bytes)
   double rendered_scale = 1.0;
-  int keyframe_queue_size = 8;       ///< jobs waiting for the worker before the oldest keyframe is dropped
+  int keyframe_queue_size = 8;  ///< jobs waiting for the worker before the oldest keyframe is dropped
   /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
   double predicted_depth_scale = 0.5;
   /// where save_map writes (requests name folders inside it) and the map is saved on shutdown
   /// (empty: $ROS_HOME/dypho, default ~/.ros/dypho, resolved at start-up)
   std::string output_dir;
-  std::string map_load_path;         ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
+  std::string map_load_path;  ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
   /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
   bool refine_before_save = true;
@@ -99,12 +99,13 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (cloud_thread_.joinable()) cloud_thread_.join();
     if (!stage_) return;
     const mapping::MappingStageStats stats = stage_->stats();
-    rc::saveOnShutdown(getName(), params_.output_dir, stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0,
+    rc::saveOnShutdown(getName(), params_.output_dir,
+                       stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0,
                        "no keyframe and no Gaussian", [&] {
                          stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
                          const mapping::KeyframeEvaluation eval = stage_->writeEvaluation(params_.output_dir);
-                         NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of " << eval.num_keyframes
-                                                         << " keyframes (map_evaluation.txt)");
+                         NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of "
+                                                         << eval.num_keyframes << " keyframes (map_evaluation.txt)");
                        });
   }
 
@@ -142,22 +143,25 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
     if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the map");
     options.validate();
-    if (options.gaussian.num_threads == 0) options.gaussian.num_threads = planThreadBudget(params_.cores).mapping_threads;
-    NODELET_INFO_STREAM("mapping parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir
-                                              << "\nthread budget: " << options.gaussian.num_threads
-                                              << " training threads at nice +" << options.gaussian.training_nice
-                                              << (options.gaussian.training_idle_class ? " in the idle class (SCHED_IDLE)" : "")
-                                              << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
+    if (options.gaussian.num_threads == 0)
+      options.gaussian.num_threads = planThreadBudget(params_.cores).mapping_threads;
+    NODELET_INFO_STREAM("mapping parameters:"
+                        << reader.summary() << "\noutputs go to " << params_.output_dir
+                        << "\nthread budget: " << options.gaussian.num_threads << " training threads at nice +"
+                        << options.gaussian.training_nice
+                        << (options.gaussian.training_idle_class ? " in the idle class (SCHED_IDLE)" : "")
+                        << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
 
     // 2. Cores and threads.
     mapping::MappingStageOptions stage_options;
     stage_options.keyframe_queue_size = params_.keyframe_queue_size;
     stage_ = std::make_unique<mapping::MappingStage>(options, mapping::MappingMode::kLive, stage_options);
     stage_->gaussians().setMessageSink([this](const std::string& m) { NODELET_WARN_STREAM_THROTTLE(5.0, m); });
-    NODELET_INFO_STREAM(stage_->gaussians().deviceMessage()
-                        << (stage_->gaussians().computeDevice() == mapping::ComputeDevice::kCpu
-                                ? std::string("; CPU tile kernels: ") + (mapping::rasterAvx2Available() ? "avx2" : "generic")
-                                : std::string()));
+    NODELET_INFO_STREAM(
+        stage_->gaussians().deviceMessage()
+        << (stage_->gaussians().computeDevice() == mapping::ComputeDevice::kCpu
+                ? std::string("; CPU tile kernels: ") + (mapping::rasterAvx2Available() ? "avx2" : "generic")
+                : std::string()));
     if (!params_.map_load_path.empty()) {
       // A bad file is reported and mapping starts empty (the nodelet manager keeps running).
       const LoadOutcome r = loadMap(params_.map_load_path);
@@ -445,7 +449,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< last: destroyed first (its task reads the stage)
-  ros::WallTime last_diagnosis_{0.0};           ///< diagnostics timer only
+  ros::WallTime last_diagnosis_{0.0};                    ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;
   std::size_t dropped_at_last_diagnosis_ = 0;
 };

@@ -13,8 +13,8 @@ namespace mask {
 
 using internal::valid;
 
-void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camera,
-                      const Eigen::Isometry3d& T_cur_prev, cv::Mat& depth_cur_m) {
+void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camera, const Eigen::Isometry3d& T_cur_prev,
+                      cv::Mat& depth_cur_m) {
   CV_Assert(depth_prev_m.type() == CV_32FC1 && camera.fx > 0.0 && camera.fy > 0.0);
   const float inf = std::numeric_limits<float>::infinity();
   cv::Mat zbuf(depth_prev_m.size(), CV_32FC1, cv::Scalar(inf));
@@ -56,10 +56,10 @@ void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camer
   }
 }
 
-void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, double sigma_m,
-                          int window, int min_agreeing, cv::Mat& dynamic) {
-  CV_Assert(background_m.type() == CV_32FC1 && depth_m.type() == CV_32FC1 &&
-            background_m.size() == depth_m.size() && window >= 1 && window % 2 == 1);
+void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, double sigma_m, int window,
+                          int min_agreeing, cv::Mat& dynamic) {
+  CV_Assert(background_m.type() == CV_32FC1 && depth_m.type() == CV_32FC1 && background_m.size() == depth_m.size() &&
+            window >= 1 && window % 2 == 1);
   const int r = window / 2, w = depth_m.cols, h = depth_m.rows;
   const float sigma = static_cast<float>(sigma_m);
   const float inf = std::numeric_limits<float>::infinity();
@@ -104,9 +104,8 @@ void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, d
   }
 }
 
-void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m,
-                             const cv::Mat& consistency_dynamic, double sigma_m,
-                             double min_consistent_share, double min_checked_share, cv::Mat& raw) {
+void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m, const cv::Mat& consistency_dynamic,
+                             double sigma_m, double min_consistent_share, double min_checked_share, cv::Mat& raw) {
   cv::Mat labels;
   const int n = cv::connectedComponents(raw, labels, 8, CV_32S);
   if (n <= 1) return;
@@ -134,15 +133,16 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
   for (int y = 0; y < raw.rows; ++y) {
     const int* l = labels.ptr<int>(y);
     uchar* r = raw.ptr<uchar>(y);
-    for (int x = 0; x < raw.cols; ++x) if (drop[l[x]]) r[x] = 0;
+    for (int x = 0; x < raw.cols; ++x)
+      if (drop[l[x]]) r[x] = 0;
   }
 }
 
 BackgroundModel::BackgroundModel(const BackgroundOptions& options) : options_((options.validate(), options)) {}
 
-void BackgroundModel::process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic,
-                              const cv::Mat& rendered_depth_m, const CameraIntrinsics& camera,
-                              const std::optional<Eigen::Isometry3d>& T_prev_cur, cv::Mat& dynamic) {
+void BackgroundModel::process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic, const cv::Mat& rendered_depth_m,
+                              const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur,
+                              cv::Mat& dynamic) {
   CV_Assert(raw_dynamic.type() == CV_8UC1 && raw_dynamic.size() == depth_m.size());
   test(depth_m, rendered_depth_m, camera, T_prev_cur, dynamic);
   cv::bitwise_or(raw_dynamic, dynamic, excluded_);
@@ -157,8 +157,8 @@ void BackgroundModel::test(const cv::Mat& depth_m, const cv::Mat& rendered_depth
   warped_valid_ = T_prev_cur && camera.valid();
   if (warped_valid_) warpDepthForward(background_, camera, T_prev_cur->inverse(), warped_);
   const cv::Mat& previous = warped_valid_ ? warped_ : background_;
-  const bool rendered = !rendered_depth_m.empty() && rendered_depth_m.size() == size &&
-                        rendered_depth_m.type() == CV_32FC1;
+  const bool rendered =
+      !rendered_depth_m.empty() && rendered_depth_m.size() == size && rendered_depth_m.type() == CV_32FC1;
   // Prior Q: the B_{i-1} and R_d terms, renormalised over the available ones.
   const float wb = static_cast<float>(1.0 - options_.tau - options_.rho);
   const float wr = static_cast<float>(options_.tau);
@@ -172,8 +172,14 @@ void BackgroundModel::test(const cv::Mat& depth_m, const cv::Mat& rendered_depth
       float* q = prior_.ptr<float>(y);
       for (int x = 0; x < size.width; ++x) {
         float num = 0.f, den = 0.f;
-        if (valid(p[x])) { num += wb * p[x]; den += wb; }
-        if (valid(rd[x])) { num += wr * rd[x]; den += wr; }
+        if (valid(p[x])) {
+          num += wb * p[x];
+          den += wb;
+        }
+        if (valid(rd[x])) {
+          num += wr * rd[x];
+          den += wr;
+        }
         q[x] = den > 0.f ? num / den : 0.f;
       }
     }
@@ -186,8 +192,8 @@ void BackgroundModel::update(const cv::Mat& depth_m, const cv::Mat& rendered_dep
   CV_Assert(depth_m.type() == CV_32FC1 && excluded.type() == CV_8UC1 && excluded.size() == size &&
             prior_.size() == size && background_.size() == size);
   const cv::Mat& previous = warped_valid_ ? warped_ : background_;
-  const bool rendered = !rendered_depth_m.empty() && rendered_depth_m.size() == size &&
-                        rendered_depth_m.type() == CV_32FC1;
+  const bool rendered =
+      !rendered_depth_m.empty() && rendered_depth_m.size() == size && rendered_depth_m.type() == CV_32FC1;
   const float wb = static_cast<float>(1.0 - options_.tau - options_.rho);
   const float wr = static_cast<float>(options_.tau), wd = static_cast<float>(options_.rho);
   // B_i: add D_i where it is static by every mask; take D_i outright where it is farther. When
@@ -207,9 +213,18 @@ void BackgroundModel::update(const cv::Mat& depth_m, const cv::Mat& rendered_dep
         continue;
       }
       float num = 0.f, den = 0.f;
-      if (valid(p[x])) { num += wb * p[x]; den += wb; }
-      if (rd && valid(rd[x])) { num += wr * rd[x]; den += wr; }
-      if (d_ok) { num += wd * d[x]; den += wd; }
+      if (valid(p[x])) {
+        num += wb * p[x];
+        den += wb;
+      }
+      if (rd && valid(rd[x])) {
+        num += wr * rd[x];
+        den += wr;
+      }
+      if (d_ok) {
+        num += wd * d[x];
+        den += wd;
+      }
       b[x] = den > 0.f ? num / den : 0.f;
     }
   }

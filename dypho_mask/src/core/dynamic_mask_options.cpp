@@ -65,12 +65,12 @@ void YoloOptions::validate() const {
 }
 
 void BackgroundOptions::validate() const {
-  require(std::isfinite(scale) && scale > 0.0 && scale <= 1.0,
-          "background_scale must be in (0, 1], got " + num(scale));
+  require(std::isfinite(scale) && scale > 0.0 && scale <= 1.0, "background_scale must be in (0, 1], got " + num(scale));
   require(std::isfinite(tau) && tau >= 0.0 && tau < 1.0, "background_tau must be in [0, 1), got " + num(tau));
   require(std::isfinite(rho) && rho > 0.0 && rho < 1.0, "background_rho must be in (0, 1), got " + num(rho));
-  require(tau + rho < 1.0, "background_tau + background_rho must be < 1 (the weight of B_{i-1} is 1 - tau - rho), got " +
-                               num(tau + rho));
+  require(
+      tau + rho < 1.0,
+      "background_tau + background_rho must be < 1 (the weight of B_{i-1} is 1 - tau - rho), got " + num(tau + rho));
   require(std::isfinite(sigma_m) && sigma_m > 0.0, "background_sigma_m must be > 0, got " + num(sigma_m));
   require(window_px >= 3 && window_px % 2 == 1,
           "background_window_px must be odd and >= 3, got " + std::to_string(window_px));

@@ -100,15 +100,15 @@ struct DynamicMasker::FrameState {
   FrameState(const RgbdFrame& frame_in, const MaskPrior& prior_in) : frame(frame_in), prior(prior_in) {}
   const RgbdFrame& frame;
   const MaskPrior& prior;
-  cv::Size size;                 ///< input size
-  cv::Size small;                ///< background resolution (workingSize())
-  bool have_depth = false;       ///< depth CV_32FC1 of the colour size and a valid camera
-  bool run_background = false;   ///< background model on, with usable depth
-  bool network = false;          ///< a network mask was in use on the last frame (crowd aids off)
-  bool rendered_ignored = false; ///< R_d was given at an unusable type or size
-  double test_ms = 0.0;          ///< the consistency test's wall time, beside the flow [ms]
-  FlowMaskResult flow;           ///< this frame's motion mask
-  SegmentStep seg;               ///< this frame's segment mask
+  cv::Size size;                  ///< input size
+  cv::Size small;                 ///< background resolution (workingSize())
+  bool have_depth = false;        ///< depth CV_32FC1 of the colour size and a valid camera
+  bool run_background = false;    ///< background model on, with usable depth
+  bool network = false;           ///< a network mask was in use on the last frame (crowd aids off)
+  bool rendered_ignored = false;  ///< R_d was given at an unusable type or size
+  double test_ms = 0.0;           ///< the consistency test's wall time, beside the flow [ms]
+  FlowMaskResult flow;            ///< this frame's motion mask
+  SegmentStep seg;                ///< this frame's segment mask
 };
 
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
@@ -116,8 +116,8 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
   MaskResult result;
   FrameState f(frame, prior);
   f.size = frame.bgr.size();
-  f.have_depth = !frame.depth_m.empty() && frame.depth_m.size() == f.size &&
-                 frame.depth_m.type() == CV_32FC1 && frame.camera.valid();
+  f.have_depth = !frame.depth_m.empty() && frame.depth_m.size() == f.size && frame.depth_m.type() == CV_32FC1 &&
+                 frame.camera.valid();
   f.run_background = options_.background.enabled && f.have_depth;
   f.small = workingSize(f.size);
 
@@ -200,7 +200,8 @@ void DynamicMasker::testAgainstBackground(FrameState& f) {
 
 bool DynamicMasker::reportMotion(const FrameState& f, MaskResult& result) {
   const FlowMaskResult& flow = f.flow;
-  if (f.rendered_ignored) addNote(result, "rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
+  if (f.rendered_ignored)
+    addNote(result, "rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
   result.rendered_depth_used = f.run_background && !rendered_small_.empty();
   result.flow_ms = flow.total_ms;
   result.ego_motion_from_pose = flow.ego_motion_from_pose;
@@ -229,7 +230,9 @@ void DynamicMasker::computeSegment(FrameState& f, MaskResult& result) {
   // Decides the crowd aids of the next frame's flow (this frame's flow already ran): on while no
   // network mask is in use (none yet, or the newest was too old: YoloOptions::max_age_frames).
   network_mask_in_use_ = !seg.mask.empty();
-  if (seg.too_old) addNote(result, "segment: newest network mask older than " + std::to_string(options_.yolo.max_age_frames) + " frames, not used");
+  if (seg.too_old)
+    addNote(result, "segment: newest network mask older than " + std::to_string(options_.yolo.max_age_frames) +
+                        " frames, not used");
   result.segment_ms = msSince(t_seg);
   result.segment_fresh = seg.fresh;
   result.segment_age_frames = seg.age_frames;
@@ -282,8 +285,8 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
   // kept as well), and starts once the background model is established: before, the depth
   // growth has no background to stop it and can spill over a wall nobody has seen yet, which
   // must not last.
-  const bool permanence = permanence_ && !f.network && still &&
-                          background_updates_ >= options_.background.veto_after_updates;
+  const bool permanence =
+      permanence_ && !f.network && still && background_updates_ >= options_.background.veto_after_updates;
   if (permanence) {
     // What this frame found itself (the evidence that restarts a surface's quiet count), then
     // the surfaces of the previous frame that are still there.
@@ -291,7 +294,8 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
     permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
     combined_ |= kept_small_;
   }
-  if (options_.background.grow_in_depth) growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
+  if (options_.background.grow_in_depth)
+    growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
   // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
   background_.update(depth_small_, rendered_small_, combined_);
   ++background_updates_;
@@ -339,8 +343,8 @@ bool DynamicMasker::vetoFlowOnBackground(const FrameState& f) {
   flow_small_ &= raw_small_;
   const bool still = cameraStill(f.flow, f.prior.T_prev_cur);
   if (background_updates_ >= options_.background.veto_after_updates && (!still || options_.veto_flow_while_still)) {
-    vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m,
-                            0.9, 0.5, flow_small_);
+    vetoRegionsOnBackground(background_.prior(), depth_small_, consistency_small_, options_.background.sigma_m, 0.9,
+                            0.5, flow_small_);
   }
   if (!f.seg.mask.empty()) {
     cv::bitwise_or(flow_small_, seg_small_, raw_small_);
@@ -367,7 +371,7 @@ bool cameraStill(const FlowMaskResult& flow, const std::optional<Eigen::Isometry
   // people the mask misses drag the tracked pose, and so the prediction, by up to a centimetre
   // per frame, while the wall behind them still does not move (31-93 % quiet in the synthetic
   // crowds before a still camera).
-  constexpr double kStillFlowPx = 2.0;          // full-res px per frame
+  constexpr double kStillFlowPx = 2.0;  // full-res px per frame
   constexpr double kMinQuietShare = 0.3;
   constexpr double kStillTranslationM = 0.005;  // per frame (15 cm/s at 30 Hz)
   if (flow.raw_flow_mask.empty() || !(flow.median_flow_px < kStillFlowPx)) return false;  // no flow, or moving
@@ -377,8 +381,8 @@ bool cameraStill(const FlowMaskResult& flow, const std::optional<Eigen::Isometry
 
 void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera_m,
                                         const CameraIntrinsics& camera_small) {
-  constexpr float kMaxDepthChangeM = 0.25f;  // a person moves a few cm per frame; more is another surface
-  constexpr int kSeedRadiusPx = 2;           // at background resolution
+  constexpr float kMaxDepthChangeM = 0.25f;         // a person moves a few cm per frame; more is another surface
+  constexpr int kSeedRadiusPx = 2;                  // at background resolution
   const cv::Mat& background = background_.prior();  // the test of this frame made it, at this size
   const float sigma = static_cast<float>(options_.background.sigma_m);
   seeds_small_.create(combined_.size(), CV_8UC1);

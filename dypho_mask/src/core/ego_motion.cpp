@@ -6,11 +6,10 @@
 namespace dypho {
 namespace mask {
 
-void predictRigidPrevious(const cv::Mat& cur_px, const cv::Mat& depth_m,
-                          const CameraIntrinsics& camera, const Eigen::Isometry3d& T_prev_cur,
-                          cv::Mat& predicted_prev_px) {
-  CV_Assert(cur_px.type() == CV_32FC2 && depth_m.type() == CV_32FC1 &&
-            cur_px.size() == depth_m.size() && camera.fx > 0.0 && camera.fy > 0.0);
+void predictRigidPrevious(const cv::Mat& cur_px, const cv::Mat& depth_m, const CameraIntrinsics& camera,
+                          const Eigen::Isometry3d& T_prev_cur, cv::Mat& predicted_prev_px) {
+  CV_Assert(cur_px.type() == CV_32FC2 && depth_m.type() == CV_32FC1 && cur_px.size() == depth_m.size() &&
+            camera.fx > 0.0 && camera.fy > 0.0);
   predicted_prev_px.create(cur_px.size(), CV_32FC2);
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const Eigen::Matrix3d R = T_prev_cur.linear();

@@ -19,11 +19,9 @@ void FlowMaskOptions::validate() const {
           "flow_scale must be in (0, 1], got " + std::to_string(flow_scale));
   require(std::isfinite(residual_threshold_px) && residual_threshold_px > 0.0,
           "residual_threshold_px must be > 0, got " + std::to_string(residual_threshold_px));
-  require(min_region_area_px >= 0,
-          "min_region_area_px must be >= 0, got " + std::to_string(min_region_area_px));
+  require(min_region_area_px >= 0, "min_region_area_px must be >= 0, got " + std::to_string(min_region_area_px));
   require(dilate_px >= 0, "dilate_px must be >= 0, got " + std::to_string(dilate_px));
-  require(std::isfinite(max_masked_fraction) && max_masked_fraction > 0.0 &&
-              max_masked_fraction <= 1.0,
+  require(std::isfinite(max_masked_fraction) && max_masked_fraction > 0.0 && max_masked_fraction <= 1.0,
           "max_masked_fraction must be in (0, 1], got " + std::to_string(max_masked_fraction));
   require(open_radius_px >= 0, "open_radius_px must be >= 0, got " + std::to_string(open_radius_px));
   require(sample_step_px >= 1, "sample_step_px must be >= 1, got " + std::to_string(sample_step_px));
@@ -47,8 +45,7 @@ std::string FlowMaskOptions::toString() const {
     << " min_region_area_px=" << min_region_area_px << " dilate_px=" << dilate_px
     << " max_masked_fraction=" << max_masked_fraction << " open_radius_px=" << open_radius_px
     << " sample_step_px=" << sample_step_px << " ransac_threshold_px=" << ransac_threshold_px
-    << " ransac_max_iterations=" << ransac_max_iterations
-    << " min_inlier_ratio=" << min_inlier_ratio
+    << " ransac_max_iterations=" << ransac_max_iterations << " min_inlier_ratio=" << min_inlier_ratio
     << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
     << " residual_memory=" << residual_memory << " ultrafast=" << (ultrafast ? "true" : "false")
     << " dis_refinement_iterations=" << dis_refinement_iterations;

@@ -21,9 +21,7 @@ using internal::msSince;
 
 namespace {
 
-std::string sizeString(const cv::Size& s) {
-  return std::to_string(s.width) + "x" + std::to_string(s.height);
-}
+std::string sizeString(const cv::Size& s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
 
 GlobalMotionSettings globalMotionSettings(const FlowMaskOptions& o) {
   GlobalMotionSettings s;
@@ -42,8 +40,7 @@ MaskCleanerSettings cleanerSettings(const FlowMaskOptions& o) {
   };
   s.open_radius_px = length(o.open_radius_px);
   s.dilate_radius_px = length(o.dilate_px);
-  s.min_region_area_px =
-      static_cast<int>(std::lround(o.min_region_area_px * o.flow_scale * o.flow_scale));
+  s.min_region_area_px = static_cast<int>(std::lround(o.min_region_area_px * o.flow_scale * o.flow_scale));
   return s;
 }
 
@@ -76,20 +73,16 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
   if (frame.bgr.empty()) {
     problem = "empty colour image (check the rgb topic / image loader)";
   } else if (frame.bgr.type() != CV_8UC3 && frame.bgr.type() != CV_8UC1) {
-    problem = "colour image must be CV_8UC3 (bgr8) or CV_8UC1 (mono8), got type " +
-              std::to_string(frame.bgr.type());
+    problem = "colour image must be CV_8UC3 (bgr8) or CV_8UC1 (mono8), got type " + std::to_string(frame.bgr.type());
   } else if (!frame.depth_m.empty() && frame.depth_m.size() != size) {
-    problem = "depth " + sizeString(frame.depth_m.size()) + " does not match colour " +
-              sizeString(size) + " (register depth to colour)";
-  } else if (frame.camera.valid() &&
-             cv::Size(frame.camera.width, frame.camera.height) != size) {
-    problem = "camera intrinsics are for " +
-              sizeString(cv::Size(frame.camera.width, frame.camera.height)) +
+    problem = "depth " + sizeString(frame.depth_m.size()) + " does not match colour " + sizeString(size) +
+              " (register depth to colour)";
+  } else if (frame.camera.valid() && cv::Size(frame.camera.width, frame.camera.height) != size) {
+    problem = "camera intrinsics are for " + sizeString(cv::Size(frame.camera.width, frame.camera.height)) +
               " but the colour image is " + sizeString(size);
-  } else if (std::lround(size.width * options_.flow_scale) < 8 ||
-             std::lround(size.height * options_.flow_scale) < 8) {
-    problem = "image " + sizeString(size) + " is too small for flow_scale " +
-              std::to_string(options_.flow_scale) + " (needs >= 8 px at flow resolution)";
+  } else if (std::lround(size.width * options_.flow_scale) < 8 || std::lround(size.height * options_.flow_scale) < 8) {
+    problem = "image " + sizeString(size) + " is too small for flow_scale " + std::to_string(options_.flow_scale) +
+              " (needs >= 8 px at flow resolution)";
   }
   if (problem.empty()) return true;
   result.degraded = true;
@@ -98,8 +91,7 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
   return false;
 }
 
-FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame,
-                                         const std::optional<Eigen::Isometry3d>& T_prev_cur,
+FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur,
                                          const cv::Mat& previous_dynamic) {
   const auto t0 = Clock::now();
   last_flow_valid_ = false;
@@ -150,8 +142,8 @@ bool FlowMotionMasker::continueHistory(const cv::Size& input_size, FlowMaskResul
   if (have_previous) return true;
   if (!input_size_.empty()) {
     result.degraded = true;
-    result.message = "image size changed from " + sizeString(input_size_) + " to " +
-                     sizeString(input_size) + ": flow history reset, mask empty for this frame";
+    result.message = "image size changed from " + sizeString(input_size_) + " to " + sizeString(input_size) +
+                     ": flow history reset, mask empty for this frame";
   } else {
     result.message = "first frame: no previous image, mask empty";
   }
@@ -184,13 +176,12 @@ void FlowMotionMasker::computeCorrespondences(const cv::Size& input_size, const 
     for (int x = 0; x < flow_.cols; ++x) t[x] = cv::Vec2f(x + f[x][0], y + f[x][1]);
   }
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR,
-            cv::BORDER_CONSTANT, cv::Scalar(nan, nan));
+  cv::remap(grid_px_, prev_px_, flow_target_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            cv::Scalar(nan, nan));
 }
 
 bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& small,
-                                    const std::optional<Eigen::Isometry3d>& T_prev_cur,
-                                    FlowMaskResult& result) {
+                                    const std::optional<Eigen::Isometry3d>& T_prev_cur, FlowMaskResult& result) {
   // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
   // plain homography. It is tried again without the previous frame's dynamic pixels when it
   // fails (people fill the view) or when it follows them (their pixels agree with it better than
@@ -246,7 +237,8 @@ GlobalMotionFit FlowMotionMasker::fitOnce(bool with_pose, bool exclude_previous,
       cv::bitwise_not(carried_, fit_usable_);
       if (!usable.empty()) fit_usable_ &= usable;
     }
-    fit = global_motion_.fit(pose_attempt ? predicted_px_ : grid_px_, prev_px_, exclude_previous ? fit_usable_ : usable);
+    fit =
+        global_motion_.fit(pose_attempt ? predicted_px_ : grid_px_, prev_px_, exclude_previous ? fit_usable_ : usable);
     from_pose = pose_attempt;
     if (fit.ok) break;
   }
@@ -275,8 +267,7 @@ void FlowMotionMasker::thresholdResidual(const cv::Size& input_size, FlowMaskRes
 
 void FlowMotionMasker::updatePixelGrid(const cv::Size& input_size, const cv::Size& small,
                                        const CameraIntrinsics& frame_camera) {
-  const CameraIntrinsics camera =
-      frame_camera.valid() && frame_camera.distorted() ? frame_camera : CameraIntrinsics();
+  const CameraIntrinsics camera = frame_camera.valid() && frame_camera.distorted() ? frame_camera : CameraIntrinsics();
   if (!grid_px_.empty() && grid_px_.size() == small && grid_input_size_ == input_size &&
       sameCamera(camera, grid_camera_)) {
     return;
@@ -290,8 +281,7 @@ void FlowMotionMasker::updatePixelGrid(const cv::Size& input_size, const cv::Siz
   for (int y = 0; y < small.height; ++y) {
     cv::Vec2f* g = grid_px_.ptr<cv::Vec2f>(y);
     for (int x = 0; x < small.width; ++x) {
-      g[x] = cv::Vec2f(static_cast<float>((x + 0.5) * sx - 0.5),
-                       static_cast<float>((y + 0.5) * sy - 0.5));
+      g[x] = cv::Vec2f(static_cast<float>((x + 0.5) * sx - 0.5), static_cast<float>((y + 0.5) * sy - 0.5));
     }
   }
   if (!camera.valid()) return;
@@ -375,7 +365,8 @@ void FlowMotionMasker::accumulateResidual(double still_weight) {
   if (memory_.empty() || memory_.size() != residual_vec_.size() || memory <= 0.0) {
     residual_vec_.copyTo(memory_);
   } else {
-    cv::remap(memory_, memory_carried_, flow_target_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0, 0));
+    cv::remap(memory_, memory_carried_, flow_target_, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+              cv::Scalar(0, 0));
     // Only a pixel that moves enough now to be found by the sum keeps its memory: its residual
     // must reach (1 - memory) * threshold, the level whose steady-state sum reaches the
     // threshold. Noise below that level is not added up, and the background uncovered behind a
@@ -469,14 +460,11 @@ void FlowMotionMasker::finishMask(const cv::Size& size, FlowMaskResult& result) 
   // Linear upsampling then a mid-level threshold gives boundaries without blocky steps.
   cv::resize(small_mask_, result.mask, size, 0, 0, cv::INTER_LINEAR);
   cv::threshold(result.mask, result.mask, 127, 255, cv::THRESH_BINARY);
-  result.masked_fraction =
-      static_cast<double>(cv::countNonZero(result.mask)) / static_cast<double>(size.area());
+  result.masked_fraction = static_cast<double>(cv::countNonZero(result.mask)) / static_cast<double>(size.area());
   if (result.masked_fraction > options_.max_masked_fraction) {
     result.degraded = true;
-    result.message = "masked fraction " + std::to_string(result.masked_fraction) +
-                     " exceeds max_masked_fraction " +
-                     std::to_string(options_.max_masked_fraction) +
-                     ": global motion model considered wrong";
+    result.message = "masked fraction " + std::to_string(result.masked_fraction) + " exceeds max_masked_fraction " +
+                     std::to_string(options_.max_masked_fraction) + ": global motion model considered wrong";
     result.mask.setTo(0);
     result.masked_fraction = 0.0;
     useCarried(size, result);

@@ -13,14 +13,11 @@ bool finite(const cv::Vec2f& v) { return std::isfinite(v[0]) && std::isfinite(v[
 
 }  // namespace
 
-GlobalMotionEstimator::GlobalMotionEstimator(const GlobalMotionSettings& settings)
-    : settings_(settings) {}
+GlobalMotionEstimator::GlobalMotionEstimator(const GlobalMotionSettings& settings) : settings_(settings) {}
 
-GlobalMotionFit GlobalMotionEstimator::fit(const cv::Mat& cur, const cv::Mat& prev,
-                                           const cv::Mat& usable) {
+GlobalMotionFit GlobalMotionEstimator::fit(const cv::Mat& cur, const cv::Mat& prev, const cv::Mat& usable) {
   GlobalMotionFit out;
-  if (cur.empty() || cur.type() != CV_32FC2 || prev.type() != CV_32FC2 ||
-      prev.size() != cur.size()) {
+  if (cur.empty() || cur.type() != CV_32FC2 || prev.type() != CV_32FC2 || prev.size() != cur.size()) {
     out.message = "correspondence fields must be non-empty CV_32FC2 images of equal size";
     return out;
   }
@@ -58,8 +55,7 @@ GlobalMotionFit GlobalMotionEstimator::fit(const cv::Mat& cur, const cv::Mat& pr
   H.convertTo(H, CV_64F);
   out.H_prev_cur = cv::Matx33d(H.ptr<double>());
   if (out.inlierRatio() < settings_.min_inlier_ratio) {
-    out.message = "only " + std::to_string(out.num_inliers) + " of " +
-                  std::to_string(out.num_samples) +
+    out.message = "only " + std::to_string(out.num_inliers) + " of " + std::to_string(out.num_samples) +
                   " flow samples follow one global motion (moving objects cover most of the "
                   "view, or the flow is bad)";
     return out;
@@ -68,8 +64,8 @@ GlobalMotionFit GlobalMotionEstimator::fit(const cv::Mat& cur, const cv::Mat& pr
   return out;
 }
 
-void computeResidualMagnitude(const cv::Mat& cur, const cv::Mat& prev, const cv::Matx33d& H,
-                              cv::Mat& residual_px, cv::Mat* residual_vec_px) {
+void computeResidualMagnitude(const cv::Mat& cur, const cv::Mat& prev, const cv::Matx33d& H, cv::Mat& residual_px,
+                              cv::Mat* residual_vec_px) {
   CV_Assert(cur.type() == CV_32FC2 && prev.type() == CV_32FC2 && cur.size() == prev.size());
   residual_px.create(cur.size(), CV_32FC1);
   if (residual_vec_px) residual_vec_px->create(cur.size(), CV_32FC2);

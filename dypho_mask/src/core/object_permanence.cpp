@@ -72,8 +72,7 @@ void ObjectPermanence::reset() {
   kept_.release();
 }
 
-void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const cv::Mat& background_m,
-                             cv::Mat& kept) {
+void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const cv::Mat& background_m, cv::Mat& kept) {
   CV_Assert(depth_m.type() == CV_32FC1);
   const cv::Size size = depth_m.size();
   kept.create(size, CV_8UC1);
@@ -109,9 +108,9 @@ void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const 
     uchar* k = kept.ptr<uchar>(y);
     for (int x = 0; x < size.width; ++x) {
       if (c[x] == 0 || !valid(d[x]) || !valid(cd[x])) continue;
-      if (std::abs(d[x] - cd[x]) > max_change) continue;               // another surface now
+      if (std::abs(d[x] - cd[x]) > max_change) continue;                  // another surface now
       if (b != nullptr && valid(b[x]) && d[x] >= b[x] - sigma) continue;  // the background explains it
-      if (q[x] + 1 > max_quiet) continue;                                  // not seen move for too long
+      if (q[x] + 1 > max_quiet) continue;                                 // not seen move for too long
       k[x] = 255;
     }
   }

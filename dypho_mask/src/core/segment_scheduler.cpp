@@ -60,8 +60,7 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
   ++frames_since_submit_;
 
   // Collect a finished async result and carry it over the frames since its input.
-  if (pending_.valid() &&
-      pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+  if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     SegmentOutput r = pending_.get();
     if (r.ok && r.mask.size() == frame.bgr.size()) {
       const auto t = std::chrono::steady_clock::now();

@@ -25,9 +25,7 @@ int yoloxCells(const cv::Size& input) {
 }
 
 /// 2-D view rows x cols of a 3-D 1 x rows x cols tensor (no copy).
-cv::Mat view2d(const cv::Mat& m) {
-  return cv::Mat(m.size[1], m.size[2], CV_32F, const_cast<uchar*>(m.ptr()));
-}
+cv::Mat view2d(const cv::Mat& m) { return cv::Mat(m.size[1], m.size[2], CV_32F, const_cast<uchar*>(m.ptr())); }
 
 bool keep(const std::vector<bool>& keep_class, int c) {
   return keep_class.empty() || (c >= 0 && c < static_cast<int>(keep_class.size()) && keep_class[c]);
@@ -41,8 +39,7 @@ cv::Rect2f clipBox(float cx, float cy, float w, float h, const cv::Size& input) 
   return {x0, y0, x1 - x0, y1 - y0};
 }
 
-std::vector<YoloDetection> classWiseNms(std::vector<YoloDetection> candidates, float score_threshold,
-                                        float nms_iou) {
+std::vector<YoloDetection> classWiseNms(std::vector<YoloDetection> candidates, float score_threshold, float nms_iou) {
   std::map<int, std::vector<int>> by_class;
   for (int i = 0; i < static_cast<int>(candidates.size()); ++i) by_class[candidates[i].class_id].push_back(i);
   std::vector<YoloDetection> out;
@@ -61,8 +58,7 @@ std::vector<YoloDetection> classWiseNms(std::vector<YoloDetection> candidates, f
     cv::dnn::NMSBoxes(boxes, scores, score_threshold, nms_iou, kept);
     for (int k : kept) out.push_back(std::move(candidates[idx[k]]));
   }
-  std::sort(out.begin(), out.end(),
-            [](const YoloDetection& a, const YoloDetection& b) { return a.score > b.score; });
+  std::sort(out.begin(), out.end(), [](const YoloDetection& a, const YoloDetection& b) { return a.score > b.score; });
   return out;
 }
 
@@ -106,24 +102,28 @@ YoloLayout parseYoloLayout(const std::string& name) {
 
 std::string yoloLayoutName(YoloLayout layout) {
   switch (layout) {
-    case YoloLayout::kAuto: return "auto";
-    case YoloLayout::kYolox: return "yolox";
-    case YoloLayout::kYolov8: return "yolov8";
-    case YoloLayout::kYolov8Seg: return "yolov8_seg";
-    case YoloLayout::kYolov5Seg: return "yolov5_seg";
+    case YoloLayout::kAuto:
+      return "auto";
+    case YoloLayout::kYolox:
+      return "yolox";
+    case YoloLayout::kYolov8:
+      return "yolov8";
+    case YoloLayout::kYolov8Seg:
+      return "yolov8_seg";
+    case YoloLayout::kYolov5Seg:
+      return "yolov5_seg";
   }
   return "?";
 }
 
-LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Size& input_size,
-                              YoloLayout requested) {
+LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Size& input_size, YoloLayout requested) {
   LayoutInfo info;
   std::string shapes;
   for (const cv::Mat& m : outputs) shapes += (shapes.empty() ? "" : ", ") + shapeString(m);
   auto fail = [&](const std::string& why) {
     info.ok = false;
-    info.message = "YOLO outputs [" + shapes + "] for input " + std::to_string(input_size.width) +
-                   "x" + std::to_string(input_size.height) + ": " + why;
+    info.message = "YOLO outputs [" + shapes + "] for input " + std::to_string(input_size.width) + "x" +
+                   std::to_string(input_size.height) + ": " + why;
     return info;
   };
   if (outputs.empty() || outputs.size() > 2) return fail("expected 1 (detector) or 2 (seg) outputs");
@@ -156,7 +156,8 @@ LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Siz
   }
   switch (layout) {
     case YoloLayout::kYolox:
-      if (a != yoloxCells(input_size)) return fail("YOLOX needs " + std::to_string(yoloxCells(input_size)) + " rows (check yolo_input_size)");
+      if (a != yoloxCells(input_size))
+        return fail("YOLOX needs " + std::to_string(yoloxCells(input_size)) + " rows (check yolo_input_size)");
       info.num_classes = b - 5;
       break;
     case YoloLayout::kYolov8:
@@ -176,9 +177,8 @@ LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Siz
   return info;
 }
 
-std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs,
-                                             const LayoutInfo& info, const cv::Size& input_size,
-                                             const std::vector<bool>& keep_class,
+std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs, const LayoutInfo& info,
+                                             const cv::Size& input_size, const std::vector<bool>& keep_class,
                                              float score_threshold, float nms_iou) {
   std::vector<YoloDetection> candidates;
   if (!info.ok) return candidates;
@@ -205,7 +205,8 @@ std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs
       const float obj = r[4];
       if (obj < score_threshold) continue;
       int best = 0;
-      for (int c = 1; c < nc; ++c) if (r[5 + c] > r[5 + best]) best = c;
+      for (int c = 1; c < nc; ++c)
+        if (r[5 + c] > r[5 + best]) best = c;
       const float score = obj * r[5 + best];
       if (score < score_threshold || !keep(keep_class, best)) continue;
       float cx = r[0], cy = r[1], w = r[2], h = r[3];
@@ -232,12 +233,14 @@ std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs
       float best_score = o.at<float>(4, i);
       for (int c = 1; c < nc; ++c) {
         const float v = o.at<float>(4 + c, i);
-        if (v > best_score) { best_score = v; best = c; }
+        if (v > best_score) {
+          best_score = v;
+          best = c;
+        }
       }
       if (best_score < score_threshold || !keep(keep_class, best)) continue;
       YoloDetection d;
-      d.box_input = clipBox(o.at<float>(0, i), o.at<float>(1, i), o.at<float>(2, i),
-                            o.at<float>(3, i), input_size);
+      d.box_input = clipBox(o.at<float>(0, i), o.at<float>(1, i), o.at<float>(2, i), o.at<float>(3, i), input_size);
       d.class_id = best;
       d.score = best_score;
       for (int k = 0; k < nm; ++k) d.coeffs.push_back(o.at<float>(4 + nc + k, i));
@@ -255,8 +258,7 @@ cv::Rect boxInImage(const YoloDetection& d, const Letterbox& lb) {
   return r & cv::Rect(cv::Point(0, 0), lb.image_size);
 }
 
-void paintInstanceMask(const YoloDetection& d, const cv::Mat& protos, const Letterbox& lb,
-                       cv::Mat& mask_image) {
+void paintInstanceMask(const YoloDetection& d, const cv::Mat& protos, const Letterbox& lb, cv::Mat& mask_image) {
   CV_Assert(protos.dims == 4 && mask_image.type() == CV_8UC1 && mask_image.size() == lb.image_size);
   const int nm = protos.size[1], mh = protos.size[2], mw = protos.size[3];
   if (static_cast<int>(d.coeffs.size()) != nm) return;

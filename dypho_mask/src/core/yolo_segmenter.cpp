@@ -18,15 +18,15 @@ YoloSegmenter::YoloSegmenter(const YoloOptions& options) : options_((options.val
     return;
   }
   if (!std::ifstream(options_.model_path).good()) {
-    status_ = "YOLO model '" + options_.model_path +
-              "' not found or unreadable: segment mask off (fix yolo_model_path)";
+    status_ =
+        "YOLO model '" + options_.model_path + "' not found or unreadable: segment mask off (fix yolo_model_path)";
     return;
   }
   try {
     net_ = cv::dnn::readNetFromONNX(options_.model_path);
   } catch (const cv::Exception& e) {
-    status_ = "YOLO model '" + options_.model_path + "' could not be loaded as ONNX (corrupt or unsupported: " +
-              e.what() + "): segment mask off";
+    status_ = "YOLO model '" + options_.model_path +
+              "' could not be loaded as ONNX (corrupt or unsupported: " + e.what() + "): segment mask off";
     return;
   }
   if (net_.empty()) {
@@ -71,8 +71,7 @@ bool YoloSegmenter::forward(const cv::Mat& input_bgr, std::vector<cv::Mat>& outp
     return false;
   }
   // Detections first, prototypes (4-D) second, whatever the export's output order.
-  std::stable_sort(outputs.begin(), outputs.end(),
-                   [](const cv::Mat& a, const cv::Mat& b) { return a.dims < b.dims; });
+  std::stable_sort(outputs.begin(), outputs.end(), [](const cv::Mat& a, const cv::Mat& b) { return a.dims < b.dims; });
   return true;
 }
 
@@ -101,8 +100,7 @@ SegmentOutput YoloSegmenter::segment(const cv::Mat& bgr, const cv::Mat& depth_m)
     out.message = info.message;
     return out;
   }
-  out.detections = decodeYoloOutputs(outputs, info, in, keep_class_,
-                                     static_cast<float>(options_.score_threshold),
+  out.detections = decodeYoloOutputs(outputs, info, in, keep_class_, static_cast<float>(options_.score_threshold),
                                      static_cast<float>(options_.nms_iou));
   out.mask = cv::Mat::zeros(bgr.size(), CV_8UC1);
   const cv::Mat depth = depth_m.size() == bgr.size() && depth_m.type() == CV_32FC1 ? depth_m : cv::Mat();

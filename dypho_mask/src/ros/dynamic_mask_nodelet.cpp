@@ -154,12 +154,12 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
       rendered_sub_ = it_->subscribe("rendered/depth_predicted", 2, &DynamicMaskNodelet::renderedCallback, this);
     }
     if (p.approx_sync) {
-      approx_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
-          ApproxPolicy(p.queue_size), rgb_sub_, depth_sub_, info_sub_);
+      approx_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(ApproxPolicy(p.queue_size), rgb_sub_,
+                                                                              depth_sub_, info_sub_);
       approx_->registerCallback(&DynamicMaskNodelet::callback, this);
     } else {
-      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-          ExactPolicy(p.queue_size), rgb_sub_, depth_sub_, info_sub_);
+      exact_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(ExactPolicy(p.queue_size), rgb_sub_,
+                                                                            depth_sub_, info_sub_);
       exact_->registerCallback(&DynamicMaskNodelet::callback, this);
     }
     watchdog_ = std::make_unique<rc::SyncWatchdog>(
@@ -248,7 +248,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     status->frames_dropped_out_of_order = stats.dropped_out_of_order;
     status->restarts = stats.restarts;
     status->message = result.message;
-    status->segment_source = result.segment_fresh                ? dypho_slam::MaskStatus::SEGMENT_FRESH
+    status->segment_source = result.segment_fresh               ? dypho_slam::MaskStatus::SEGMENT_FRESH
                              : !result.raw_segment_mask.empty() ? dypho_slam::MaskStatus::SEGMENT_CARRIED
                                                                 : dypho_slam::MaskStatus::SEGMENT_NONE;
     status->segment_age_frames = result.segment_age_frames;
@@ -285,9 +285,10 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     if (s.frames == 0) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame masked yet (check the input topics)");
     } else if (dropped_now > 0) {
-      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
-                    "%lu frames skipped since the last report: the mask is slower than the camera (tracking carries masks)",
-                    static_cast<unsigned long>(dropped_now));
+      stat.summaryf(
+          diagnostic_msgs::DiagnosticStatus::WARN,
+          "%lu frames skipped since the last report: the mask is slower than the camera (tracking carries masks)",
+          static_cast<unsigned long>(dropped_now));
     } else if (s.degraded) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "degraded: " + s.message);
     } else {
@@ -311,9 +312,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
-  void trackingCallback(const dypho_slam::TrackingStatusConstPtr& msg) {
-    stage_->observePose(rc::toPoseUpdate(*msg));
-  }
+  void trackingCallback(const dypho_slam::TrackingStatusConstPtr& msg) { stage_->observePose(rc::toPoseUpdate(*msg)); }
 
   void movingPointsCallback(const sensor_msgs::PointCloud2ConstPtr& msg) {
     try {
@@ -332,7 +331,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
-  std::unique_ptr<mask::MaskStage> stage_;  ///< the worker thread (and the optional-input callbacks, through its own lock)
+  std::unique_ptr<mask::MaskStage>
+      stage_;  ///< the worker thread (and the optional-input callbacks, through its own lock)
   int max_waiting_frames_ = 2;
 
   std::unique_ptr<BoundedHandOver<FrameMsgs>> waiting_;  ///< frames for the worker; the oldest is skipped when full

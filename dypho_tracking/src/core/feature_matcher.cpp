@@ -89,8 +89,7 @@ std::vector<FeatureMatch> makeOneToOne(const std::vector<FeatureMatch>& matches,
 }  // namespace
 
 std::vector<FeatureMatch> filterByRotationConsistency(const std::vector<FeatureMatch>& matches,
-                                                      const KeyframePoints& reference,
-                                                      const FrameFeatures& frame) {
+                                                      const KeyframePoints& reference, const FrameFeatures& frame) {
   constexpr int kBins = 30;
   std::array<std::vector<int>, kBins> histogram;
   for (size_t m = 0; m < matches.size(); ++m) {
@@ -122,15 +121,11 @@ std::vector<FeatureMatch> filterByRotationConsistency(const std::vector<FeatureM
   return out;
 }
 
-FeatureMatcher::FeatureMatcher(const TrackingOptions& options) : options_(options) {
-  options_.validate();
-}
+FeatureMatcher::FeatureMatcher(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
-std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints& reference,
-                                                            const FrameFeatures& frame,
+std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints& reference, const FrameFeatures& frame,
                                                             const Eigen::Isometry3d& T_camera_world,
-                                                            const Pinhole& pinhole,
-                                                            double radius_px) const {
+                                                            const Pinhole& pinhole, double radius_px) const {
   std::vector<FeatureMatch> candidates;
   if (reference.size() == 0 || frame.size() == 0) return candidates;
   const KeypointGrid grid(frame.uv_undistorted_px, 16.0);
@@ -142,8 +137,8 @@ std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints
     if (!reference.reference_distance_m.empty()) {
       // Scale invariance: the level the point should appear at from the current distance,
       // skipped when outside the pyramid's range (ORB-SLAM's min/max distance test).
-      const double predicted = level + std::log(reference.reference_distance_m[i] / p_c.norm()) /
-                                           std::log(options_.scale_factor);
+      const double predicted =
+          level + std::log(reference.reference_distance_m[i] / p_c.norm()) / std::log(options_.scale_factor);
       if (predicted < -1.0 || predicted > options_.num_levels) continue;
       level = std::clamp(static_cast<int>(std::lround(predicted)), 0, options_.num_levels - 1);
     }
@@ -153,8 +148,7 @@ std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints
     grid.forEachNear(uv, r, [&](int j) {
       const Eigen::Vector2d& q = frame.uv_undistorted_px[static_cast<size_t>(j)];
       if (std::abs(q.x() - uv.x()) > r || std::abs(q.y() - uv.y()) > r) return;
-      if (std::abs(frame.keypoints[static_cast<size_t>(j)].octave - level) >
-          options_.max_level_difference) {
+      if (std::abs(frame.keypoints[static_cast<size_t>(j)].octave - level) > options_.max_level_difference) {
         return;
       }
       const int d = hamming256(d_ref, frame.descriptors.ptr<uchar>(j));

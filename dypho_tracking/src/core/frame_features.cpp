@@ -28,9 +28,8 @@ std::vector<Eigen::Vector2d> undistortPixels(const std::vector<cv::Point2f>& dis
   return out;
 }
 
-FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m,
-                                const CameraIntrinsics& camera, double min_depth_m,
-                                double max_depth_m) {
+FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m, const CameraIntrinsics& camera,
+                                double min_depth_m, double max_depth_m) {
   FrameFeatures out;
   const size_t n = orb.keypoints.size();
   std::vector<int> keep;

@@ -12,9 +12,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double msSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 /// Initial pose from brute-force matches by EPnP RANSAC; false when RANSAC fails.
 bool solvePnp(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
@@ -27,8 +25,7 @@ bool solvePnp(const KeyframePoints& reference, const FrameFeatures& frame, const
   for (const FeatureMatch& m : matches) {
     const Eigen::Vector3d& p = reference.p_world_m[static_cast<size_t>(m.reference_index)];
     const Eigen::Vector2d& uv = frame.uv_undistorted_px[static_cast<size_t>(m.frame_index)];
-    object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                        static_cast<float>(p.z()));
+    object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
     image.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()));
   }
   const cv::Matx33d K(pinhole.fx, 0, pinhole.cx, 0, pinhole.fy, pinhole.cy, 0, 0, 1);
@@ -36,10 +33,8 @@ bool solvePnp(const KeyframePoints& reference, const FrameFeatures& frame, const
   std::vector<int> inliers;
   bool ok = false;
   try {
-    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false,
-                            options.ransac_iterations,
-                            static_cast<float>(options.ransac_reprojection_px), 0.99, inliers,
-                            cv::SOLVEPNP_EPNP);
+    ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, false, options.ransac_iterations,
+                            static_cast<float>(options.ransac_reprojection_px), 0.99, inliers, cv::SOLVEPNP_EPNP);
   } catch (const cv::Exception&) {
     ok = false;  // degenerate configurations make OpenCV throw; treat as failure
   }
@@ -75,10 +70,9 @@ std::vector<bool> verifiedMatches(const KeyframePoints& reference, const std::ve
 KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
     : options_(options), matcher_(options), optimizer_(options) {}
 
-bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame,
-                             const Pinhole& pinhole, const std::vector<FeatureMatch>& matches,
-                             const Eigen::Isometry3d& T_init, bool use_verified_first,
-                             AlignmentResult* result) const {
+bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+                             const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
+                             bool use_verified_first, AlignmentResult* result) const {
   std::vector<PoseObservation> observations;
   observations.reserve(matches.size());
   for (const FeatureMatch& m : matches) {
@@ -136,8 +130,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   }
   if (!opt.success || opt.num_inliers < options_.min_inliers) {
     result->message = "pose refinement kept " + std::to_string(opt.num_inliers) + " of " +
-                      std::to_string(matches.size()) + " matches (need " +
-                      std::to_string(options_.min_inliers) + ")" +
+                      std::to_string(matches.size()) + " matches (need " + std::to_string(options_.min_inliers) + ")" +
                       (opt.message.empty() ? "" : ": " + opt.message);
     return false;
   }
@@ -153,13 +146,10 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
 }
 
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
-                                       const Pinhole& pinhole,
-                                       const Eigen::Isometry3d& T_camera_world_predicted,
-                                       TrackingTimesMs* times,
-                                       const KeyframePoints* brute_force_reference,
+                                       const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
+                                       TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
                                        bool use_verified_first) const {
-  const KeyframePoints& global_ref =
-      brute_force_reference != nullptr ? *brute_force_reference : reference;
+  const KeyframePoints& global_ref = brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
   AlignmentResult result;
@@ -167,8 +157,8 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
 
   // 1. Guided by the prediction.
   auto t0 = Clock::now();
-  std::vector<FeatureMatch> guided = matcher_.matchByProjection(
-      reference, frame, T_camera_world_predicted, pinhole, options_.search_radius_px);
+  std::vector<FeatureMatch> guided =
+      matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, options_.search_radius_px);
   t.matching += msSince(t0);
   bool ok = false;
   if (static_cast<int>(guided.size()) >= options_.min_inliers) {
@@ -183,21 +173,18 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     const std::vector<FeatureMatch> global = matcher_.matchBruteForce(global_ref, frame);
     t.matching += msSince(t0);
     if (static_cast<int>(global.size()) < options_.min_inliers) {
-      result.message = "only " + std::to_string(guided.size()) + " guided and " +
-                       std::to_string(global.size()) + " brute-force matches to keyframe (need " +
-                       std::to_string(options_.min_inliers) + ")";
+      result.message = "only " + std::to_string(guided.size()) + " guided and " + std::to_string(global.size()) +
+                       " brute-force matches to keyframe (need " + std::to_string(options_.min_inliers) + ")";
       return result;
     }
     t0 = Clock::now();
     Eigen::Isometry3d T_pnp = Eigen::Isometry3d::Identity();
     int pnp_inliers = 0;
-    const bool pnp_ok =
-        solvePnp(global_ref, frame, pinhole, global, options_, &T_pnp, &pnp_inliers);
+    const bool pnp_ok = solvePnp(global_ref, frame, pinhole, global, options_, &T_pnp, &pnp_inliers);
     t.pnp += msSince(t0);
     if (!pnp_ok || pnp_inliers < options_.min_inliers) {
       result.message = "PnP RANSAC found " + std::to_string(pnp_inliers) + " inliers among " +
-                       std::to_string(global.size()) + " matches (need " +
-                       std::to_string(options_.min_inliers) + ")";
+                       std::to_string(global.size()) + " matches (need " + std::to_string(options_.min_inliers) + ")";
       return result;
     }
     result.used_pnp = true;
@@ -210,8 +197,8 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
 
   // 3. Tight projection pass around the estimate for more (and better) matches.
   t0 = Clock::now();
-  const std::vector<FeatureMatch> tight = matcher_.matchByProjection(
-      reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px);
+  const std::vector<FeatureMatch> tight =
+      matcher_.matchByProjection(reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px);
   t.matching += msSince(t0);
   if (static_cast<int>(tight.size()) >= options_.min_inliers) {
     AlignmentResult second = result;

@@ -5,10 +5,9 @@
 namespace dypho {
 namespace tracking {
 
-KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& frame,
-                                  const cv::Mat& mask, const Eigen::Isometry3d& T_world_camera,
-                                  const FrameFeatures& features, const KeyframePoints* previous,
-                                  const std::vector<int>& previous_match,
+KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
+                                  const Eigen::Isometry3d& T_world_camera, const FrameFeatures& features,
+                                  const KeyframePoints* previous, const std::vector<int>& previous_match,
                                   std::int64_t* next_map_point_id) {
   auto keyframe = std::make_shared<Keyframe>();
   keyframe->id = keyframe_id;
@@ -49,8 +48,7 @@ KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& fra
 }
 
 KeyframeConstPtr makeKeyframe(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
-                              const Eigen::Isometry3d& T_world_camera,
-                              const FrameFeatures& features,
+                              const Eigen::Isometry3d& T_world_camera, const FrameFeatures& features,
                               const std::vector<std::int64_t>& map_point_ids) {
   auto keyframe = std::make_shared<Keyframe>();
   keyframe->id = keyframe_id;

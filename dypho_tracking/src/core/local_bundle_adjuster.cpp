@@ -127,12 +127,11 @@ void removeChi2Outliers(const LocalBaProblem& input, const TrackingOptions& opti
     double cost = 0;
     bool ok = problem.EvaluateResidualBlock(observations[k].block, false, &cost, r, nullptr);
     if (ok && observations[k].depth_block != nullptr) {
-      ok = problem.EvaluateResidualBlock(observations[k].depth_block, false, &cost, &r_depth,
-                                         nullptr);
+      ok = problem.EvaluateResidualBlock(observations[k].depth_block, false, &cost, &r_depth, nullptr);
     }
     const double chi2 = r[0] * r[0] + r[1] * r[1] + r_depth * r_depth;
-    const double threshold = observations[k].depth_block != nullptr ? options.chi2_threshold_depth
-                                                                    : options.chi2_threshold;
+    const double threshold =
+        observations[k].depth_block != nullptr ? options.chi2_threshold_depth : options.chi2_threshold;
     if (!ok || chi2 > threshold) {
       outliers->push_back(input.observations[window->source[k]]);
       problem.RemoveResidualBlock(observations[k].block);
@@ -162,9 +161,7 @@ void writeSolution(const BaWindow& window, LocalBaSolution* solution) {
 
 }  // namespace
 
-LocalBundleAdjuster::LocalBundleAdjuster(const TrackingOptions& options) : options_(options) {
-  options_.validate();
-}
+LocalBundleAdjuster::LocalBundleAdjuster(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
 LocalBaResult LocalBundleAdjuster::adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
                                           const Pinhole& pinhole) const {

@@ -5,9 +5,7 @@
 namespace dypho {
 namespace tracking {
 
-LoopCloser::LoopCloser(const TrackingOptions& options) : options_(options), optimizer_(options) {
-  options_.validate();
-}
+LoopCloser::LoopCloser(const TrackingOptions& options) : options_(options), optimizer_(options) { options_.validate(); }
 
 LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const {
   LoopCorrection out;
@@ -33,8 +31,7 @@ LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const 
     previous = kv.first;
   }
   edges.push_back({loop.loop_keyframe_id, loop.current_keyframe_id,
-                   poses[loop.loop_keyframe_id].inverse() * loop.T_world_current,
-                   options_.loop_edge_weight});
+                   poses[loop.loop_keyframe_id].inverse() * loop.T_world_current, options_.loop_edge_weight});
   const PoseGraphResult graph = optimizer_.optimize(poses, edges, loop.loop_keyframe_id);
   if (!graph.success) {
     out.message = "pose graph failed: " + graph.message;
@@ -42,13 +39,11 @@ LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const 
   }
   for (const auto& kv : graph.T_world_keyframe) {
     const Eigen::Isometry3d delta = poses[kv.first].inverse() * kv.second;
-    if (delta.translation().norm() > 1e-3 ||
-        Eigen::AngleAxisd(delta.rotation()).angle() > 0.01 * M_PI / 180.0) {
+    if (delta.translation().norm() > 1e-3 || Eigen::AngleAxisd(delta.rotation()).angle() > 0.01 * M_PI / 180.0) {
       out.corrected_keyframes.emplace_back(kv.first, kv.second);
     }
   }
-  out.T_correction = graph.T_world_keyframe.at(loop.current_keyframe_id) *
-                     poses[loop.current_keyframe_id].inverse();
+  out.T_correction = graph.T_world_keyframe.at(loop.current_keyframe_id) * poses[loop.current_keyframe_id].inverse();
   map->applyKeyframePoses(graph.T_world_keyframe);
   for (const auto& m : loop.point_matches) {
     if (map->mergePoints(m.first, m.second)) ++out.fused_points;

@@ -10,8 +10,7 @@ LoopDetector::LoopDetector(const TrackingOptions& options) : options_(options), 
   options_.validate();
 }
 
-LoopResult LoopDetector::detect(const TrackerMap& map, std::int64_t current_id,
-                                const Pinhole& pinhole) const {
+LoopResult LoopDetector::detect(const TrackerMap& map, std::int64_t current_id, const Pinhole& pinhole) const {
   LoopResult result;
   result.current_keyframe_id = current_id;
   const MapKeyframe* current = map.keyframe(current_id);
@@ -44,8 +43,8 @@ LoopResult LoopDetector::detect(const TrackerMap& map, std::int64_t current_id,
     ++result.candidates;
     const KeyframePoints own = map.keyframePoints(cand.second);
     const KeyframePoints local = map.localPoints(cand.second);
-    const AlignmentResult a = aligner_.align(local, current->features, pinhole,
-                                             current->T_world_camera.inverse(), nullptr, &own);
+    const AlignmentResult a =
+        aligner_.align(local, current->features, pinhole, current->T_world_camera.inverse(), nullptr, &own);
     if (!a.success || a.num_inliers < options_.loop_min_inliers) continue;
     const Eigen::Isometry3d T_world_current = a.T_camera_world.inverse();
     if (!T_world_current.matrix().allFinite()) continue;
@@ -58,10 +57,8 @@ LoopResult LoopDetector::detect(const TrackerMap& map, std::int64_t current_id,
     result.point_matches.clear();
     for (size_t m = 0; m < a.matches.size(); ++m) {
       if (!a.inliers[m]) continue;
-      const std::int64_t old_id =
-          ref.map_point_ids[static_cast<size_t>(a.matches[m].reference_index)];
-      const std::int64_t cur_id =
-          current->map_point_ids[static_cast<size_t>(a.matches[m].frame_index)];
+      const std::int64_t old_id = ref.map_point_ids[static_cast<size_t>(a.matches[m].reference_index)];
+      const std::int64_t cur_id = current->map_point_ids[static_cast<size_t>(a.matches[m].frame_index)];
       if (old_id >= 0 && cur_id >= 0) result.point_matches.emplace_back(old_id, cur_id);
     }
   }

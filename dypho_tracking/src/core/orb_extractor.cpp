@@ -78,10 +78,10 @@ std::optional<ExtractionSettings> extractionSettings(const cv::Mat& mask, const 
       cv::distanceTransform(is_static, settings.dist_to_dynamic, cv::DIST_L2, 3);
     }
   }
-  settings.threshold = std::max(
-      options.min_fast_threshold,
-      static_cast<int>(std::lround(options.fast_threshold *
-                                   (1.0 - options.mask_threshold_relaxation * out->masked_fraction))));
+  settings.threshold =
+      std::max(options.min_fast_threshold,
+               static_cast<int>(std::lround(options.fast_threshold *
+                                            (1.0 - options.mask_threshold_relaxation * out->masked_fraction))));
   out->fast_threshold_used = settings.threshold;
   settings.sigma_dy = relaxedThreshold(options.relaxed_sigma0, options.relaxed_k, out->masked_fraction);
   out->relaxed_threshold_used = settings.sigma_dy;
@@ -161,8 +161,7 @@ std::vector<cv::KeyPoint> relaxedCandidates(const cv::Mat& level_image, const cv
       if (!isRelaxedFeature(r, options.relaxed_min_count, options.fast_threshold)) continue;
       if (!is_allowed(static_cast<float>(x), static_cast<float>(y))) continue;
       // Scores below every FAST corner's: relaxed features rank after FAST corners.
-      found.emplace_back(static_cast<float>(x), static_cast<float>(y), 7.f, -1.f,
-                         r.score / 16.f * 1e-3f);
+      found.emplace_back(static_cast<float>(x), static_cast<float>(y), 7.f, -1.f, r.score / 16.f * 1e-3f);
     }
   }
   std::sort(found.begin(), found.end(),
@@ -181,8 +180,7 @@ std::vector<cv::KeyPoint> relaxedCandidates(const cv::Mat& level_image, const cv
 /// round-robin (level pixel coordinates).
 std::vector<cv::KeyPoint> relaxedKeypoints(const cv::Mat& level_image, const LevelGrid& g,
                                            const std::vector<size_t>& empty_cells, double sigma_dy,
-                                           const TrackingOptions& options, const AwayFromMask& is_allowed,
-                                           int budget) {
+                                           const TrackingOptions& options, const AwayFromMask& is_allowed, int budget) {
   std::vector<std::vector<cv::KeyPoint>> relaxed_cells;
   for (size_t i : empty_cells) {
     std::vector<cv::KeyPoint> relaxed = relaxedCandidates(level_image, g.cellRect(i), sigma_dy, options, is_allowed);
@@ -194,9 +192,8 @@ std::vector<cv::KeyPoint> relaxedKeypoints(const cv::Mat& level_image, const Lev
 /// Up to `budget` keypoints of one pyramid level (level pixel coordinates): FAST corners spread
 /// over the grid, then relaxed ones for the deficit, counted into *num_relaxed.
 std::vector<cv::KeyPoint> levelKeypoints(const cv::Mat& level_image, const LevelGrid& grid,
-                                         const AwayFromMask& is_allowed, int budget,
-                                         const ExtractionSettings& settings, const TrackingOptions& options,
-                                         int* num_relaxed) {
+                                         const AwayFromMask& is_allowed, int budget, const ExtractionSettings& settings,
+                                         const TrackingOptions& options, int* num_relaxed) {
   FastCells fast = fastCells(level_image, grid, options.min_fast_threshold, settings.threshold, is_allowed);
   std::vector<cv::KeyPoint> chosen = distributeOverCells(fast.cells, budget);
   // Relaxed features only make up a deficit left by FAST, and only in cells without a corner.
@@ -233,8 +230,7 @@ OrbExtractor::OrbExtractor(const TrackingOptions& options) : options_(options) {
   level_scales_.resize(static_cast<size_t>(levels));
   for (int l = 0; l < levels; ++l) {
     // Same float arithmetic as cv::ORB so that both pyramids have identical level sizes.
-    level_scales_[static_cast<size_t>(l)] =
-        static_cast<float>(std::pow(options_.scale_factor, static_cast<double>(l)));
+    level_scales_[static_cast<size_t>(l)] = static_cast<float>(std::pow(options_.scale_factor, static_cast<double>(l)));
   }
   // Geometric budget per level: n_l = n_0 f^l with f = 1 / scale_factor, sum = num_features.
   const double f = 1.0 / options_.scale_factor;
@@ -250,12 +246,10 @@ OrbExtractor::OrbExtractor(const TrackingOptions& options) : options_(options) {
 
   umax_.assign(kHalfPatch + 1, 0);
   for (int v = 0; v <= kHalfPatch; ++v) {
-    umax_[static_cast<size_t>(v)] =
-        static_cast<int>(std::floor(std::sqrt(double(kHalfPatch * kHalfPatch - v * v))));
+    umax_[static_cast<size_t>(v)] = static_cast<int>(std::floor(std::sqrt(double(kHalfPatch * kHalfPatch - v * v))));
   }
-  orb_ = cv::ORB::create(options_.num_features, static_cast<float>(options_.scale_factor),
-                         options_.num_levels, kEdgePx, 0, 2, cv::ORB::FAST_SCORE, 31,
-                         options_.fast_threshold);
+  orb_ = cv::ORB::create(options_.num_features, static_cast<float>(options_.scale_factor), options_.num_levels, kEdgePx,
+                         0, 2, cv::ORB::FAST_SCORE, 31, options_.fast_threshold);
 }
 
 OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
@@ -288,9 +282,8 @@ OrbFeatures OrbExtractor::extract(const cv::Mat& gray, const cv::Mat& mask) {
   orb_->compute(gray, all, out.descriptors);
   out.keypoints = std::move(all);
   if (static_cast<int>(out.keypoints.size()) != out.descriptors.rows) {
-    throw std::logic_error("OrbExtractor: cv::ORB::compute returned " +
-                           std::to_string(out.descriptors.rows) + " descriptors for " +
-                           std::to_string(out.keypoints.size()) + " keypoints");
+    throw std::logic_error("OrbExtractor: cv::ORB::compute returned " + std::to_string(out.descriptors.rows) +
+                           " descriptors for " + std::to_string(out.keypoints.size()) + " keypoints");
   }
   return out;
 }

@@ -24,8 +24,7 @@ struct LevelGrid {
   cv::Rect cellRect(std::size_t i) const {
     const cv::Rect usable(x_lo, y_lo, x_hi - x_lo, y_hi - y_lo);
     const int c = static_cast<int>(i) % ncols, r = static_cast<int>(i) / ncols;
-    const cv::Rect cell_rect(x_lo + static_cast<int>(c * cell_w),
-                             y_lo + static_cast<int>(r * cell_h),
+    const cv::Rect cell_rect(x_lo + static_cast<int>(c * cell_w), y_lo + static_cast<int>(r * cell_h),
                              static_cast<int>(std::ceil(cell_w)), static_cast<int>(std::ceil(cell_h)));
     return cell_rect & usable;
   }
@@ -50,12 +49,9 @@ inline std::optional<LevelGrid> levelGrid(const cv::Size& level_size, int edge_p
 
 /// Keeps up to `budget` keypoints, taking cells round-robin (best response first in each round).
 /// Sorts each cell by response, best first.
-inline std::vector<cv::KeyPoint> distributeOverCells(std::vector<std::vector<cv::KeyPoint>>& cells,
-                                                     int budget) {
+inline std::vector<cv::KeyPoint> distributeOverCells(std::vector<std::vector<cv::KeyPoint>>& cells, int budget) {
   std::vector<cv::KeyPoint> out;
-  const auto by_response = [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-    return a.response > b.response;
-  };
+  const auto by_response = [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; };
   size_t max_len = 0;
   for (auto& cell : cells) {
     std::sort(cell.begin(), cell.end(), by_response);
@@ -68,8 +64,7 @@ inline std::vector<cv::KeyPoint> distributeOverCells(std::vector<std::vector<cv:
     }
     const size_t room = static_cast<size_t>(budget) - out.size();
     if (round.size() > room) {
-      std::partial_sort(round.begin(), round.begin() + static_cast<long>(room), round.end(),
-                        by_response);
+      std::partial_sort(round.begin(), round.begin() + static_cast<long>(room), round.end(), by_response);
       round.resize(room);
     }
     out.insert(out.end(), round.begin(), round.end());

@@ -50,15 +50,13 @@ Vec4 fromEigen(const Eigen::Quaterniond& q) { return Vec4(q.x(), q.y(), q.z(), q
 
 }  // namespace
 
-PoseGraphError::PoseGraphError(const Eigen::Isometry3d& T_a_b, double sigma_rot_rad,
-                               double sigma_trans_m)
+PoseGraphError::PoseGraphError(const Eigen::Isometry3d& T_a_b, double sigma_rot_rad, double sigma_trans_m)
     : q_ab_inv_(Eigen::Quaterniond(T_a_b.rotation()).normalized().conjugate()),
       t_ab_(T_a_b.translation()),
       w_rot_(1.0 / sigma_rot_rad),
       w_trans_(1.0 / sigma_trans_m) {}
 
-bool PoseGraphError::Evaluate(double const* const* parameters, double* residuals,
-                              double** jacobians) const {
+bool PoseGraphError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const Vec4 q_a(parameters[0][0], parameters[0][1], parameters[0][2], parameters[0][3]);
   const Eigen::Vector3d t_a(parameters[1][0], parameters[1][1], parameters[1][2]);
   const Vec4 q_b(parameters[2][0], parameters[2][1], parameters[2][2], parameters[2][3]);
@@ -76,8 +74,7 @@ bool PoseGraphError::Evaluate(double const* const* parameters, double* residuals
   const Mat4 C = Eigen::Vector4d(-1, -1, -1, 1).asDiagonal();
   // R_a^T as the linear map of the rotation formula on conj(q_a).
   const Eigen::Vector3d v = q_a_conj.head<3>();
-  const Eigen::Matrix3d Rt =
-      Eigen::Matrix3d::Identity() + 2.0 * q_a_conj.w() * skew(v) + 2.0 * skew(v) * skew(v);
+  const Eigen::Matrix3d Rt = Eigen::Matrix3d::Identity() + 2.0 * q_a_conj.w() * skew(v) + 2.0 * skew(v) * skew(v);
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 6, 4, Eigen::RowMajor>> J(jacobians[0]);
     const Mat4 dq = leftMatrix(m) * rightMatrix(q_b) * C;
@@ -102,13 +99,10 @@ bool PoseGraphError::Evaluate(double const* const* parameters, double* residuals
   return true;
 }
 
-PoseGraphOptimizer::PoseGraphOptimizer(const TrackingOptions& options) : options_(options) {
-  options_.validate();
-}
+PoseGraphOptimizer::PoseGraphOptimizer(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
-PoseGraphResult PoseGraphOptimizer::optimize(
-    const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe,
-    const std::vector<PoseGraphEdge>& edges, std::int64_t fixed_id) const {
+PoseGraphResult PoseGraphOptimizer::optimize(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe,
+                                             const std::vector<PoseGraphEdge>& edges, std::int64_t fixed_id) const {
   PoseGraphResult result;
   result.T_world_keyframe = T_world_keyframe;
   struct Node {
@@ -121,8 +115,7 @@ PoseGraphResult PoseGraphOptimizer::optimize(
       result.message = "keyframe " + std::to_string(kv.first) + " has a non-finite pose";
       return result;
     }
-    nodes[kv.first] = {Eigen::Quaterniond(kv.second.rotation()).normalized(),
-                       kv.second.translation()};
+    nodes[kv.first] = {Eigen::Quaterniond(kv.second.rotation()).normalized(), kv.second.translation()};
   }
   ceres::Problem problem;
   const double sigma_rot = options_.pose_graph_sigma_rot_deg * M_PI / 180.0;
@@ -131,10 +124,9 @@ PoseGraphResult PoseGraphOptimizer::optimize(
     auto a = nodes.find(e.from), b = nodes.find(e.to);
     if (a == nodes.end() || b == nodes.end() || e.from == e.to || !(e.weight > 0)) continue;
     const double s = 1.0 / std::sqrt(e.weight);
-    problem.AddResidualBlock(
-        new PoseGraphError(e.T_from_to, sigma_rot * s, options_.pose_graph_sigma_trans_m * s),
-        nullptr, a->second.q.coeffs().data(), a->second.t.data(), b->second.q.coeffs().data(),
-        b->second.t.data());
+    problem.AddResidualBlock(new PoseGraphError(e.T_from_to, sigma_rot * s, options_.pose_graph_sigma_trans_m * s),
+                             nullptr, a->second.q.coeffs().data(), a->second.t.data(), b->second.q.coeffs().data(),
+                             b->second.t.data());
     ++used;
   }
   if (used == 0) {

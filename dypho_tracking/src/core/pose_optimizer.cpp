@@ -57,8 +57,8 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
   for (size_t i = 0; i < n; ++i) {
     const PoseObservation& o = observations[i];
     if (has_depth(o)) {
-      costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m,
-                                                         options_.depth_baseline_m, sigma(o.level), pinhole);
+      costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
+                                                         sigma(o.level), pinhole);
     } else {
       costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
     }
@@ -67,8 +67,8 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
 }
 
 int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
-                            bool accept_all_in_front, std::vector<bool>* inliers) const {
+                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, bool accept_all_in_front,
+                            std::vector<bool>* inliers) const {
   int count = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
     const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
@@ -136,8 +136,7 @@ double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::
 
 }  // namespace
 
-PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations,
-                                            const Pinhole& pinhole,
+PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                                             const Eigen::Isometry3d& T_camera_world_init) const {
   PoseOptimizerResult result;
   result.T_camera_world = T_camera_world_init;
@@ -161,8 +160,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   int active = classify(observations, pinhole, q_cw, t_cw, /*accept_all_in_front=*/true, &result.inliers);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
     if (active < 3) {
-      result.message = "only " + std::to_string(active) +
-                       " observations left in front of the camera / below the chi2 threshold";
+      result.message =
+          "only " + std::to_string(active) + " observations left in front of the camera / below the chi2 threshold";
       result.T_camera_world = T_camera_world_init;
       result.num_inliers = 0;
       return result;

@@ -5,12 +5,9 @@
 namespace dypho {
 namespace tracking {
 
-Relocalizer::Relocalizer(const TrackingOptions& options) : options_(options), aligner_(options) {
-  options_.validate();
-}
+Relocalizer::Relocalizer(const TrackingOptions& options) : options_(options), aligner_(options) { options_.validate(); }
 
-RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameFeatures& frame,
-                                             const Pinhole& pinhole,
+RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameFeatures& frame, const Pinhole& pinhole,
                                              TrackingTimesMs* times) const {
   RelocalizationResult result;
   std::vector<std::int64_t> ids;
@@ -34,8 +31,7 @@ RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameF
     const MapKeyframe* kf = map.keyframe(id);
     const KeyframePoints own = map.keyframePoints(id);
     if (static_cast<int>(own.size()) < options_.relocalization_min_inliers) continue;
-    AlignmentResult a =
-        aligner_.align(own, frame, pinhole, kf->T_world_camera.inverse(), times, nullptr);
+    AlignmentResult a = aligner_.align(own, frame, pinhole, kf->T_world_camera.inverse(), times, nullptr);
     if (!a.success) continue;
     best_inliers = std::max(best_inliers, a.num_inliers);
     if (a.num_inliers < options_.relocalization_min_inliers) continue;
@@ -50,8 +46,8 @@ RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameF
     result.num_inliers = best.num_inliers;
     return result;
   }
-  result.message = "relocalisation failed against " + std::to_string(result.tried) +
-                   " keyframes (best " + std::to_string(best_inliers) + " inliers, need " +
+  result.message = "relocalisation failed against " + std::to_string(result.tried) + " keyframes (best " +
+                   std::to_string(best_inliers) + " inliers, need " +
                    std::to_string(options_.relocalization_min_inliers) + ")";
   return result;
 }

@@ -15,9 +15,8 @@ Eigen::Matrix<double, 3, 4> rotationJacobian(const double* q, const Eigen::Vecto
   Eigen::Matrix3d skew_p;
   skew_p << 0, -P.z(), P.y(), P.z(), 0, -P.x(), -P.y(), P.x(), 0;
   Eigen::Matrix<double, 3, 4> J;
-  J.leftCols<3>() = -2.0 * w * skew_p +
-                    2.0 * (v.dot(P) * Eigen::Matrix3d::Identity() + v * P.transpose() -
-                           2.0 * P * v.transpose());
+  J.leftCols<3>() =
+      -2.0 * w * skew_p + 2.0 * (v.dot(P) * Eigen::Matrix3d::Identity() + v * P.transpose() - 2.0 * P * v.transpose());
   J.col(3) = 2.0 * v.cross(P);
   return J;
 }
@@ -32,9 +31,8 @@ Eigen::Matrix3d rotationMatrix(const double* q) {
 
 /// Whitened pixel residual (u - u_obs, v - v_obs) / sigma of the camera point p_c (the caller
 /// checks p_c.z() > 0) written to residuals[0..1]; returns d r / d p_c (2x3, whitened).
-Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::Vector2d& uv_px,
-                                          double inv_sigma, const Eigen::Vector3d& p_c,
-                                          double* residuals) {
+Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::Vector2d& uv_px, double inv_sigma,
+                                          const Eigen::Vector3d& p_c, double* residuals) {
   const double inv_z = 1.0 / p_c.z();
   const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
   residuals[0] = (pinhole.fx * x + pinhole.cx - uv_px.x()) * inv_sigma;
@@ -51,15 +49,13 @@ Eigen::Matrix<double, 3, 4> quaternionRotationJacobian(const double* q, const Ei
   return rotationJacobian(q, P);
 }
 
-bool BaReprojectionError::Evaluate(double const* const* parameters, double* residuals,
-                                   double** jacobians) const {
+bool BaReprojectionError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const double* q = parameters[0];
   const double* t = parameters[1];
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
   const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc =
-      pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
   if (jacobians == nullptr) return true;
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
@@ -76,8 +72,7 @@ bool BaReprojectionError::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
-bool BaDepthError::Evaluate(double const* const* parameters, double* residuals,
-                            double** jacobians) const {
+bool BaDepthError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const double* q = parameters[0];
   const double* t = parameters[1];
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
@@ -110,14 +105,12 @@ Eigen::Vector3d ReprojectionError::rotate(const double* q, const Eigen::Vector3d
   return p + 2.0 * w * vxp + 2.0 * v.cross(vxp);
 }
 
-bool ReprojectionError::Evaluate(double const* const* parameters, double* residuals,
-                                 double** jacobians) const {
+bool ReprojectionError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const double* q = parameters[0];
   const double* t = parameters[1];
   const Eigen::Vector3d p_c = rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc =
-      pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
   if (jacobians == nullptr) return true;
 
   if (jacobians[0] != nullptr) {
@@ -131,12 +124,10 @@ bool ReprojectionError::Evaluate(double const* const* parameters, double* residu
   return true;
 }
 
-bool RgbdReprojectionError::Evaluate(double const* const* parameters, double* residuals,
-                                     double** jacobians) const {
+bool RgbdReprojectionError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const double* q = parameters[0];
   const double* t = parameters[1];
-  const Eigen::Vector3d p_c =
-      ReprojectionError::rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
+  const Eigen::Vector3d p_c = ReprojectionError::rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
   const double inv_z = 1.0 / p_c.z();
   Eigen::Matrix<double, 3, 3> d_r_d_pc;

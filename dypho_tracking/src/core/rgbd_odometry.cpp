@@ -1,11 +1,9 @@
 #include "dypho/tracking/rgbd_odometry.h"
 
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
-
 
 #include "dypho/tracking/pinhole.h"
 #include "rgbd_odometry_frame.h"
@@ -81,11 +79,10 @@ std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFe
   } else if (orb.masked_fraction >= 0.999) {
     os << "the whole image is masked as dynamic; no static area to track";
   } else if (static_cast<int>(orb.keypoints.size()) < options_.min_init_features) {
-    os << "textureless or dark image: only " << orb.keypoints.size()
-       << " ORB keypoints (masked fraction " << orb.masked_fraction << ")";
+    os << "textureless or dark image: only " << orb.keypoints.size() << " ORB keypoints (masked fraction "
+       << orb.masked_fraction << ")";
   } else {
-    os << "only " << features.size() << " of " << orb.keypoints.size()
-       << " keypoints have a valid depth";
+    os << "only " << features.size() << " of " << orb.keypoints.size() << " keypoints have a valid depth";
   }
   os << "; need " << options_.min_init_features << " keypoints with depth to start";
   return os.str();
@@ -98,10 +95,8 @@ void RgbdOdometry::setReference(std::int64_t keyframe_id) {
   own_view_ = map_.keyframePoints(keyframe_id);
 }
 
-void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
-                               const FrameFeatures& features,
-                               Eigen::Isometry3d T_world_tracked,
-                               const std::vector<std::int64_t>& tracked_point_ids,
+void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
+                               Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& tracked_point_ids,
                                const Pinhole& pinhole, TrackingResult* result) {
   // The previous keyframe's adjustment goes into the map first; this frame was tracked against
   // the map before it, so its pose moves with the reference keyframe and its matches to points
@@ -128,8 +123,8 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   } else if (LocalBaProblem problem = local_ba_.prepare(map_, id, pinhole);
              options_.local_ba_async_frames > 0 && problem.message.empty()) {
     const LocalBundleAdjuster* adjuster = &local_ba_;
-    pending_ba_ = std::async(std::launch::async,
-                             [adjuster, problem = std::move(problem)] { return adjuster->solve(problem); });
+    pending_ba_ =
+        std::async(std::launch::async, [adjuster, problem = std::move(problem)] { return adjuster->solve(problem); });
     pending_ba_keyframe_id_ = id;
     pending_ba_frames_left_ = options_.local_ba_async_frames;
     result->times.local_ba += msSince(t0);
@@ -143,8 +138,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask,
   MapKeyframe* stored = map_.mutableKeyframe(id);
   T_world_last_ = stored->T_world_camera;  // after BA / loop correction
   motion_.correctLast(T_world_last_);
-  result->keyframe =
-      makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
+  result->keyframe = makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
   setReference(id);
   if (options_.static_check) static_check_.setReference(id, frame, mask);
   frames_since_keyframe_ = 0;
@@ -222,11 +216,9 @@ void RgbdOdometry::collectCorrections(std::int64_t new_keyframe_id, TrackingResu
   }
 }
 
-void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
-                              TrackingResult* result) {
+void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result) {
   if (!options_.loop_closure) return;
-  if (last_loop_keyframe_id_ >= 0 &&
-      keyframe_id - last_loop_keyframe_id_ < options_.loop_min_keyframe_gap) {
+  if (last_loop_keyframe_id_ >= 0 && keyframe_id - last_loop_keyframe_id_ < options_.loop_min_keyframe_gap) {
     return;
   }
   const LoopResult loop = loop_detector_.detect(map_, keyframe_id, pinhole);
@@ -245,11 +237,9 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole,
   T_world_odom_ = correction.T_correction * T_world_odom_;
   result->loop_closed = true;
   result->message = "loop closed: keyframe " + std::to_string(keyframe_id) + " -> " +
-                    std::to_string(loop.loop_keyframe_id) + " (" +
-                    std::to_string(loop.num_inliers) + " inliers, " +
-                    std::to_string(correction.corrected_keyframes.size()) +
-                    " keyframes corrected, " + std::to_string(correction.fused_points) +
-                    " points fused)";
+                    std::to_string(loop.loop_keyframe_id) + " (" + std::to_string(loop.num_inliers) + " inliers, " +
+                    std::to_string(correction.corrected_keyframes.size()) + " keyframes corrected, " +
+                    std::to_string(correction.fused_points) + " points fused)";
 }
 
 bool RgbdOdometry::cameraStill() const {
@@ -260,8 +250,8 @@ bool RgbdOdometry::cameraStill() const {
 }
 
 void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
-                                         const FrameFeatures& features, const RgbdFrame& frame,
-                                         const cv::Mat& mask, TrackingResult* result) {
+                                         const FrameFeatures& features, const RgbdFrame& frame, const cv::Mat& mask,
+                                         TrackingResult* result) {
   const int width = frame.bgr.cols, height = frame.bgr.rows;
   const double tolerance_m = options_.moving_point_depth_tolerance_m;
   auto depthAgrees = [tolerance_m](double z_point, double z_measured) {

@@ -37,11 +37,11 @@ struct RgbdOdometry::TrackingFrame {
   MaskJudgement judgement;  ///< whether `mask` judged this frame (the safe start)
 
   // prepareFeatures.
-  Pinhole pinhole;                              ///< the frame's camera
-  PreparedFeatures prepared_here;               ///< features prepared in track(), when needed
-  const PreparedFeatures* prepared = nullptr;   ///< the caller's or prepared_here
-  bool enough_to_start = false;                 ///< >= min_init_features keypoints with depth
-  bool enough_to_match = false;                 ///< >= min_inliers keypoints with depth
+  Pinhole pinhole;                             ///< the frame's camera
+  PreparedFeatures prepared_here;              ///< features prepared in track(), when needed
+  const PreparedFeatures* prepared = nullptr;  ///< the caller's or prepared_here
+  bool enough_to_start = false;                ///< >= min_init_features keypoints with depth
+  bool enough_to_match = false;                ///< >= min_inliers keypoints with depth
 
   // predictPose (when enough_to_match).
   Eigen::Isometry3d T_world_predicted = Eigen::Isometry3d::Identity();  ///< motion model or last pose

@@ -99,9 +99,8 @@ Eigen::Isometry3d RgbdOdometry::denseStart(const Eigen::Isometry3d& T_features, 
   return T_start;
 }
 
-void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat& mask,
-                                           const FrameFeatures& features, const Pinhole& pinhole,
-                                           AlignmentResult* aligned, TrackingResult* result) {
+void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
+                                           const Pinhole& pinhole, AlignmentResult* aligned, TrackingResult* result) {
   const MapKeyframe* reference = map_.keyframe(reference_id_);
   if (reference == nullptr || !aligned->T_camera_world.matrix().allFinite()) return;
   const Eigen::Isometry3d T_world_reference = reference->T_world_camera;
@@ -110,8 +109,7 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   const StaticAgreement by_features = static_check_.score(T_features * T_world_reference);
   result->static_agreement = by_features.ratio();
   const Eigen::Isometry3d T_start = denseStart(T_features, by_features.ratio(), T_world_reference);
-  const Eigen::Isometry3d T_dense =
-      static_check_.refine(T_start * T_world_reference) * T_world_reference.inverse();
+  const Eigen::Isometry3d T_dense = static_check_.refine(T_start * T_world_reference) * T_world_reference.inverse();
   const StaticAgreement by_dense = static_check_.score(T_dense * T_world_reference);
   // Evidence only when the refined pose explains most of the static samples (sharp images, a
   // static background that is really static) and clearly more than the feature pose does.

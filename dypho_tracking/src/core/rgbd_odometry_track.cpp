@@ -31,15 +31,16 @@ bool unjudged(const cv::Mat& mask, MaskJudgement judgement) {
 /// their points, as an angle. Independent of the tracked pose, which moving matches may carry;
 /// -1 without matches.
 double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoints& reference_points,
-                    const FrameFeatures& features, const Pinhole& pinhole,
-                    const Eigen::Isometry3d& T_world_reference) {
+                    const FrameFeatures& features, const Pinhole& pinhole, const Eigen::Isometry3d& T_world_reference) {
   const Eigen::Isometry3d T_reference_world = T_world_reference.inverse();
   std::vector<double> displacement_px;
   displacement_px.reserve(matches.size());
   for (const FeatureMatch& m : matches) {
-    const Eigen::Vector3d p_reference = T_reference_world * reference_points.p_world_m[static_cast<std::size_t>(m.reference_index)];
+    const Eigen::Vector3d p_reference =
+        T_reference_world * reference_points.p_world_m[static_cast<std::size_t>(m.reference_index)];
     if (p_reference.z() < 1e-3) continue;
-    displacement_px.push_back((pinhole.project(p_reference) - features.uv_undistorted_px[static_cast<std::size_t>(m.frame_index)]).norm());
+    displacement_px.push_back(
+        (pinhole.project(p_reference) - features.uv_undistorted_px[static_cast<std::size_t>(m.frame_index)]).norm());
   }
   if (displacement_px.empty()) return -1.0;
   auto median = displacement_px.begin() + static_cast<std::ptrdiff_t>(displacement_px.size() / 2);
@@ -158,7 +159,8 @@ void RgbdOdometry::startMap(TrackingFrame* work) {
     return;
   }
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
-  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement)) unverified_keyframe_id_ = reference_id_;
+  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
+    unverified_keyframe_id_ = reference_id_;
   result.state = TrackingState::kOk;
   result.discontinuous = true;  // a new world starts here
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
@@ -200,8 +202,7 @@ void RgbdOdometry::verifyPose(TrackingFrame* work) {
   const bool slow = turn_deg >= 0.0 && turn_deg < options_.static_check_max_frame_rotation_deg;
   if (work->aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
     const auto t_check = Clock::now();
-    checkAgainstStaticScene(work->frame, work->mask, work->features(), work->pinhole, &work->aligned,
-                            &work->result);
+    checkAgainstStaticScene(work->frame, work->mask, work->features(), work->pinhole, &work->aligned, &work->result);
     work->result.times.static_check = msSince(t_check);
   }
   work->T_world_camera = work->aligned.T_camera_world.inverse();
@@ -274,8 +275,8 @@ bool RgbdOdometry::relocalise(TrackingFrame* work) {
   result.discontinuous = true;
   result.T_world_camera = T_world_last_;
   result.num_inliers = reloc.num_inliers;
-  result.message = "relocalised against keyframe " + std::to_string(reloc.keyframe_id) +
-                   " after: " + work->aligned.message;
+  result.message =
+      "relocalised against keyframe " + std::to_string(reloc.keyframe_id) + " after: " + work->aligned.message;
   return true;
 }
 
@@ -283,8 +284,7 @@ void RgbdOdometry::markLost(TrackingFrame* work) {
   ++lost_frames_;
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
   work->result.state = TrackingState::kLost;
-  work->result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " +
-                         work->aligned.message;
+  work->result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " + work->aligned.message;
   if (lost_frames_ >= options_.max_lost_frames && work->enough_to_start) reinitialise(work);
 }
 
@@ -292,7 +292,8 @@ void RgbdOdometry::reinitialise(TrackingFrame* work) {
   TrackingResult& result = work->result;
   const std::int64_t first_new_keyframe_id = next_keyframe_id_;
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
-  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement)) unverified_keyframe_id_ = reference_id_;
+  if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
+    unverified_keyframe_id_ = reference_id_;
   // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
   // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
   // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.

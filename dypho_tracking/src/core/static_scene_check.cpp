@@ -47,7 +47,8 @@ void reduce(const RgbdFrame& frame, const cv::Mat& mask, double scale, Undistort
   }
   if (!frame.camera.distorted()) return;
   // Undistorted onto the same scaled pinhole that the samples use (sx, sy as scaledPinhole).
-  const double sx = static_cast<double>(size.width) / frame.bgr.cols, sy = static_cast<double>(size.height) / frame.bgr.rows;
+  const double sx = static_cast<double>(size.width) / frame.bgr.cols,
+               sy = static_cast<double>(size.height) / frame.bgr.rows;
   const cv::Matx33d K(frame.camera.fx * sx, 0.0, (frame.camera.cx + 0.5) * sx - 0.5, 0.0, frame.camera.fy * sy,
                       (frame.camera.cy + 0.5) * sy - 0.5, 0.0, 0.0, 1.0);
   if (maps->map_x.size() != size || !sameCamera(maps->camera, frame.camera)) {  // computed once per camera
@@ -202,7 +203,8 @@ void StaticSceneCheck::refineLevel(const Level& level, Eigen::Isometry3d* T_curr
       j.head<3>() = dr_dq.transpose();
       j.tail<3>() = q.cross(dr_dq).transpose();
       J[static_cast<std::size_t>(i)] = j;
-      r[static_cast<std::size_t>(i)] = bilinear(level.grey, uv.x(), uv.y()) - level.grey_reference[static_cast<std::size_t>(i)];
+      r[static_cast<std::size_t>(i)] =
+          bilinear(level.grey, uv.x(), uv.y()) - level.grey_reference[static_cast<std::size_t>(i)];
       used[static_cast<std::size_t>(i)] = 1;
       used_r.push_back(r[static_cast<std::size_t>(i)]);
     }

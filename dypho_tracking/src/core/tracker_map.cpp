@@ -62,8 +62,7 @@ int TrackerMap::sharedPoints(std::int64_t a, std::int64_t b) const {
   return count;
 }
 
-std::vector<std::int64_t> TrackerMap::covisibleKeyframes(std::int64_t keyframe_id,
-                                                       int max_count) const {
+std::vector<std::int64_t> TrackerMap::covisibleKeyframes(std::int64_t keyframe_id, int max_count) const {
   const MapKeyframe* kf = keyframe(keyframe_id);
   std::vector<std::int64_t> out;
   if (kf == nullptr || max_count <= 0) return out;
@@ -80,9 +79,8 @@ std::vector<std::int64_t> TrackerMap::covisibleKeyframes(std::int64_t keyframe_i
     if (w.second >= options_.covisibility_min_shared) sorted.emplace_back(w.second, w.first);
   }
   // Most shared first; ties: the newer keyframe first (deterministic order).
-  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
-    return a.first != b.first ? a.first > b.first : a.second > b.second;
-  });
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second > b.second; });
   for (size_t i = 0; i < sorted.size() && static_cast<int>(i) < max_count; ++i) {
     out.push_back(sorted[i].second);
   }
@@ -101,8 +99,7 @@ KeyframePoints TrackerMap::localPoints(std::int64_t keyframe_id) const {
   return collectPoints(keyframe_id, kfs);
 }
 
-KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
-                                       const std::vector<std::int64_t>& kfs) const {
+KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id, const std::vector<std::int64_t>& kfs) const {
   KeyframePoints out;
   const MapKeyframe* kf = keyframe(keyframe_id);
   if (kf == nullptr) return out;
@@ -135,8 +132,7 @@ KeyframePoints TrackerMap::collectPoints(std::int64_t keyframe_id,
   return out;
 }
 
-void TrackerMap::updateVisibility(const std::vector<std::int64_t>& visible,
-                                const std::vector<std::int64_t>& found) {
+void TrackerMap::updateVisibility(const std::vector<std::int64_t>& visible, const std::vector<std::int64_t>& found) {
   for (std::int64_t id : visible) {
     auto it = points_.find(id);
     if (it != points_.end()) ++it->second.num_visible;
@@ -160,8 +156,7 @@ int TrackerMap::cullPoints() {
   int removed = 0;
   for (auto it = points_.begin(); it != points_.end();) {
     const MapPoint& p = it->second;
-    const bool bad = p.num_visible >= kCullMinVisible &&
-                     p.num_found < options_.cull_min_found_ratio * p.num_visible;
+    const bool bad = p.num_visible >= kCullMinVisible && p.num_found < options_.cull_min_found_ratio * p.num_visible;
     if (!bad) {
       ++it;
       continue;
@@ -174,7 +169,7 @@ int TrackerMap::cullPoints() {
 }
 
 std::vector<std::int64_t> TrackerMap::cullMovingPoints(const std::vector<std::int64_t>& on_dynamic, int min_hits,
-                                                      bool camera_still, bool still_only) {
+                                                       bool camera_still, bool still_only) {
   std::vector<std::int64_t> removed;
   for (std::int64_t id : on_dynamic) {
     auto it = points_.find(id);
@@ -203,7 +198,8 @@ std::vector<std::int64_t> TrackerMap::updateProbation(const std::vector<std::int
     if (it == points_.end()) continue;
     MapPoint& p = it->second;
     ++p.num_refuted;
-    if (p.num_confirmed >= options_.point_probation_frames || p.num_refuted < options_.point_probation_max_refuted) continue;
+    if (p.num_confirmed >= options_.point_probation_frames || p.num_refuted < options_.point_probation_max_refuted)
+      continue;
     detachObservations(p);
     points_.erase(it);
     removed.push_back(id);
@@ -217,11 +213,12 @@ bool TrackerMap::isVerified(std::int64_t point_id) const {
 }
 
 std::vector<std::int64_t> TrackerMap::removePointsCreatedBy(std::int64_t keyframe_id,
-                                                           const std::vector<std::int64_t>& ids, int min_hits) {
+                                                            const std::vector<std::int64_t>& ids, int min_hits) {
   std::vector<std::int64_t> removed;
   for (std::int64_t id : ids) {
     auto it = points_.find(id);
-    if (it == points_.end() || it->second.first_keyframe_id != keyframe_id || it->second.num_on_dynamic < min_hits) continue;
+    if (it == points_.end() || it->second.first_keyframe_id != keyframe_id || it->second.num_on_dynamic < min_hits)
+      continue;
     detachObservations(it->second);
     points_.erase(it);
     removed.push_back(id);
@@ -259,7 +256,7 @@ bool TrackerMap::removeKeyframe(std::int64_t keyframe_id) {
   const std::int64_t parent_id =
       !covisible.empty() ? covisible.front()
                          : (keyframes_.rbegin()->first != keyframe_id ? keyframes_.rbegin()->first
-                                                                       : std::next(keyframes_.rbegin())->first);
+                                                                      : std::next(keyframes_.rbegin())->first);
   const MapKeyframe& parent = keyframes_.at(parent_id);
   RemovedKeyframe entry{parent_id, parent.T_world_camera.inverse() * it->second.T_world_camera};
   // Keyframes removed earlier and attached to this one move to its parent: chains stay one long.

@@ -13,12 +13,11 @@ namespace {
 
 template <typename T>
 void requireRange(const char* name, T value, T lo, T hi, bool lo_open = false) {
-  const bool ok = std::isfinite(static_cast<double>(value)) && (lo_open ? value > lo : value >= lo) &&
-                  value <= hi;
+  const bool ok = std::isfinite(static_cast<double>(value)) && (lo_open ? value > lo : value >= lo) && value <= hi;
   if (!ok) {
     std::ostringstream os;
-    os << "TrackingOptions." << name << " = " << value << " is out of range " << (lo_open ? "(" : "[")
-       << lo << ", " << hi << "]; fix the parameter (see tracking_options.h for its meaning)";
+    os << "TrackingOptions." << name << " = " << value << " is out of range " << (lo_open ? "(" : "[") << lo << ", "
+       << hi << "]; fix the parameter (see tracking_options.h for its meaning)";
     throw std::invalid_argument(os.str());
   }
 }
@@ -58,8 +57,7 @@ void TrackingOptions::validate() const {
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);
   requireRange("keyframe_max_frames", keyframe_max_frames, 1, 100000);
   requireRange("keyframe_max_frame_rotation_deg", keyframe_max_frame_rotation_deg, 0.0, 180.0, true);
-  requireRange("keyframe_hard_tracked_ratio", keyframe_hard_tracked_ratio, 0.0,
-               keyframe_min_tracked_ratio);
+  requireRange("keyframe_hard_tracked_ratio", keyframe_hard_tracked_ratio, 0.0, keyframe_min_tracked_ratio);
   requireRange("keyframe_static_doubt", keyframe_static_doubt, 0.0, 1.0);
   requireRange("min_init_features", min_init_features, min_inliers, 20000);
   requireRange("max_lost_frames", max_lost_frames, 1, 100000);
@@ -102,9 +100,8 @@ std::string TrackingOptions::toString() const {
   std::ostringstream os;
   os << std::boolalpha;
   TrackingOptions copy = *this;  // the visitor takes non-const references
-  visitOptions(copy, [&os](const char* key, const auto& value, const char* /*doc*/) {
-    os << key << ": " << value << "\n";
-  });
+  visitOptions(copy,
+               [&os](const char* key, const auto& value, const char* /*doc*/) { os << key << ": " << value << "\n"; });
   return os.str();
 }
 

@@ -12,7 +12,7 @@ namespace dypho::tracking {
 TrackingStage::TrackingStage(const TrackingOptions& options) : odometry_(options) {}
 
 TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
-                                     const PreparedFeatures* prepared, int frames_waiting) {
+                                      const PreparedFeatures* prepared, int frames_waiting) {
   std::lock_guard<std::mutex> lock(mutex_);
   TrackingOutput out;
   const StampOrder order = stamp_gate_.admit(frame.stamp_ns);
@@ -66,7 +66,8 @@ PoseList TrackingStage::trackedPath(std::size_t max_poses) const {
 PoseList TrackingStage::keyframePoses() const {
   std::lock_guard<std::mutex> lock(mutex_);
   PoseList poses;
-  for (const auto& [id, keyframe] : odometry_.map().keyframes()) poses.emplace_back(keyframe.stamp_ns, keyframe.T_world_camera);
+  for (const auto& [id, keyframe] : odometry_.map().keyframes())
+    poses.emplace_back(keyframe.stamp_ns, keyframe.T_world_camera);
   std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return poses;
 }
@@ -77,8 +78,7 @@ std::size_t TrackingStage::numFrames() const {
 }
 
 std::vector<std::string> TrackingStage::saveTrajectories(const std::string& dir) const {
-  const std::vector<std::string> paths{dir + "/trajectory.txt", dir + "/trajectory_online.txt",
-                                       dir + "/keyframes.txt"};
+  const std::vector<std::string> paths{dir + "/trajectory.txt", dir + "/trajectory_online.txt", dir + "/keyframes.txt"};
   writeTumTrajectory(paths[0], toStampedPoses(finalTrajectory()));
   writeTumTrajectory(paths[1], toStampedPoses(onlineTrajectory()));
   writeTumTrajectory(paths[2], toStampedPoses(keyframePoses()));

@@ -9,17 +9,23 @@ namespace rc = dypho::ros_conversions;
 
 std::uint8_t toStatusMaskSource(tracking::MaskSource source) {
   switch (source) {
-    case tracking::MaskSource::kMatched: return dypho_slam::TrackingStatus::MASK_MATCHED;
-    case tracking::MaskSource::kCarried: return dypho_slam::TrackingStatus::MASK_CARRIED;
-    default: return dypho_slam::TrackingStatus::MASK_NONE;
+    case tracking::MaskSource::kMatched:
+      return dypho_slam::TrackingStatus::MASK_MATCHED;
+    case tracking::MaskSource::kCarried:
+      return dypho_slam::TrackingStatus::MASK_CARRIED;
+    default:
+      return dypho_slam::TrackingStatus::MASK_NONE;
   }
 }
 
 std::uint8_t toStatusState(tracking::TrackingState state) {
   switch (state) {
-    case tracking::TrackingState::kOk: return dypho_slam::TrackingStatus::OK;
-    case tracking::TrackingState::kLost: return dypho_slam::TrackingStatus::LOST;
-    default: return dypho_slam::TrackingStatus::NOT_INITIALIZED;
+    case tracking::TrackingState::kOk:
+      return dypho_slam::TrackingStatus::OK;
+    case tracking::TrackingState::kLost:
+      return dypho_slam::TrackingStatus::LOST;
+    default:
+      return dypho_slam::TrackingStatus::NOT_INITIALIZED;
   }
 }
 
@@ -67,9 +73,9 @@ dypho_slam::StageTiming toTimingMsg(const tracking::TrackingResult& result, cons
   timing.header = header;
   timing.node = "tracking";
   timing.stages = {"features", "matching", "pnp", "refine", "local_ba", "loop", "relocalization"};
-  timing.ms = {static_cast<float>(result.times.features), static_cast<float>(result.times.matching),
-               static_cast<float>(result.times.pnp), static_cast<float>(result.times.refine),
-               static_cast<float>(result.times.local_ba), static_cast<float>(result.times.loop),
+  timing.ms = {static_cast<float>(result.times.features),      static_cast<float>(result.times.matching),
+               static_cast<float>(result.times.pnp),           static_cast<float>(result.times.refine),
+               static_cast<float>(result.times.local_ba),      static_cast<float>(result.times.loop),
                static_cast<float>(result.times.relocalization)};
   timing.total_ms = static_cast<float>(result.times.total);
   return timing;

@@ -59,12 +59,12 @@ struct TrackingRosParams {
   /// Synchroniser and subscriber queues [messages]: 1 s at 30 Hz, so that frames that arrive in
   /// a burst after the manager's threads were held up are not dropped before the pairer.
   int queue_size = 30;
-  double watchdog_s = 5.0;          ///< warn when no synchronised input for this long [s]
+  double watchdog_s = 5.0;  ///< warn when no synchronised input for this long [s]
   /// where trajectory.txt is written on shutdown; ~save_trajectory writes only inside it
   /// (empty: $ROS_HOME/dypho, default ~/.ros/dypho, resolved at start-up)
   std::string output_dir;
-  int max_path_length = 20000;      ///< path poses kept, newest (11 min at 30 Hz) [poses], >= 1
-  double path_period_s = 0.5;       ///< the path is published at most this often, when it changed [s], > 0
+  int max_path_length = 20000;                ///< path poses kept, newest (11 min at 30 Hz) [poses], >= 1
+  double path_period_s = 0.5;                 ///< the path is published at most this often, when it changed [s], > 0
   tracking::MaskPairingOptions mask_pairing;  ///< ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s
 };
 
@@ -265,10 +265,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     } else if (s.state == dypho_slam::TrackingStatus::LOST) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::ERROR, "tracking lost: " + s.message);
     } else if (dropped_now > 0) {
-      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%lu frames dropped since the last report: tracking is slower than the camera",
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "%lu frames dropped since the last report: tracking is slower than the camera",
                     static_cast<unsigned long>(dropped_now));
     } else {
-      stat.summary(diagnostic_msgs::DiagnosticStatus::OK, s.state == dypho_slam::TrackingStatus::OK ? "tracking" : "initialising");
+      stat.summary(diagnostic_msgs::DiagnosticStatus::OK,
+                   s.state == dypho_slam::TrackingStatus::OK ? "tracking" : "initialising");
     }
     stat.add("input rate [Hz]", s.input_rate_hz);
     stat.add("frames in", s.frames_in);
@@ -349,7 +351,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   TrackingRosParams params_;
-  std::unique_ptr<tracking::TrackingStage> stage_;  ///< thread-safe: the live tracker's thread, services, shutdown
+  std::unique_ptr<tracking::TrackingStage> stage_;     ///< thread-safe: the live tracker's thread, services, shutdown
   rc::ThrottledLog input_log_, state_log_, mask_log_;  ///< each kind of problem is named at once, then every 5 s
   std::mutex figures_mutex_;  ///< guards the latencies and the last status (tracking thread, diagnostics)
   RollingSamples latency_ms_;

@@ -16,13 +16,12 @@ namespace dypho {
 /// Calls `write(stream)` on a temporary file next to `path`, flushes it, then renames it over
 /// `path`. Throws std::runtime_error naming the path when any step fails; the temporary file is
 /// removed on failure.
-inline void writeFileAtomically(const std::string& path,
-                                const std::function<void(std::ostream&)>& write,
+inline void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write,
                                 bool binary = false) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   {
-    std::ofstream out(tmp, binary ? std::ios::out | std::ios::binary | std::ios::trunc
-                                  : std::ios::out | std::ios::trunc);
+    std::ofstream out(tmp,
+                      binary ? std::ios::out | std::ios::binary | std::ios::trunc : std::ios::out | std::ios::trunc);
     if (!out) {
       throw std::runtime_error("cannot open '" + tmp + "' for writing (does the folder exist, is it writable?)");
     }

@@ -41,8 +41,8 @@ struct CameraIntrinsics {
 /// True when every number of `a` equals that of `b` (intrinsics, size and distortion): caches
 /// keyed by a camera are valid for the other.
 inline bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion;
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height &&
+         a.distortion == b.distortion;
 }
 
 /// Size of an image of `width` x `height` resized by `scale` (rounded, at least 1 x 1).

@@ -26,7 +26,7 @@ namespace dypho {
 
 /// A tracked camera pose as the stages exchange it (tracking -> mask, mapping).
 struct PoseUpdate {
-  Timestamp stamp_ns = 0;  ///< stamp of the frame [ns]
+  Timestamp stamp_ns = 0;                                            ///< stamp of the frame [ns]
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< camera optical frame in world
   bool trusted = false;        ///< tracking was OK on this frame (the motion to neighbours is right)
   bool discontinuous = false;  ///< the pose jumped here (relocalised, loop closed, re-initialised, reset)
@@ -103,8 +103,8 @@ class ConstantVelocityModel {
     }
     // Whole frame intervals: camera stamps jitter by several ms (TUM: 29-39 ms at 30 Hz) while the
     // frames themselves are regular, so the step is repeated once per elapsed interval.
-    const double s = std::max(1.0, std::round(static_cast<double>(stamp_ns - last_stamp_ns_) /
-                                              static_cast<double>(step_ns_)));
+    const double s =
+        std::max(1.0, std::round(static_cast<double>(stamp_ns - last_stamp_ns_) / static_cast<double>(step_ns_)));
     const Eigen::AngleAxisd rotation(step_->rotation());
     Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
     scaled.linear() = Eigen::AngleAxisd(rotation.angle() * s, rotation.axis()).toRotationMatrix();

@@ -17,9 +17,9 @@ inline std::string resolveOutputDirectory(const std::string& base_dir, const std
   namespace fs = std::filesystem;
   if (base_dir.empty()) throw std::invalid_argument("no output directory configured");
   const fs::path base = fs::weakly_canonical(fs::absolute(base_dir));
-  const fs::path wanted = requested.empty() ? base
+  const fs::path wanted = requested.empty()                   ? base
                           : fs::path(requested).is_absolute() ? fs::weakly_canonical(fs::path(requested))
-                                                             : fs::weakly_canonical(base / requested);
+                                                              : fs::weakly_canonical(base / requested);
   const fs::path relative = wanted.lexically_relative(base);
   if (relative.empty() || *relative.begin() == "..") {
     throw std::invalid_argument("'" + requested + "' is outside the output directory '" + base.string() +

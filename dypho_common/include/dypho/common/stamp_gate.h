@@ -27,10 +27,14 @@ enum class StampOrder {
 
 inline const char* toString(StampOrder order) {
   switch (order) {
-    case StampOrder::kNext: return "next";
-    case StampOrder::kRepeated: return "repeated stamp";
-    case StampOrder::kLate: return "out of order";
-    case StampOrder::kJumpedBack: return "time jumped backwards";
+    case StampOrder::kNext:
+      return "next";
+    case StampOrder::kRepeated:
+      return "repeated stamp";
+    case StampOrder::kLate:
+      return "out of order";
+    case StampOrder::kJumpedBack:
+      return "time jumped backwards";
   }
   return "unknown";
 }

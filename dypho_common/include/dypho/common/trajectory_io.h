@@ -31,8 +31,7 @@ std::vector<StampedPose> readTumTrajectory(const std::string& path);
 void writeTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses);
 
 /// (stamp [ns], T_world_camera) pairs, e.g. TrajectoryRecorder's, as StampedPose.
-inline std::vector<StampedPose> toStampedPoses(
-    const std::vector<std::pair<Timestamp, Eigen::Isometry3d>>& poses) {
+inline std::vector<StampedPose> toStampedPoses(const std::vector<std::pair<Timestamp, Eigen::Isometry3d>>& poses) {
   std::vector<StampedPose> out;
   out.reserve(poses.size());
   for (const auto& [stamp_ns, T_world_camera] : poses) {

@@ -27,9 +27,7 @@ namespace dypho {
 using Timestamp = std::int64_t;
 
 /// Converts seconds (as in TUM text files and ROS stamps) to nanoseconds, rounding to nearest.
-inline Timestamp secondsToTimestamp(double t_s) {
-  return static_cast<Timestamp>(t_s * 1e9 + (t_s >= 0 ? 0.5 : -0.5));
-}
+inline Timestamp secondsToTimestamp(double t_s) { return static_cast<Timestamp>(t_s * 1e9 + (t_s >= 0 ? 0.5 : -0.5)); }
 
 /// Converts nanoseconds to seconds.
 inline double timestampToSeconds(Timestamp t_ns) { return static_cast<double>(t_ns) * 1e-9; }
@@ -51,25 +49,25 @@ struct RgbdFrame {
 /// found carried along with people it did not mask. The mask grows them over the surface they lie
 /// on from the next frame on.
 struct MovingPoints {
-  Timestamp stamp_ns = 0;                 ///< the frame they were seen in [ns]
-  std::vector<cv::Point3f> p_camera_m;    ///< at their measured depth, that frame's camera optical frame [m]
+  Timestamp stamp_ns = 0;               ///< the frame they were seen in [ns]
+  std::vector<cv::Point3f> p_camera_m;  ///< at their measured depth, that frame's camera optical frame [m]
 };
 
 /// A keypoint of a keyframe as handed from tracking to mapping.
 struct KeyframeKeypoint {
-  float u_px = 0.f;            ///< pixel column in the (distorted) input image [px]
-  float v_px = 0.f;            ///< pixel row in the (distorted) input image [px]
-  float depth_m = 0.f;         ///< measured depth at the keypoint [m]; 0 = none
+  float u_px = 0.f;                ///< pixel column in the (distorted) input image [px]
+  float v_px = 0.f;                ///< pixel row in the (distorted) input image [px]
+  float depth_m = 0.f;             ///< measured depth at the keypoint [m]; 0 = none
   std::int64_t map_point_id = -1;  ///< id of the associated map point, -1 when none
 };
 
 /// A keyframe: the frame, its dynamic mask, its pose and its keypoints.
 struct Keyframe {
-  std::int64_t id = -1;             ///< keyframe id, unique and increasing within a run
-  RgbdFrame frame;                  ///< the RGB-D data
-  cv::Mat mask;                     ///< CV_8UC1, 255 = dynamic; empty = everything static
+  std::int64_t id = -1;  ///< keyframe id, unique and increasing within a run
+  RgbdFrame frame;       ///< the RGB-D data
+  cv::Mat mask;          ///< CV_8UC1, 255 = dynamic; empty = everything static
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< camera optical frame in world
-  std::vector<KeyframeKeypoint> keypoints;  ///< static keypoints used by tracking
+  std::vector<KeyframeKeypoint> keypoints;                           ///< static keypoints used by tracking
 };
 
 using KeyframeConstPtr = std::shared_ptr<const Keyframe>;

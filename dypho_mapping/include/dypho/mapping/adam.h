@@ -15,12 +15,12 @@ namespace dypho::mapping {
 
 /// Step sizes per parameter block.
 struct AdamLearningRates {
-  double position = 5e-4;   ///< [m]
-  double log_scale = 5e-3;  ///< [log m]
-  double rotation = 1e-3;   ///< quaternion units
-  double opacity = 5e-2;    ///< logit units
-  double sh_dc = 2.5e-3;    ///< DC SH coefficients
-  double sh_rest = 1.25e-4; ///< higher SH coefficients
+  double position = 5e-4;    ///< [m]
+  double log_scale = 5e-3;   ///< [log m]
+  double rotation = 1e-3;    ///< quaternion units
+  double opacity = 5e-2;     ///< logit units
+  double sh_dc = 2.5e-3;     ///< DC SH coefficients
+  double sh_rest = 1.25e-4;  ///< higher SH coefficients
 };
 
 class Adam {
@@ -43,11 +43,11 @@ class Adam {
   /// Zeroes the moments of one block (used by opacity reset).
   void resetBlock(int param);
 
-  std::int64_t steps() const { return steps_; }  ///< steps taken
+  std::int64_t steps() const { return steps_; }                          ///< steps taken
   const std::vector<float>& firstMoment(int p) const { return m_[p]; }   ///< for tests
   const std::vector<float>& secondMoment(int p) const { return v_[p]; }  ///< for tests
-  std::vector<float>& firstMoment(int p) { return m_[p]; }    ///< the CUDA trainer's mirror
-  std::vector<float>& secondMoment(int p) { return v_[p]; }   ///< the CUDA trainer's mirror
+  std::vector<float>& firstMoment(int p) { return m_[p]; }               ///< the CUDA trainer's mirror
+  std::vector<float>& secondMoment(int p) { return v_[p]; }              ///< the CUDA trainer's mirror
 
  private:
   AdamLearningRates rates_;

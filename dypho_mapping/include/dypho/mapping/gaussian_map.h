@@ -14,20 +14,20 @@ namespace dypho::mapping {
 
 /// The trainable parameter blocks of a Gaussian (rows of the SoA storage).
 enum GaussianParam : int {
-  kParamPosition = 0,   ///< world position x y z [m]
-  kParamLogScale = 1,   ///< log of the three standard deviations along the local axes [log m]
-  kParamRotation = 2,   ///< quaternion w x y z (world from local), normalised when used
-  kParamOpacity = 3,    ///< opacity logit (opacity = sigmoid(logit))
-  kParamSh = 4,         ///< SH colour, K coefficients x RGB, coefficient-major; DC first
+  kParamPosition = 0,  ///< world position x y z [m]
+  kParamLogScale = 1,  ///< log of the three standard deviations along the local axes [log m]
+  kParamRotation = 2,  ///< quaternion w x y z (world from local), normalised when used
+  kParamOpacity = 3,   ///< opacity logit (opacity = sigmoid(logit))
+  kParamSh = 4,        ///< SH colour, K coefficients x RGB, coefficient-major; DC first
   kNumGaussianParams = 5
 };
 
 /// One Gaussian to add (what seeding and loading produce).
 struct GaussianInit {
-  Eigen::Vector3f position_w = Eigen::Vector3f::Zero();  ///< world position [m]
+  Eigen::Vector3f position_w = Eigen::Vector3f::Zero();          ///< world position [m]
   Eigen::Vector3f log_scale = Eigen::Vector3f::Constant(-4.6f);  ///< log std dev [log m]
-  Eigen::Vector4f rotation_wxyz{1.f, 0.f, 0.f, 0.f};     ///< world-from-local quaternion
-  float opacity_logit = 0.f;                              ///< logit (0 = opacity 0.5)
+  Eigen::Vector4f rotation_wxyz{1.f, 0.f, 0.f, 0.f};             ///< world-from-local quaternion
+  float opacity_logit = 0.f;                                     ///< logit (0 = opacity 0.5)
   /// SH coefficients, coefficient-major RGB; empty = grey. When shorter than the map's count
   /// the rest are zero. Use `rgbToShDc` for a plain colour.
   std::vector<float> sh;
@@ -43,9 +43,9 @@ class GaussianMap {
   /// `sh_degree` in [0, 3]; `capacity` >= 1 Gaussians. Throws std::invalid_argument otherwise.
   GaussianMap(int sh_degree, std::size_t capacity);
 
-  std::size_t size() const { return ids_.size(); }       ///< Gaussians stored
-  std::size_t capacity() const { return capacity_; }     ///< the cap
-  int shDegree() const { return sh_degree_; }            ///< SH degree
+  std::size_t size() const { return ids_.size(); }                      ///< Gaussians stored
+  std::size_t capacity() const { return capacity_; }                    ///< the cap
+  int shDegree() const { return sh_degree_; }                           ///< SH degree
   int shCoeffs() const { return (sh_degree_ + 1) * (sh_degree_ + 1); }  ///< K per channel
   /// Floats per Gaussian in parameter block `p`.
   int width(int p) const { return widths_[p]; }
@@ -66,10 +66,10 @@ class GaussianMap {
   /// Removes every Gaussian (capacity and id counter kept).
   void clear();
 
-  float* data(int p) { return params_[p].data(); }                  ///< block p, size()*width(p)
-  const float* data(int p) const { return params_[p].data(); }       ///< block p
-  std::vector<float>& block(int p) { return params_[p]; }           ///< block p as a vector
-  const std::vector<std::int64_t>& ids() const { return ids_; }      ///< stable ids
+  float* data(int p) { return params_[p].data(); }                       ///< block p, size()*width(p)
+  const float* data(int p) const { return params_[p].data(); }           ///< block p
+  std::vector<float>& block(int p) { return params_[p]; }                ///< block p as a vector
+  const std::vector<std::int64_t>& ids() const { return ids_; }          ///< stable ids
   const std::vector<std::int64_t>& anchors() const { return anchors_; }  ///< anchor keyframe ids
 
   /// Keeps rows of a per-Gaussian array of width `w` where remove == 0 (same order).

@@ -26,8 +26,7 @@ void saveGaussianPly(const std::string& path, const GaussianMap& map);
 /// Reads a 3DGS PLY into a new map of `sh_degree` and `capacity` (Gaussians not anchored to
 /// keyframes). Throws std::runtime_error naming the problem; `note` (optional) says what was
 /// adapted (see readGaussianPly).
-GaussianMap loadGaussianPly(const std::string& path, int sh_degree, std::size_t capacity,
-                            std::string* note = nullptr);
+GaussianMap loadGaussianPly(const std::string& path, int sh_degree, std::size_t capacity, std::string* note = nullptr);
 
 /// Writes `centres` as a binary PCD (x y z rgb), atomically.
 void saveCentresPcd(const std::string& path, const std::vector<GaussianCentre>& centres);

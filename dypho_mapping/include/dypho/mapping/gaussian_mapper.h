@@ -206,10 +206,10 @@ class GaussianMapper {
   mutable std::mutex snapshot_mutex_;
   mutable std::condition_variable snapshot_cv_;
   MapSnapshot snapshot_;
-  std::int64_t done_keyframe_id_ = -1;  ///< highest keyframe id whose job finished
-  std::atomic<bool> hurry_{false};  ///< finish(budget) is draining the queue: skip training
-  std::atomic<bool> idle_paused_{false};  ///< finish() runs: no idle training beside it
-  bool live_ = false;                     ///< set by start()
+  std::int64_t done_keyframe_id_ = -1;                        ///< highest keyframe id whose job finished
+  std::atomic<bool> hurry_{false};                            ///< finish(budget) is draining the queue: skip training
+  std::atomic<bool> idle_paused_{false};                      ///< finish() runs: no idle training beside it
+  bool live_ = false;                                         ///< set by start()
   std::chrono::steady_clock::time_point last_idle_snapshot_;  ///< worker thread only
 };
 

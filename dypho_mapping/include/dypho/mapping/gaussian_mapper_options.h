@@ -12,13 +12,15 @@ namespace dypho::mapping {
 
 /// Settings of `GaussianMapper`. Learning rates are Adam step sizes per parameter block.
 struct GaussianMapperOptions {
-  /// Where training and rendering run: "auto" (CUDA when this build has it and a device is present, else the CPU, said once), "cpu", or "cuda" (an error when no device is usable). Default "auto".
+  /// Where training and rendering run: "auto" (CUDA when this build has it and a device is present, else the CPU, said
+  /// once), "cpu", or "cuda" (an error when no device is usable). Default "auto".
   std::string device = "auto";
   /// Spherical-harmonic degree of the colours, 0..3 (higher adds view dependence, costs memory and time). Default 0.
   int sh_degree = 0;
   /// Most Gaussians kept; seeding and densification stop adding at the cap, >= 1. Default 300000.
   std::size_t max_gaussians = 300000;
-  /// Threads of the rasterizer and optimiser (including the mapping worker), >= 0; 0 = every core of the machine (the ROS graph: its `cores` thread budget). Default 0.
+  /// Threads of the rasterizer and optimiser (including the mapping worker), >= 0; 0 = every core of the machine (the
+  /// ROS graph: its `cores` thread budget). Default 0.
   int num_threads = 0;
   /// Keyframes are trained and evaluated at 1/train_downsample resolution (1, 2 or 4). Default 2.
   int train_downsample = 2;
@@ -73,7 +75,8 @@ struct GaussianMapperOptions {
   /// Share of training iterations that sample any stored keyframe instead of the window
   /// (keeps older parts of the map from drifting), [0, 1]. Default 0.2.
   double global_sample_ratio = 0.2;
-  /// Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default 0.1.
+  /// Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default
+  /// 0.1.
   double valid_min_depth_m = 0.1;
   /// Far depth limit of the Gaussian map [m], > valid_min_depth_m. Default 6.0.
   double valid_max_depth_m = 6.0;
@@ -85,7 +88,8 @@ struct GaussianMapperOptions {
   double feature_sample_radius_px = 6.0;
   /// Grid step of the coverage of unexplained static pixels [px] (at full resolution), >= 1. Default 8.
   int coverage_stride_px = 8;
-  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where people later pass: docs/journal/benchmarks-2026.md section 4).
+  /// A pixel is unexplained when the rendered alpha is below this, [0, 1]. Default 0.9 (0.6 left see-through gaps where
+  /// people later pass: docs/journal/benchmarks-2026.md section 4).
   double coverage_alpha_threshold = 0.9;
   /// ... or when |rendered depth / alpha - depth| exceeds this fraction of the depth, > 0. Default 0.05.
   double coverage_depth_error_ratio = 0.05;
@@ -132,8 +136,8 @@ struct GaussianMapperOptions {
 
 /// Everything in config/mapping.yaml: the point-cloud map and the Gaussian map.
 struct MappingOptions {
-  CloudMapOptions cloud;            ///< coloured point cloud (map.pcd)
-  GaussianMapperOptions gaussian;   ///< 3D Gaussian map (map.ply, rendering)
+  CloudMapOptions cloud;           ///< coloured point cloud (map.pcd)
+  GaussianMapperOptions gaussian;  ///< 3D Gaussian map (map.ply, rendering)
 
   void validate() const {
     cloud.validate();

@@ -28,7 +28,6 @@ constexpr double kNearPlaneM = 0.05;
 /// Upper clamp of a Gaussian's alpha (keeps 1 - alpha invertible in the backward pass).
 constexpr double kMaxAlpha = 0.99;
 
-
 template <typename T>
 struct Mat3 {
   T m[3][3];
@@ -47,12 +46,12 @@ struct PinholeView {
 /// A Gaussian after projection (what the per-pixel blending needs).
 template <typename T>
 struct Projected {
-  T mean_u, mean_v;         ///< screen position [px]
+  T mean_u, mean_v;             ///< screen position [px]
   T conic_a, conic_b, conic_c;  ///< inverse screen covariance [[a b][b c]] [1/px^2]
-  T depth_m;                ///< camera z of the centre [m]
-  T opacity;                ///< sigmoid(opacity_logit)
-  T color[3];               ///< RGB from SH, clamped at 0
-  T radius_px;              ///< radius_sigma * sqrt(largest eigenvalue) [px]
+  T depth_m;                    ///< camera z of the centre [m]
+  T opacity;                    ///< sigmoid(opacity_logit)
+  T color[3];                   ///< RGB from SH, clamped at 0
+  T radius_px;                  ///< radius_sigma * sqrt(largest eigenvalue) [px]
   /// Half-width and half-height of the footprint box [px] (<= radius_px): the radius box cut to
   /// the bounding box of the ellipse outside which opacity * G < min_alpha, so no pixel outside
   /// it can pass the alpha threshold (a 1e-4 relative + 1e-3 px margin covers float rounding).
@@ -73,7 +72,8 @@ DYPHO_HOST_DEVICE inline T conicPower(T a, T b_dy, T row_term, T dx) {
 
 /// exp() used in the per-pixel blending: std::exp for double (reference, gradient checks); for
 /// float a branch-free version (range reduction to 2^n * 2^f with |f| <= 1/2, degree-6
-/// polynomial, relative error < 1e-6 on [-87, 87], see test_gaussian_math) that compilers vectorise. Inputs below -87 return ~0.
+/// polynomial, relative error < 1e-6 on [-87, 87], see test_gaussian_math) that compilers vectorise. Inputs below -87
+/// return ~0.
 template <typename T>
 DYPHO_HOST_DEVICE inline T blendExp(T x) {
   return std::exp(x);
@@ -82,7 +82,7 @@ template <>
 DYPHO_HOST_DEVICE inline float blendExp<float>(float x) {
   x = x < -87.f ? -87.f : x;
   x = x > 87.f ? 87.f : x;
-  const float t = x * 1.44269504088896341f;  // log2(e)
+  const float t = x * 1.44269504088896341f;          // log2(e)
   const int n = static_cast<int>(t + 128.5f) - 128;  // round to nearest (argument > 0 before truncation)
   const float f = t - static_cast<float>(n);         // [-0.5, 0.5]
   // 2^f = exp(f ln2), Taylor to degree 6 on |f ln2| <= 0.347 (truncation < 1.2e-7 relative).
@@ -132,12 +132,12 @@ DYPHO_HOST_DEVICE inline void quatToRotationBackward(const T* q, const Mat3<T>& 
   const T w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
   const auto& g = G.m;
   T dw = T(2) * (-z * g[0][1] + y * g[0][2] + z * g[1][0] - x * g[1][2] - y * g[2][0] + x * g[2][1]);
-  T dx = T(2) * (y * g[0][1] + z * g[0][2] + y * g[1][0] - T(2) * x * g[1][1] - w * g[1][2] +
-                 z * g[2][0] + w * g[2][1] - T(2) * x * g[2][2]);
-  T dy = T(2) * (-T(2) * y * g[0][0] + x * g[0][1] + w * g[0][2] + x * g[1][0] + z * g[1][2] -
-                 w * g[2][0] + z * g[2][1] - T(2) * y * g[2][2]);
-  T dz = T(2) * (-T(2) * z * g[0][0] - w * g[0][1] + x * g[0][2] + w * g[1][0] -
-                 T(2) * z * g[1][1] + y * g[1][2] + x * g[2][0] + y * g[2][1]);
+  T dx = T(2) * (y * g[0][1] + z * g[0][2] + y * g[1][0] - T(2) * x * g[1][1] - w * g[1][2] + z * g[2][0] +
+                 w * g[2][1] - T(2) * x * g[2][2]);
+  T dy = T(2) * (-T(2) * y * g[0][0] + x * g[0][1] + w * g[0][2] + x * g[1][0] + z * g[1][2] - w * g[2][0] +
+                 z * g[2][1] - T(2) * y * g[2][2]);
+  T dz = T(2) * (-T(2) * z * g[0][0] - w * g[0][1] + x * g[0][2] + w * g[1][0] - T(2) * z * g[1][1] + y * g[1][2] +
+                 x * g[2][0] + y * g[2][1]);
   const T dot = w * dw + x * dx + y * dy + z * dz;  // remove the radial part, then scale by 1/n
   dq[0] = (dw - w * dot) / n;
   dq[1] = (dx - x * dot) / n;
@@ -192,8 +192,8 @@ DYPHO_HOST_DEVICE inline void covariance3dBackward(const Mat3<T>& R, const T* s,
 
 /// Backward of covariance3d: dL/dlog_scale, dL/dq from a symmetric dL/dSigma.
 template <typename T>
-DYPHO_HOST_DEVICE inline void covariance3dBackward(const T* log_scale, const T* q, const Mat3<T>& G,
-                                                   T* d_log_scale, T* dq) {
+DYPHO_HOST_DEVICE inline void covariance3dBackward(const T* log_scale, const T* q, const Mat3<T>& G, T* d_log_scale,
+                                                   T* dq) {
   const Mat3<T> R = quatToRotation(q);
   const T s[3] = {std::exp(log_scale[0]), std::exp(log_scale[1]), std::exp(log_scale[2])};
   covariance3dBackward(R, s, q, G, d_log_scale, dq);
@@ -238,8 +238,8 @@ DYPHO_HOST_DEVICE inline ProjectionJacobian<T> projectionJacobian(const PinholeV
 /// image. Scalars in, float arithmetic only, branch-free: the rasterizer evaluates it in a SIMD
 /// loop over Gaussians.
 template <typename T>
-DYPHO_HOST_DEVICE inline T imageReachMargin(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0,
-                                            T log_scale1, T log_scale2, T radius_sigma) {
+DYPHO_HOST_DEVICE inline T imageReachMargin(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0, T log_scale1,
+                                            T log_scale2, T radius_sigma) {
   const T pc0 = cam.R_cw[0][0] * p0 + cam.R_cw[0][1] * p1 + cam.R_cw[0][2] * p2 + cam.t_cw[0];
   const T pc1 = cam.R_cw[1][0] * p0 + cam.R_cw[1][1] * p1 + cam.R_cw[1][2] * p2 + cam.t_cw[1];
   const T pc2 = cam.R_cw[2][0] * p0 + cam.R_cw[2][1] * p1 + cam.R_cw[2][2] * p2 + cam.t_cw[2];
@@ -269,8 +269,8 @@ DYPHO_HOST_DEVICE inline T imageReachMargin(const PinholeView<T>& cam, T p0, T p
 
 /// imageReachMargin() >= 0.
 template <typename T>
-DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0,
-                                            T log_scale1, T log_scale2, T radius_sigma) {
+DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, T p0, T p1, T p2, T log_scale0, T log_scale1,
+                                            T log_scale2, T radius_sigma) {
   return imageReachMargin(cam, p0, p1, p2, log_scale0, log_scale1, log_scale2, radius_sigma) >= T(0);
 }
 
@@ -282,8 +282,8 @@ DYPHO_HOST_DEVICE inline bool mayReachImage(const PinholeView<T>& cam, T p0, T p
 /// `sh` holds shCoeffCount(degree) x 3 values, coefficient-major (k0 r g b, k1 r g b, ...).
 template <typename T>
 DYPHO_HOST_DEVICE inline bool projectGaussian(const PinholeView<T>& cam, const T* pos, const T* log_scale,
-                                              const T* quat, T opacity_logit, const T* sh, int degree,
-                                              T radius_sigma, T min_alpha, Projected<T>& out) {
+                                              const T* quat, T opacity_logit, const T* sh, int degree, T radius_sigma,
+                                              T min_alpha, Projected<T>& out) {
   T pc[3];
   for (int i = 0; i < 3; ++i)
     pc[i] = cam.R_cw[i][0] * pos[0] + cam.R_cw[i][1] * pos[1] + cam.R_cw[i][2] * pos[2] + cam.t_cw[i];
@@ -373,7 +373,8 @@ DYPHO_HOST_DEVICE inline void worldToCamera(const PinholeView<T>& cam, const T* 
 
 /// A = J R_cw (2x3): the screen Jacobian w.r.t. the world point.
 template <typename T>
-DYPHO_HOST_DEVICE inline void screenJacobianWorld(const PinholeView<T>& cam, const ProjectionJacobian<T>& J, T A[2][3]) {
+DYPHO_HOST_DEVICE inline void screenJacobianWorld(const PinholeView<T>& cam, const ProjectionJacobian<T>& J,
+                                                  T A[2][3]) {
   for (int j = 0; j < 3; ++j) {
     A[0][j] = J.J00 * cam.R_cw[0][j] + J.J02 * cam.R_cw[2][j];
     A[1][j] = J.J11 * cam.R_cw[1][j] + J.J12 * cam.R_cw[2][j];
@@ -427,7 +428,8 @@ struct ScreenJacobianGrad {
 /// Backward of A = J R_cw from dL/dA.
 template <typename T>
 DYPHO_HOST_DEVICE inline ScreenJacobianGrad<T> screenJacobianBackward(const PinholeView<T>& cam,
-                                                                      const ProjectionJacobian<T>& J, const T GA[2][3]) {
+                                                                      const ProjectionJacobian<T>& J,
+                                                                      const T GA[2][3]) {
   ScreenJacobianGrad<T> out;
   out.gJ00 = T(0), out.gJ02 = T(0), out.gJ11 = T(0), out.gJ12 = T(0);
   for (int j = 0; j < 3; ++j) {
@@ -504,13 +506,15 @@ template <typename T>
 DYPHO_HOST_DEVICE inline void poseBackward(const PinholeView<T>& cam, const T* pc, const T* gpc, const T* gv,
                                            const T GW[3][3], ParamGrad<T>& out) {
   // Pose: p_c <- p_c + rho + phi x p_c; R_cw <- (I + [phi]x) R_cw; centre <- centre - R_cw^T rho.
-  for (int i = 0; i < 3; ++i) out.pose[i] = gpc[i] + (cam.R_cw[i][0] * gv[0] + cam.R_cw[i][1] * gv[1] + cam.R_cw[i][2] * gv[2]);
+  for (int i = 0; i < 3; ++i)
+    out.pose[i] = gpc[i] + (cam.R_cw[i][0] * gv[0] + cam.R_cw[i][1] * gv[1] + cam.R_cw[i][2] * gv[2]);
   out.pose[3] = pc[1] * gpc[2] - pc[2] * gpc[1];
   out.pose[4] = pc[2] * gpc[0] - pc[0] * gpc[2];
   out.pose[5] = pc[0] * gpc[1] - pc[1] * gpc[0];
   T B[3][3];  // GW R_cw^T
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) B[i][j] = GW[i][0] * cam.R_cw[j][0] + GW[i][1] * cam.R_cw[j][1] + GW[i][2] * cam.R_cw[j][2];
+    for (int j = 0; j < 3; ++j)
+      B[i][j] = GW[i][0] * cam.R_cw[j][0] + GW[i][1] * cam.R_cw[j][1] + GW[i][2] * cam.R_cw[j][2];
   out.pose[3] += B[2][1] - B[1][2];
   out.pose[4] += B[0][2] - B[2][0];
   out.pose[5] += B[1][0] - B[0][1];

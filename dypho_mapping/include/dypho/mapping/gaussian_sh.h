@@ -54,21 +54,39 @@ DYPHO_HOST_DEVICE inline void shBasisGrad(int degree, const T* d, T (*db)[3]) {
   if (degree < 2) return;
   const T xx = x * x, yy = y * y, zz = z * z;
   const T a0 = T(1.0925484305920792), a2 = T(0.31539156525252005), a4 = T(0.5462742152960396);
-  db[4][0] = a0 * y; db[4][1] = a0 * x;
-  db[5][1] = -a0 * z; db[5][2] = -a0 * y;
-  db[6][0] = -T(2) * a2 * x; db[6][1] = -T(2) * a2 * y; db[6][2] = T(4) * a2 * z;
-  db[7][0] = -a0 * z; db[7][2] = -a0 * x;
-  db[8][0] = T(2) * a4 * x; db[8][1] = -T(2) * a4 * y;
+  db[4][0] = a0 * y;
+  db[4][1] = a0 * x;
+  db[5][1] = -a0 * z;
+  db[5][2] = -a0 * y;
+  db[6][0] = -T(2) * a2 * x;
+  db[6][1] = -T(2) * a2 * y;
+  db[6][2] = T(4) * a2 * z;
+  db[7][0] = -a0 * z;
+  db[7][2] = -a0 * x;
+  db[8][0] = T(2) * a4 * x;
+  db[8][1] = -T(2) * a4 * y;
   if (degree < 3) return;
   const T c0 = T(-0.5900435899266435), c1 = T(2.890611442640554), c2 = T(-0.4570457994644658),
           c3 = T(0.3731763325901154), c5 = T(1.445305721320277);
-  db[9][0] = c0 * T(6) * x * y; db[9][1] = c0 * (T(3) * xx - T(3) * yy);
-  db[10][0] = c1 * y * z; db[10][1] = c1 * x * z; db[10][2] = c1 * x * y;
-  db[11][0] = c2 * (-T(2) * x * y); db[11][1] = c2 * (T(4) * zz - xx - T(3) * yy); db[11][2] = c2 * T(8) * y * z;
-  db[12][0] = c3 * (-T(6) * x * z); db[12][1] = c3 * (-T(6) * y * z); db[12][2] = c3 * (T(6) * zz - T(3) * xx - T(3) * yy);
-  db[13][0] = c2 * (T(4) * zz - T(3) * xx - yy); db[13][1] = c2 * (-T(2) * x * y); db[13][2] = c2 * T(8) * x * z;
-  db[14][0] = c5 * T(2) * x * z; db[14][1] = c5 * (-T(2) * y * z); db[14][2] = c5 * (xx - yy);
-  db[15][0] = c0 * (T(3) * xx - T(3) * yy); db[15][1] = c0 * (-T(6) * x * y);
+  db[9][0] = c0 * T(6) * x * y;
+  db[9][1] = c0 * (T(3) * xx - T(3) * yy);
+  db[10][0] = c1 * y * z;
+  db[10][1] = c1 * x * z;
+  db[10][2] = c1 * x * y;
+  db[11][0] = c2 * (-T(2) * x * y);
+  db[11][1] = c2 * (T(4) * zz - xx - T(3) * yy);
+  db[11][2] = c2 * T(8) * y * z;
+  db[12][0] = c3 * (-T(6) * x * z);
+  db[12][1] = c3 * (-T(6) * y * z);
+  db[12][2] = c3 * (T(6) * zz - T(3) * xx - T(3) * yy);
+  db[13][0] = c2 * (T(4) * zz - T(3) * xx - yy);
+  db[13][1] = c2 * (-T(2) * x * y);
+  db[13][2] = c2 * T(8) * x * z;
+  db[14][0] = c5 * T(2) * x * z;
+  db[14][1] = c5 * (-T(2) * y * z);
+  db[14][2] = c5 * (xx - yy);
+  db[15][0] = c0 * (T(3) * xx - T(3) * yy);
+  db[15][1] = c0 * (-T(6) * x * y);
 }
 
 /// Rotation of SH coefficients, one block per degree (degree 0 is invariant). For a rotation R
@@ -119,8 +137,7 @@ DYPHO_HOST_DEVICE inline void shRotation(const T R[3][3], int degree, ShRotation
       w = T(9) / T(280);
     }
     // R^T d.
-    const T r[3] = {R[0][0] * d[0] + R[1][0] * d[1] + R[2][0] * d[2],
-                    R[0][1] * d[0] + R[1][1] * d[1] + R[2][1] * d[2],
+    const T r[3] = {R[0][0] * d[0] + R[1][0] * d[1] + R[2][0] * d[2], R[0][1] * d[0] + R[1][1] * d[1] + R[2][1] * d[2],
                     R[0][2] * d[0] + R[1][2] * d[1] + R[2][2] * d[2]};
     T b[16] = {}, br[16] = {};  // zero: the compiler cannot see that only `degree` entries are read
     shBasis(degree, d, b);

@@ -49,8 +49,7 @@ struct KeyframeCloudSnapshot {
 /// (pcl::VoxelGrid averages position and colour per voxel). When the extent of the map with that
 /// leaf would overflow PCL's 32-bit voxel indices, a coarser leaf is used and `report` says so.
 /// Thread-safe: reads only the snapshot.
-KeyframeCloudSnapshot::Cloud::Ptr buildCloud(const KeyframeCloudSnapshot& snapshot,
-                                             CloudBuildReport* report = nullptr);
+KeyframeCloudSnapshot::Cloud::Ptr buildCloud(const KeyframeCloudSnapshot& snapshot, CloudBuildReport* report = nullptr);
 
 /// Keyframe point-cloud map. Not thread-safe (the mapping worker owns it).
 ///
@@ -88,7 +87,7 @@ class KeyframeCloudMap {
   void savePcd(const std::string& path) const;
 
   std::size_t numKeyframes() const { return keyframes_.size(); }  ///< keyframes stored
-  std::size_t numPoints() const { return num_points_; }  ///< points stored (before voxel filter)
+  std::size_t numPoints() const { return num_points_; }           ///< points stored (before voxel filter)
   /// True once a keyframe has been skipped because of `max_points` (cleared by `reset()`).
   bool capacityReached() const { return capacity_reached_; }
   /// Removes every keyframe (the ray tables are kept).

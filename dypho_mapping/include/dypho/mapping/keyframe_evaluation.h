@@ -13,8 +13,8 @@ struct KeyframeEvaluation {
   /// Mean over keyframes of the PSNR on static pixels [dB]; with exposure_compensation the
   /// rendered colour goes through the keyframe's exposure first (exp(k) * rendered + b).
   double psnr_db = 0.0;
-  double psnr_without_exposure_db = 0.0;  ///< the same with the plain rendered colour [dB]
-  double depth_l1_m = 0.0;        ///< mean |Dr - D| over static pixels with valid depth [m]
+  double psnr_without_exposure_db = 0.0;     ///< the same with the plain rendered colour [dB]
+  double depth_l1_m = 0.0;                   ///< mean |Dr - D| over static pixels with valid depth [m]
   std::vector<double> psnr_per_keyframe_db;  ///< in keyframe order
 };
 

@@ -27,11 +27,11 @@ namespace dypho::mapping {
 
 /// A rendered view.
 struct RenderedView {
-  cv::Mat bgr;      ///< CV_8UC3 BGR
+  cv::Mat bgr;  ///< CV_8UC3 BGR
   /// CV_32FC1 [m]: D_r / alpha (D_r = sum d_i alpha_i T_i) where alpha >= 0.5, else 0 (no
   /// measurement). The alpha term of the loss keeps alpha ~1 on measured surfaces, where this is D_r.
   cv::Mat depth_m;
-  cv::Mat alpha;    ///< CV_32FC1 accumulated alpha in [0, 1]
+  cv::Mat alpha;  ///< CV_32FC1 accumulated alpha in [0, 1]
 };
 
 class MapRenderer {
@@ -43,11 +43,9 @@ class MapRenderer {
 
   /// Colour, depth and alpha of `map` seen from `T_world_camera` through `camera` (its size and
   /// distortion). Throws std::invalid_argument for invalid intrinsics or a non-finite pose.
-  RenderedView render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
-                      const CameraIntrinsics& camera);
+  RenderedView render(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
   /// Depth only (CV_32FC1 [m], 0 = nothing rendered): R_d(G, T).
-  cv::Mat renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera,
-                      const CameraIntrinsics& camera);
+  cv::Mat renderDepth(const GaussianMap& map, const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera);
   /// The same for an immutable snapshot (MapSnapshot::map): on the GPU a snapshot is uploaded
   /// once and kept on the device while it stays the latest one rendered (the live map, above,
   /// is uploaded per render).

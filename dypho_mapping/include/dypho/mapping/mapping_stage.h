@@ -51,10 +51,10 @@ struct MappingStageOptions {
 
 /// Counters of the stage.
 struct MappingStageStats {
-  GaussianMapperStats gaussians;            ///< the mapper's counters
-  std::size_t keyframes_received = 0;       ///< keyframes handed to the stage
-  std::size_t correction_batches = 0;       ///< correction batches handed to the stage
-  std::size_t predicted_depth_rendered = 0;  ///< R_d images rendered
+  GaussianMapperStats gaussians;               ///< the mapper's counters
+  std::size_t keyframes_received = 0;          ///< keyframes handed to the stage
+  std::size_t correction_batches = 0;          ///< correction batches handed to the stage
+  std::size_t predicted_depth_rendered = 0;    ///< R_d images rendered
   std::int64_t render_snapshot_keyframe = -1;  ///< keyframe of the snapshot R_d is rendered from
 };
 
@@ -132,7 +132,7 @@ class MappingStage {
   mutable std::mutex mutex_;  ///< guards everything below
   ConstantVelocityModel motion_;
   std::int64_t newest_keyframe_id_ = -1;
-  MapSnapshot render_snapshot_;  ///< kDeterministic: the map R_d is rendered from
+  MapSnapshot render_snapshot_;                ///< kDeterministic: the map R_d is rendered from
   std::int64_t refined_after_keyframes_ = -1;  ///< keyframes_received when finish() last refined
   MappingStageStats counters_;
 

@@ -41,7 +41,7 @@ constexpr std::uint32_t kPrefetchAhead = 6;
 template <typename T>
 struct alignas(64) PackedGaussian {
   T mean_u, mean_v, conic_a, conic_b, conic_c, opacity, color[3], depth;
-  T half_u, half_v;  ///< footprint box half sizes [px] (gs::Projected)
+  T half_u, half_v;                        ///< footprint box half sizes [px] (gs::Projected)
   int tile_x0, tile_y0, tile_x1, tile_y1;  ///< tile rectangle [x0, x1) x [y0, y1); empty = culled
 };
 
@@ -89,11 +89,11 @@ struct GaussianGrads {
 
 /// Wall time of the stages of the last forward() and backward() [ms] (for benchmarks).
 struct RasterStageTimes {
-  double project_ms = 0;    ///< forward: cull + projection of every Gaussian
-  double bin_ms = 0;        ///< forward: depth sort and tile lists
-  double composite_ms = 0;  ///< forward: per-tile compositing
-  double tiles_back_ms = 0; ///< backward: per-tile back-to-front pass
-  double chain_ms = 0;      ///< backward: per-Gaussian chain rule
+  double project_ms = 0;     ///< forward: cull + projection of every Gaussian
+  double bin_ms = 0;         ///< forward: depth sort and tile lists
+  double composite_ms = 0;   ///< forward: per-tile compositing
+  double tiles_back_ms = 0;  ///< backward: per-tile back-to-front pass
+  double chain_ms = 0;       ///< backward: per-Gaussian chain rule
 };
 
 namespace raster {
@@ -101,22 +101,22 @@ namespace raster {
 /// What the tile kernels read of one forward pass: the tile lists and the projected Gaussians.
 template <typename T>
 struct TileLists {
-  int tiles_x = 0;                           ///< tiles per row
-  int width = 0, height = 0;                 ///< image size [px]
-  const std::uint32_t* ranges = nullptr;     ///< [tiles + 1] offsets into `entries`
-  const std::uint32_t* entries = nullptr;    ///< per (tile, depth-ordered) slot: index into `sorted`
-  const PackedGaussian<T>* sorted = nullptr; ///< visible Gaussians in depth order
+  int tiles_x = 0;                               ///< tiles per row
+  int width = 0, height = 0;                     ///< image size [px]
+  const std::uint32_t* ranges = nullptr;         ///< [tiles + 1] offsets into `entries`
+  const std::uint32_t* entries = nullptr;        ///< per (tile, depth-ordered) slot: index into `sorted`
+  const PackedGaussian<T>* sorted = nullptr;     ///< visible Gaussians in depth order
   T min_alpha = T(0), min_transmittance = T(0);  ///< RasterSettings
 };
 
 /// Images a forward tile kernel writes (planar, row-major).
 template <typename T>
 struct ForwardImages {
-  T* color = nullptr;                  ///< [3, H, W]
-  T* depth = nullptr;                  ///< [H, W]
-  T* alpha = nullptr;                  ///< [H, W]
-  T* final_T = nullptr;                ///< [H, W] transmittance after the last Gaussian
-  std::uint32_t* last_entry = nullptr; ///< [H, W] one past the last contributing entry
+  T* color = nullptr;                   ///< [3, H, W]
+  T* depth = nullptr;                   ///< [H, W]
+  T* alpha = nullptr;                   ///< [H, W]
+  T* final_T = nullptr;                 ///< [H, W] transmittance after the last Gaussian
+  std::uint32_t* last_entry = nullptr;  ///< [H, W] one past the last contributing entry
 };
 
 /// What a backward tile kernel reads besides the lists: the forward's record and the loss.

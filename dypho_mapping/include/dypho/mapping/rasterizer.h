@@ -91,17 +91,17 @@ class Rasterizer {
   gs::PinholeView<T> view_{};
   int tiles_x_ = 0, tiles_y_ = 0;
   std::size_t num_visible_ = 0;
-  std::vector<Packed> packed_;   ///< [N] per Gaussian (valid where visible_)
+  std::vector<Packed> packed_;         ///< [N] per Gaussian (valid where visible_)
   std::vector<std::uint8_t> visible_;  ///< [N] 1 = projected with a non-empty tile rectangle
-  std::vector<Packed> sorted_;   ///< [visible] visible Gaussians in depth order (tile lists index it)
+  std::vector<Packed> sorted_;         ///< [visible] visible Gaussians in depth order (tile lists index it)
   std::vector<std::uint32_t> keys_, order_, sort_tmp_keys_, sort_tmp_order_;
   static constexpr std::uint32_t kNotVisible = 0xffffffffu;
   std::vector<std::uint32_t> rank_;         ///< [N] index into sorted_, or kNotVisible
   std::vector<std::uint32_t> tile_ranges_;  ///< [tiles + 1] offsets into entries_
   std::vector<std::uint32_t> tile_fill_;
-  std::vector<std::uint32_t> entries_;      ///< index into sorted_ per (tile, depth-sorted) slot
-  std::vector<T> final_T_;                  ///< [H, W]
-  std::vector<std::uint32_t> last_entry_;   ///< [H, W] one past the last contributing entry
+  std::vector<std::uint32_t> entries_;                        ///< index into sorted_ per (tile, depth-sorted) slot
+  std::vector<T> final_T_;                                    ///< [H, W]
+  std::vector<std::uint32_t> last_entry_;                     ///< [H, W] one past the last contributing entry
   std::vector<std::vector<gs::ScreenGrad<T>>> thread_grads_;  ///< [threads][visible]
   std::vector<std::vector<T>> thread_pose_;
 };

@@ -45,8 +45,8 @@ class SsimLoss {
   /// nonzero = static; null = every pixel static. When `grad` is not null, adds
   /// `weight` * d(1 - mean SSIM)/d rendered to it ([3, H, W]). When `ssim_map` is not null, writes
   /// the per-pixel SSIM there ([3, H, W], also at dynamic pixels).
-  double compute(const T* rendered, const T* target, const std::uint8_t* static_mask, std::size_t mask_step,
-                 int width, int height, T weight, T* grad, T* ssim_map = nullptr);
+  double compute(const T* rendered, const T* target, const std::uint8_t* static_mask, std::size_t mask_step, int width,
+                 int height, T weight, T* grad, T* ssim_map = nullptr);
 
   /// The normalised window taps (kWindow values, sum 1).
   const T* window() const { return taps_; }
@@ -57,12 +57,12 @@ class SsimLoss {
   ThreadPool* pool_;
   T taps_[kWindow];
   int width_ = 0, height_ = 0;
-  std::vector<T> x_, y_;                       ///< [3HW] composited rendered image, target
-  std::vector<T> h_[5];                        ///< [3HW] horizontal pass (reused by the backward)
-  std::vector<T> p_[3];                        ///< [3HW] per-pixel dS/d(mu_x, sxx, sxy) terms
-  std::vector<std::uint8_t> static_;           ///< [HW] 1 = static
-  std::vector<double> row_sum_;                ///< [3H] SSIM summed per row (fixed-order reduction)
-  std::vector<std::vector<T>> pad_;            ///< [threads] a zero-padded row
+  std::vector<T> x_, y_;              ///< [3HW] composited rendered image, target
+  std::vector<T> h_[5];               ///< [3HW] horizontal pass (reused by the backward)
+  std::vector<T> p_[3];               ///< [3HW] per-pixel dS/d(mu_x, sxx, sxy) terms
+  std::vector<std::uint8_t> static_;  ///< [HW] 1 = static
+  std::vector<double> row_sum_;       ///< [3H] SSIM summed per row (fixed-order reduction)
+  std::vector<std::vector<T>> pad_;   ///< [threads] a zero-padded row
 };
 
 extern template class SsimLoss<float>;

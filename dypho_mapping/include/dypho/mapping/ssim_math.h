@@ -10,7 +10,7 @@
 
 namespace dypho::mapping::ssim {
 
-constexpr int kWindow = 11;       ///< taps of the separable Gaussian window
+constexpr int kWindow = 11;  ///< taps of the separable Gaussian window
 constexpr int kRadius = kWindow / 2;
 constexpr double kSigmaPx = 1.5;  ///< its standard deviation [px]
 constexpr double kC1 = 0.01 * 0.01;

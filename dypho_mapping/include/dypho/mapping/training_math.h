@@ -81,7 +81,7 @@ DYPHO_HOST_DEVICE inline float normalSample(std::uint32_t seed, std::uint32_t i,
   const std::uint32_t h1 = hash(seed ^ hash(i * 8u + k * 4u + axis + 0x9e3779b9U));
   const std::uint32_t h2 = hash(h1 ^ 0x85ebca6bU);
   const float u1 = (static_cast<float>(h1 >> 8) + 1.f) * (1.f / 16777217.f);  // (0, 1]
-  const float u2 = static_cast<float>(h2 >> 8) * (1.f / 16777216.f);         // [0, 1)
+  const float u2 = static_cast<float>(h2 >> 8) * (1.f / 16777216.f);          // [0, 1)
   return std::sqrt(-2.f * std::log(u1)) * std::cos(6.2831853071795865f * u2);
 }
 
@@ -128,8 +128,8 @@ constexpr int kLossSums = 9;
 
 /// The loss settings for `npix` pixels of which `static_pixels` are static and `depth_pixels` of
 /// those have a depth; `exposure` (k_c then b_c; null = none) and whether an SSIM term follows.
-inline LossParams lossParams(std::size_t npix, std::size_t static_pixels, std::size_t depth_pixels,
-                             double lambda_depth, double alpha_weight, const float* exposure, bool ssim_follows) {
+inline LossParams lossParams(std::size_t npix, std::size_t static_pixels, std::size_t depth_pixels, double lambda_depth,
+                             double alpha_weight, const float* exposure, bool ssim_follows) {
   const double nc = static_cast<double>(static_pixels), nd = static_cast<double>(depth_pixels);
   LossParams L{};
   L.npix = static_cast<int>(npix);

@@ -8,8 +8,8 @@
 ///  - B_{i-1} is first carried into the current view (`warpDepthForward`): every background pixel
 ///    is back-projected with its own depth in the previous camera, moved with T_cur_prev =
 ///    T_prev_cur^-1 and splatted into the current image with a z-buffer (nearest wins); one-pixel
-///    holes and cracks inside the splatted region (its 5x5 closing) get the nearest 5x5 depth. Without a pose the camera is
-///    taken as still (B_{i-1} is used as is).
+///    holes and cracks inside the splatted region (its 5x5 closing) get the nearest 5x5 depth. Without a pose the
+///    camera is taken as still (B_{i-1} is used as is).
 ///  - Terms without a value (B with no value yet, no rendered depth, D invalid or raw-dynamic) are
 ///    left out and the remaining weights renormalised; so B starts as D_1 minus the raw mask (the
 ///    paper's initialisation) and the rendered term is simply absent until mapping provides it.
@@ -36,16 +36,16 @@ namespace mask {
 /// Moves a depth image (CV_32FC1 [m], 0 = none) of the previous camera into the current one:
 /// forward splat with z-buffer, then filling of holes inside the splatted region (file comment). `camera` are the
 /// intrinsics at the images' resolution (distortion ignored).
-void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camera,
-                      const Eigen::Isometry3d& T_cur_prev, cv::Mat& depth_cur_m);
+void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camera, const Eigen::Isometry3d& T_cur_prev,
+                      cv::Mat& depth_cur_m);
 
 /// Drops each 8-connected region of `raw_dynamic` (CV_8UC1, in place) that the background
 /// explains: at least `min_consistent_share` of its pixels with both depths valid have
 /// |depth - background| < sigma_m, at least `min_checked_share` of its pixels have both, and it
 /// touches no pixel of `consistency_dynamic`. Removes flow false positives on the static scene.
-void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m,
-                             const cv::Mat& consistency_dynamic, double sigma_m,
-                             double min_consistent_share, double min_checked_share, cv::Mat& raw_dynamic);
+void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m, const cv::Mat& consistency_dynamic,
+                             double sigma_m, double min_consistent_share, double min_checked_share,
+                             cv::Mat& raw_dynamic);
 
 /// One-sided neighbourhood consistency. `dynamic` (CV_8UC1, 255 = dynamic) for each pixel x with
 /// background_m(x) > 0: among the window x window neighbours q with depth_m(q) > 0, count those
@@ -53,8 +53,8 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
 /// valid neighbours and at most `min_agreeing` agree. Inputs CV_32FC1 of equal size.
 /// Exact count, computed fast: windows whose valid depths all agree (min over the window) or
 /// none agree (max) are decided from morphology and box filters; only the rest are counted.
-void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, double sigma_m,
-                          int window, int min_agreeing, cv::Mat& dynamic);
+void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, double sigma_m, int window,
+                          int min_agreeing, cv::Mat& dynamic);
 
 /// The recursive background model at one (reduced) resolution. Not thread-safe.
 class BackgroundModel {
@@ -67,8 +67,7 @@ class BackgroundModel {
   /// this resolution; `T_prev_cur` the predicted relative pose (nullopt = camera still). Writes the
   /// consistency mask (CV_8UC1, 255 = dynamic) and updates B. A size change restarts the model.
   void process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic, const cv::Mat& rendered_depth_m,
-               const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur,
-               cv::Mat& dynamic);
+               const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur, cv::Mat& dynamic);
 
   /// First half of a step: carries B_{i-1} into the current view, forms the prior Q (see prior())
   /// and writes the consistency mask of `depth_m` against it (CV_8UC1, 255 = dynamic). Arguments

@@ -122,11 +122,11 @@ struct DynamicMaskOptions {
   /// for no gain (TUM fr1/rpy 2.9 -> 5.7 cm). Default false.
   bool unjudged_is_dynamic = false;
   /// On the first background_veto_after_updates frames with a flow after a start or a reset (the
-  /// time the background model needs to be established), a frame whose camera motion the flow did not find (fewer than flow_min_inlier_ratio of its samples
-  /// follow one motion) and that carries no earlier mask is returned all dynamic and not learnt:
-  /// nothing says what is static there, and people who fill the view from the first frame would
-  /// carry its pose (tracking skips the frame instead). Still camera, 6 people crossing from frame
-  /// 0, generator seeds 2 and 3: 8.8 and 11.4 cm ATE without, 0.12 and 0.17 cm with it. Default true.
+  /// time the background model needs to be established), a frame whose camera motion the flow did not find (fewer than
+  /// flow_min_inlier_ratio of its samples follow one motion) and that carries no earlier mask is returned all dynamic
+  /// and not learnt: nothing says what is static there, and people who fill the view from the first frame would carry
+  /// its pose (tracking skips the frame instead). Still camera, 6 people crossing from frame 0, generator seeds 2 and
+  /// 3: 8.8 and 11.4 cm ATE without, 0.12 and 0.17 cm with it. Default true.
   bool unknown_motion_is_dynamic = true;
   /// Grow the points tracking saw move on the previous frame (MovingPoints: the matches the
   /// static check found carried along with people the mask missed) over the surface they lie on,

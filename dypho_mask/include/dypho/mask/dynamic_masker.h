@@ -57,10 +57,10 @@ struct MaskPrior {
 
 /// Output of `DynamicMasker::compute`. All masks CV_8UC1, input size, 255 = dynamic.
 struct MaskResult {
-  cv::Mat mask;              ///< final mask
-  cv::Mat raw_flow_mask;     ///< thresholded flow residual (empty when no flow this frame)
-  cv::Mat raw_segment_mask;  ///< segment/detector mask in use (empty when none)
-  cv::Mat consistency_mask;  ///< background depth-consistency mask (empty when not run)
+  cv::Mat mask;                  ///< final mask
+  cv::Mat raw_flow_mask;         ///< thresholded flow residual (empty when no flow this frame)
+  cv::Mat raw_segment_mask;      ///< segment/detector mask in use (empty when none)
+  cv::Mat consistency_mask;      ///< background depth-consistency mask (empty when not run)
   double masked_fraction = 0.0;  ///< share of `mask` that is dynamic, [0, 1]
   /// True when part of the pipeline could not run this frame (bad input, flow fit failed);
   /// the mask is then what the remaining parts give (possibly empty). `message` says why.
@@ -72,18 +72,18 @@ struct MaskResult {
   /// the mask is all static, or all dynamic with DynamicMaskOptions::unjudged_is_dynamic. A network
   /// that ran on the frame judged it, even when it found nobody.
   bool unjudged = false;
-  std::string message;             ///< why degraded, warnings, "first frame"
-  bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
-  bool rendered_depth_used = false;   ///< R_d entered the background model B_i on this frame
-  bool segment_fresh = false;      ///< the network ran on this frame
-  int segment_age_frames = 0;      ///< frames the segment mask was carried
+  std::string message;                    ///< why degraded, warnings, "first frame"
+  bool ego_motion_from_pose = false;      ///< flow used depth + pose (false: homography fallback)
+  bool rendered_depth_used = false;       ///< R_d entered the background model B_i on this frame
+  bool segment_fresh = false;             ///< the network ran on this frame
+  int segment_age_frames = 0;             ///< frames the segment mask was carried
   std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
-  double flow_ms = 0.0;        ///< flow masker, whole [ms]
-  double segment_ms = 0.0;     ///< network (sync) + carrying [ms]
+  double flow_ms = 0.0;                   ///< flow masker, whole [ms]
+  double segment_ms = 0.0;                ///< network (sync) + carrying [ms]
   /// background model + combination + clean-up [ms]; its consistency test runs beside the flow,
   /// so flow_ms + background_ms can exceed the wall time (total_ms - segment_ms)
   double background_ms = 0.0;
-  double total_ms = 0.0;       ///< whole compute(), wall time [ms]
+  double total_ms = 0.0;  ///< whole compute(), wall time [ms]
 };
 
 /// True when the camera stands still on the frame of `flow`: the median flow of the textured
@@ -172,19 +172,20 @@ class DynamicMasker {
   /// network that runs on every frame gives one from the first frame on.
   bool network_mask_in_use_ = true;
   int background_updates_ = 0;  ///< updates of B since construction / reset()
-  int flow_frames_ = 0;         ///< frames with a flow since construction / reset() (the start: unknown_motion_is_dynamic)
+  int flow_frames_ = 0;  ///< frames with a flow since construction / reset() (the start: unknown_motion_is_dynamic)
   BoxDepthSettings box_settings_;
   DepthGrowSettings grow_settings_;
   cv::Mat seg_small_, flow_small_;
   cv::Mat depth_small_, raw_small_, rendered_small_, consistency_small_, combined_;
-  cv::Mat nearest_layer_small_, farther_layers_small_, no_occluder_small_;  ///< depth-layer cut (DynamicMaskOptions::depth_layers)
+  cv::Mat nearest_layer_small_, farther_layers_small_,
+      no_occluder_small_;        ///< depth-layer cut (DynamicMaskOptions::depth_layers)
   cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
   cv::Mat margin_depth_, margin_grown_;
-  cv::Mat seeds_small_;  ///< moving-point seeds at background resolution
-  int halo_small_px_ = 6;  ///< width of the flow's halo at background resolution [px]
+  cv::Mat seeds_small_;                           ///< moving-point seeds at background resolution
+  int halo_small_px_ = 6;                         ///< width of the flow's halo at background resolution [px]
   std::unique_ptr<ObjectPermanence> permanence_;  ///< null when permanence_frames is 0
-  cv::Mat evidence_small_, kept_small_;  ///< this frame's own findings; regions kept from the last frame
-  cv::Mat cleaned_small_;  ///< final dynamic pixels at background resolution, before the margin
+  cv::Mat evidence_small_, kept_small_;           ///< this frame's own findings; regions kept from the last frame
+  cv::Mat cleaned_small_;                         ///< final dynamic pixels at background resolution, before the margin
   cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 

@@ -19,9 +19,8 @@ namespace mask {
 /// undistorted px). Cells without depth, or whose point lies behind the previous camera
 /// (z <= 1 cm), get NaN (no prediction). `camera` must be valid (fx, fy > 0); its distortion is
 /// ignored (the inputs are undistorted). Reallocates the output only on a size change.
-void predictRigidPrevious(const cv::Mat& cur_px, const cv::Mat& depth_m,
-                          const CameraIntrinsics& camera, const Eigen::Isometry3d& T_prev_cur,
-                          cv::Mat& predicted_prev_px);
+void predictRigidPrevious(const cv::Mat& cur_px, const cv::Mat& depth_m, const CameraIntrinsics& camera,
+                          const Eigen::Isometry3d& T_prev_cur, cv::Mat& predicted_prev_px);
 
 }  // namespace mask
 }  // namespace dypho

@@ -120,8 +120,7 @@ class FlowMotionMasker {
   /// When the fit fails all the same, the result is degraded but its mask is the carried previous
   /// mask (shrunk by the margin, which the caller grows again) instead of an empty one: an empty
   /// mask would hand every person to the tracker.
-  FlowMaskResult compute(const RgbdFrame& frame,
-                         const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
+  FlowMaskResult compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
                          const cv::Mat& previous_dynamic = cv::Mat());
 
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
@@ -151,16 +150,14 @@ class FlowMotionMasker {
   void computeFlow(FlowMaskResult& result);
   /// prev_px_ = full-resolution (undistorted) previous position of each grid_px_ along flow_
   /// (flow_target_: the same in flow px).
-  void computeCorrespondences(const cv::Size& input_size, const cv::Size& small_size,
-                              const CameraIntrinsics& camera);
+  void computeCorrespondences(const cv::Size& input_size, const cv::Size& small_size, const CameraIntrinsics& camera);
   /// The camera's own motion: the fit (pose + depth, else homography; retried without the carried
   /// pixels) and its residual_. False (result degraded, carried mask) when no fit was found.
   bool fitEgoMotion(const RgbdFrame& frame, const cv::Size& small_size,
                     const std::optional<Eigen::Isometry3d>& T_prev_cur, FlowMaskResult& result);
   /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
   /// usable_ = textured cells that have one.
-  void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size,
-                       const Eigen::Isometry3d& T_prev_cur);
+  void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
   /// One global-motion fit, from the pose prediction first when `with_pose`, then from the grid;
   /// without the carried pixels when `exclude_previous`. `from_pose`: which one was fitted last.
   GlobalMotionFit fitOnce(bool with_pose, bool exclude_previous, bool& from_pose);
@@ -188,14 +185,13 @@ class FlowMotionMasker {
   void useCarried(const cv::Size& input_size, FlowMaskResult& result);
   void computeTexture(const cv::Mat& grey_small);
   void applyAperture(const cv::Mat& residual_vec, cv::Mat& residual) const;
-  void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size,
-                       const CameraIntrinsics& camera);
+  void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size, const CameraIntrinsics& camera);
 
   FlowMaskOptions options_;
   cv::Ptr<cv::DISOpticalFlow> dis_;
   GlobalMotionEstimator global_motion_;
   MaskCleaner cleaner_;
-  cv::Size input_size_;   ///< size of the previous frame (empty = no previous frame)
+  cv::Size input_size_;  ///< size of the previous frame (empty = no previous frame)
   /// For each flow-resolution pixel, its full-resolution position (undistorted when
   /// `grid_camera_` is distorted), CV_32FC2; rebuilt when the size or camera changes.
   cv::Mat grid_px_;
@@ -213,17 +209,17 @@ class FlowMotionMasker {
   cv::Mat grad_x_;
   cv::Mat grad_y_;
   cv::Mat texture_energy_;
-  cv::Mat txx_, txy_, tyy_;  ///< structure tensor (5x5 box) at flow resolution
-  cv::Mat residual_vec_;     ///< residual vectors [full-res px], CV_32FC2
-  cv::Mat depth_small_;    ///< depth at flow resolution [m] (nearest sample)
-  cv::Mat predicted_px_;   ///< rigid prediction of the previous position, CV_32FC2
-  cv::Mat usable_;         ///< textured cells with a rigid prediction
-  cv::Mat carried_;        ///< previous final mask carried along the flow (flow resolution)
-  cv::Mat memory_;          ///< residual memory [full-res px], CV_32FC2 (FlowMaskOptions::residual_memory)
-  cv::Mat memory_carried_;  ///< memory_ moved along the flow into the current frame
-  cv::Mat memory_gate_;     ///< pixels that move too little now to keep their memory
+  cv::Mat txx_, txy_, tyy_;     ///< structure tensor (5x5 box) at flow resolution
+  cv::Mat residual_vec_;        ///< residual vectors [full-res px], CV_32FC2
+  cv::Mat depth_small_;         ///< depth at flow resolution [m] (nearest sample)
+  cv::Mat predicted_px_;        ///< rigid prediction of the previous position, CV_32FC2
+  cv::Mat usable_;              ///< textured cells with a rigid prediction
+  cv::Mat carried_;             ///< previous final mask carried along the flow (flow resolution)
+  cv::Mat memory_;              ///< residual memory [full-res px], CV_32FC2 (FlowMaskOptions::residual_memory)
+  cv::Mat memory_carried_;      ///< memory_ moved along the flow into the current frame
+  cv::Mat memory_gate_;         ///< pixels that move too little now to keep their memory
   bool memory_enabled_ = true;  ///< see setResidualMemoryEnabled()
-  cv::Mat fit_usable_;     ///< usable cells outside carried_ (the retried fit's samples)
+  cv::Mat fit_usable_;          ///< usable cells outside carried_ (the retried fit's samples)
   cv::Mat empty_;
   bool last_flow_valid_ = false;
   cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow

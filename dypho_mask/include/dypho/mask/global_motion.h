@@ -21,14 +21,12 @@ struct GlobalMotionFit {
   /// Maps a point of the current image to its position in the previous image, in the units of the
   /// correspondences it was fitted to (homogeneous, H(2,2) = 1).
   cv::Matx33d H_prev_cur = cv::Matx33d::eye();
-  int num_samples = 0;        ///< grid samples with finite correspondences
-  int num_inliers = 0;        ///< RANSAC inliers among them
-  std::string message;        ///< why `ok` is false (empty when ok)
+  int num_samples = 0;  ///< grid samples with finite correspondences
+  int num_inliers = 0;  ///< RANSAC inliers among them
+  std::string message;  ///< why `ok` is false (empty when ok)
 
   /// Fraction of samples that are inliers, 0 when there are no samples.
-  double inlierRatio() const {
-    return num_samples > 0 ? static_cast<double>(num_inliers) / num_samples : 0.0;
-  }
+  double inlierRatio() const { return num_samples > 0 ? static_cast<double>(num_inliers) / num_samples : 0.0; }
 };
 
 /// Settings of `GlobalMotionEstimator`.
@@ -53,8 +51,7 @@ class GlobalMotionEstimator {
 
   /// `usable`: optional CV_8UC1 of the fields' size; only cells where it is non-zero are sampled
   /// (e.g. textured pixels); empty = all. Never throws for bad data: ok = false with a message.
-  GlobalMotionFit fit(const cv::Mat& cur_px, const cv::Mat& prev_px,
-                      const cv::Mat& usable = cv::Mat());
+  GlobalMotionFit fit(const cv::Mat& cur_px, const cv::Mat& prev_px, const cv::Mat& usable = cv::Mat());
 
  private:
   GlobalMotionSettings settings_;
@@ -67,9 +64,8 @@ class GlobalMotionEstimator {
 /// correspondences' units. `residual_px` becomes CV_32FC1 of the fields' size (reallocated only
 /// when the size changes); cells without a finite correspondence get 0 (no evidence of motion).
 /// `residual_vec_px` (optional): the residual vectors prev - H cur, CV_32FC2 (0 where none).
-void computeResidualMagnitude(const cv::Mat& cur_px, const cv::Mat& prev_px,
-                              const cv::Matx33d& H_prev_cur, cv::Mat& residual_px,
-                              cv::Mat* residual_vec_px = nullptr);
+void computeResidualMagnitude(const cv::Mat& cur_px, const cv::Mat& prev_px, const cv::Matx33d& H_prev_cur,
+                              cv::Mat& residual_px, cv::Mat* residual_vec_px = nullptr);
 
 }  // namespace mask
 }  // namespace dypho

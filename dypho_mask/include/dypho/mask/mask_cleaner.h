@@ -10,9 +10,9 @@ namespace mask {
 
 /// Settings of `MaskCleaner`, in the pixel units of the mask it is applied to.
 struct MaskCleanerSettings {
-  int open_radius_px = 1;     ///< radius of the elliptic opening, >= 0 (0 = no opening)
+  int open_radius_px = 1;       ///< radius of the elliptic opening, >= 0 (0 = no opening)
   int min_region_area_px = 25;  ///< 8-connected regions with fewer pixels are removed, >= 0
-  int dilate_radius_px = 2;   ///< radius of the elliptic dilation (margin), >= 0 (0 = none)
+  int dilate_radius_px = 2;     ///< radius of the elliptic dilation (margin), >= 0 (0 = none)
 };
 
 /// Applies open -> small-region removal -> dilation in place. Kernels and label buffers are kept

@@ -48,14 +48,14 @@ struct MaskStageOptions {
 
 /// Counters since construction or reset() (the graph test and diagnostics read them).
 struct MaskStageStats {
-  std::size_t frames = 0;                 ///< frames masked
-  std::size_t frames_with_ego_motion = 0;  ///< frames given a T_prev_cur from tracked poses
+  std::size_t frames = 0;                      ///< frames masked
+  std::size_t frames_with_ego_motion = 0;      ///< frames given a T_prev_cur from tracked poses
   std::size_t frames_with_rendered_depth = 0;  ///< frames whose B_i update used R_d
-  std::size_t rendered_depth_offered = 0;  ///< R_d images received
-  std::size_t rendered_depth_unmatched = 0;  ///< R_d images no frame used (stamp did not match)
-  std::size_t degraded_frames = 0;        ///< MaskResult::degraded
-  std::size_t restarts = 0;               ///< restarts after a stamp jumped back
-  std::size_t dropped_out_of_order = 0;   ///< frames dropped for a repeated or late stamp
+  std::size_t rendered_depth_offered = 0;      ///< R_d images received
+  std::size_t rendered_depth_unmatched = 0;    ///< R_d images no frame used (stamp did not match)
+  std::size_t degraded_frames = 0;             ///< MaskResult::degraded
+  std::size_t restarts = 0;                    ///< restarts after a stamp jumped back
+  std::size_t dropped_out_of_order = 0;        ///< frames dropped for a repeated or late stamp
 };
 
 class MaskStage {

@@ -65,11 +65,11 @@ class ObjectPermanence {
 
  private:
   PermanenceSettings settings_;
-  cv::Mat mask_;    ///< previous frame's dynamic pixels (CV_8UC1)
-  cv::Mat depth_;   ///< previous frame's depth [m]
-  cv::Mat quiet_;   ///< previous frame's quiet count per pixel (CV_16UC1)
-  cv::Mat map_;     ///< previous-frame position of each current pixel (CV_32FC2)
-  cv::Mat kept_;    ///< last carry()'s result
+  cv::Mat mask_;        ///< previous frame's dynamic pixels (CV_8UC1)
+  cv::Mat depth_;       ///< previous frame's depth [m]
+  cv::Mat quiet_;       ///< previous frame's quiet count per pixel (CV_16UC1)
+  cv::Mat map_;         ///< previous-frame position of each current pixel (CV_32FC2)
+  cv::Mat kept_;        ///< last carry()'s result
   cv::Mat kept_quiet_;  ///< carried quiet count at the kept pixels (CV_16UC1)
   cv::Mat carried_mask_, carried_depth_, labels_;
   std::vector<int> queue_;  ///< flood-fill queue of the surface labelling

@@ -19,17 +19,17 @@ namespace mask {
 
 /// What the scheduler did for a frame.
 struct SegmentStep {
-  cv::Mat mask;            ///< CV_8UC1 image size, 255 = dynamic class; empty = no segment mask yet
-  bool fresh = false;      ///< a network result for THIS frame (not carried)
-  int age_frames = 0;      ///< frames between the network's input and this frame
+  cv::Mat mask;        ///< CV_8UC1 image size, 255 = dynamic class; empty = no segment mask yet
+  bool fresh = false;  ///< a network result for THIS frame (not carried)
+  int age_frames = 0;  ///< frames between the network's input and this frame
   /// The newest mask became older than YoloOptions::max_age_frames on this frame and was dropped
   /// (`mask` is empty from here until the next result).
   bool too_old = false;
-  int num_detections = 0;  ///< detections of the result in use
+  int num_detections = 0;             ///< detections of the result in use
   std::vector<cv::Rect> boxes_image;  ///< their boxes (image px, of the frame they were found in)
-  double network_ms = 0.0; ///< network time spent inside this call (0 when async or not run) [ms]
-  double carry_ms = 0.0;   ///< time spent carrying masks with the flow [ms]
-  std::string message;     ///< a network error of this frame, if any
+  double network_ms = 0.0;            ///< network time spent inside this call (0 when async or not run) [ms]
+  double carry_ms = 0.0;              ///< time spent carrying masks with the flow [ms]
+  std::string message;                ///< a network error of this frame, if any
 };
 
 class SegmentScheduler {
@@ -57,7 +57,7 @@ class SegmentScheduler {
   std::future<SegmentOutput> pending_;
   std::vector<cv::Mat> flows_since_submit_;  ///< flows of the frames after the pending input
   int frames_since_submit_ = 1 << 20;
-  cv::Mat current_;                 ///< newest mask carried to the last frame
+  cv::Mat current_;  ///< newest mask carried to the last frame
   int current_age_ = 0;
   std::vector<cv::Rect> current_boxes_;
   cv::Mat map_, flow_full_;

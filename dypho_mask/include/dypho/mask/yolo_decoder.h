@@ -69,7 +69,7 @@ struct YoloDetection {
 struct LayoutInfo {
   YoloLayout layout = YoloLayout::kAuto;  ///< never kAuto when ok
   int num_classes = 0;
-  int num_mask_coeffs = 0;                ///< 0 for detection layouts
+  int num_mask_coeffs = 0;  ///< 0 for detection layouts
   bool ok = false;
   std::string message;  ///< why not ok: the shapes seen and what was expected
 };
@@ -79,23 +79,21 @@ struct LayoutInfo {
 /// Auto rules: 2 outputs -> seg (channels-first 1xCxN with C < N: v8-seg, else v5-seg); 1 output
 /// 1xNxC with N == number of YOLOX grid cells of input_size -> yolox; 1 output 1xCxN with C < N
 /// -> yolov8. Prototypes must be 4-D 1 x nm x mh x mw.
-LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Size& input_size,
-                              YoloLayout requested);
+LayoutInfo inspectYoloOutputs(const std::vector<cv::Mat>& outputs, const cv::Size& input_size, YoloLayout requested);
 
 /// Decodes `outputs` with `info` (from inspectYoloOutputs): candidates whose class is in
 /// `keep_class` (indexed by class id; empty = all classes) and whose score >= score_threshold,
 /// then class-wise NMS with IoU `nms_iou`. Boxes are clipped to the input.
-std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs,
-                                             const LayoutInfo& info, const cv::Size& input_size,
-                                             const std::vector<bool>& keep_class,
+std::vector<YoloDetection> decodeYoloOutputs(const std::vector<cv::Mat>& outputs, const LayoutInfo& info,
+                                             const cv::Size& input_size, const std::vector<bool>& keep_class,
                                              float score_threshold, float nms_iou);
 
 /// Instance mask of a seg detection in IMAGE pixels: sigmoid(coeffs . protos) at prototype
 /// resolution, upsampled to the network input, cropped to the box, mapped back through the
 /// letterbox, > 0.5. `protos` is the 4-D 1 x nm x mh x mw output. ORs 255 into `mask_image`
 /// (CV_8UC1, letterbox.image_size).
-void paintInstanceMask(const YoloDetection& detection, const cv::Mat& protos,
-                       const Letterbox& letterbox, cv::Mat& mask_image);
+void paintInstanceMask(const YoloDetection& detection, const cv::Mat& protos, const Letterbox& letterbox,
+                       cv::Mat& mask_image);
 
 /// Box of a detection in image pixels (through the letterbox), clipped to the image.
 cv::Rect boxInImage(const YoloDetection& detection, const Letterbox& letterbox);

@@ -19,12 +19,12 @@ namespace mask {
 
 /// Output of `YoloSegmenter::segment`.
 struct SegmentOutput {
-  bool ok = false;       ///< false: no network result (not ready, bad input, forward failed)
-  std::string message;   ///< why not ok
-  cv::Mat mask;          ///< CV_8UC1 image size, 255 = a dynamic-class object (ok only)
+  bool ok = false;                        ///< false: no network result (not ready, bad input, forward failed)
+  std::string message;                    ///< why not ok
+  cv::Mat mask;                           ///< CV_8UC1 image size, 255 = a dynamic-class object (ok only)
   std::vector<YoloDetection> detections;  ///< kept detections (network-input pixels)
   std::vector<cv::Rect> boxes_image;      ///< their boxes in image pixels
-  double ms = 0.0;       ///< wall time: letterbox, forward, decode, masks [ms]
+  double ms = 0.0;                        ///< wall time: letterbox, forward, decode, masks [ms]
 };
 
 /// Loads the model once and segments images. Not thread-safe (one call at a time).

@@ -22,8 +22,7 @@ namespace dypho::pipeline {
 class YamlOptionsReader {
  public:
   /// `node` must be a map (or null = nothing to read); `context` names it in error messages.
-  YamlOptionsReader(YAML::Node node, std::string context)
-      : node_(std::move(node)), context_(std::move(context)) {
+  YamlOptionsReader(YAML::Node node, std::string context) : node_(std::move(node)), context_(std::move(context)) {
     if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) {
       throw std::runtime_error(context_ + ": expected a map of key: value");
     }

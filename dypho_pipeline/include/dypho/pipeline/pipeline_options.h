@@ -27,11 +27,11 @@ MaskSource parseMaskSource(const std::string& name);
 
 /// All settings of the in-process pipeline.
 struct PipelineOptions {
-  mask::DynamicMaskOptions mask;         ///< mask core (config/mask.yaml)
-  tracking::TrackingOptions tracking;    ///< tracking core (config/tracking.yaml)
-  mapping::MappingOptions mapping;       ///< mapping cores: point cloud + Gaussian map (config/mapping.yaml)
+  mask::DynamicMaskOptions mask;               ///< mask core (config/mask.yaml)
+  tracking::TrackingOptions tracking;          ///< tracking core (config/tracking.yaml)
+  mapping::MappingOptions mapping;             ///< mapping cores: point cloud + Gaussian map (config/mapping.yaml)
   MaskSource mask_source = MaskSource::kFlow;  ///< where masks come from
-  mask::MaskStageOptions mask_stage;     ///< R_d hand-over and motion prior of the mask stage
+  mask::MaskStageOptions mask_stage;           ///< R_d hand-over and motion prior of the mask stage
   mapping::MappingStageOptions mapping_stage;  ///< queue of the mapping stage
   /// false: the mapping stage gets no poses, corrections or keyframes, so no map is built (mask
   /// and tracking only: trajectory benchmarks). R_d then has no map to render and the mask runs

@@ -67,14 +67,14 @@ using RealtimeFrameLoader = std::function<RealtimeInput(std::size_t index)>;
 
 /// A frame that went through the pipeline.
 struct RealtimeProcessedFrame {
-  std::size_t index = 0;    ///< position in the sequence
+  std::size_t index = 0;  ///< position in the sequence
   /// As SlamPipeline::process() reports it (report.dropped: stamp rejected). The render and
   /// mask fields are those of the frame's own mask; zero when it was tracked with a carried
   /// mask or none.
   FrameReport report;
-  double latency_ms = 0.0;  ///< release to pose (end of tracking) [ms]
+  double latency_ms = 0.0;                                         ///< release to pose (end of tracking) [ms]
   tracking::MaskSource mask_source = tracking::MaskSource::kNone;  ///< the mask it was tracked with
-  double mask_wait_ms = 0.0;  ///< its wait for that mask [ms]
+  double mask_wait_ms = 0.0;                                       ///< its wait for that mask [ms]
 };
 
 /// Outcome of RealtimeRunner::run().
@@ -90,10 +90,10 @@ struct RealtimeResult {
   /// with a carried mask or none (or dropped, then also listed above).
   std::vector<std::size_t> masks_skipped;
   std::vector<std::string> unreadable;  ///< frames the loader could not read ("frame i: why"), never released
-  std::size_t late_releases = 0;  ///< frames released over 5 ms after their due time (reading fell behind)
-  double wall_s = 0.0;            ///< from the first release to the last frame's pose [s]
-  bool stopped = false;           ///< the stop flag ended the run early
-  tracking::LiveCounters live;    ///< the live tracker's counters (the tracking nodelet's status figures)
+  std::size_t late_releases = 0;        ///< frames released over 5 ms after their due time (reading fell behind)
+  double wall_s = 0.0;                  ///< from the first release to the last frame's pose [s]
+  bool stopped = false;                 ///< the stop flag ended the run early
+  tracking::LiveCounters live;          ///< the live tracker's counters (the tracking nodelet's status figures)
 
   std::size_t framesDropped() const { return dropped_before_tracking.size(); }
   /// Processed frames with a pose (not rejected for their stamp).
@@ -120,8 +120,7 @@ class RealtimeRunner {
   /// set by a signal handler): no frame is released after it is set; frames already released
   /// finish. Does not call SlamPipeline::finish(). A stage that throws ends the run: nothing more
   /// is released, the threads end, and the first exception is rethrown.
-  RealtimeResult run(std::size_t num_frames, const RealtimeFrameLoader& load,
-                     const std::atomic<bool>* stop = nullptr);
+  RealtimeResult run(std::size_t num_frames, const RealtimeFrameLoader& load, const std::atomic<bool>* stop = nullptr);
 
  private:
   SlamPipeline& pipeline_;

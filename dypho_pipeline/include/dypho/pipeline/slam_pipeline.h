@@ -49,13 +49,13 @@ struct FrameReport {
   /// The frame's stamp was repeated or late (stamp_gate.h): not masked, not tracked, no pose;
   /// `message` says why. A jump back by more than 1 s restarts instead (tracking.restarted).
   bool dropped = false;
-  std::string message;                ///< why the frame was dropped
+  std::string message;  ///< why the frame was dropped
 };
 
 /// A frame after the mask stage, on its way to tracking (maskFrame() -> trackFrame()).
 struct MaskedFrame {
-  RgbdFrame frame;     ///< the input frame (images shared, not copied)
-  cv::Mat mask;        ///< CV_8UC1, 255 = dynamic; empty = all static
+  RgbdFrame frame;  ///< the input frame (images shared, not copied)
+  cv::Mat mask;     ///< CV_8UC1, 255 = dynamic; empty = all static
   /// Whether the mask judged this frame (the flow's first frame without a network did not; an
   /// external mask did; no mask: unsaid).
   tracking::MaskJudgement judgement = tracking::MaskJudgement::kUnknown;

@@ -34,15 +34,13 @@ class FeatureMatcher {
   /// for frame keypoints (undistorted coordinates) within radius_px * scale_factor^level of the
   /// projection, with a level at most `max_level_difference` away. Accepts the best candidate when
   /// its distance is <= max_hamming_distance and < ratio_test * second best.
-  std::vector<FeatureMatch> matchByProjection(const KeyframePoints& reference,
-                                              const FrameFeatures& frame,
-                                              const Eigen::Isometry3d& T_camera_world,
-                                              const Pinhole& pinhole, double radius_px) const;
+  std::vector<FeatureMatch> matchByProjection(const KeyframePoints& reference, const FrameFeatures& frame,
+                                              const Eigen::Isometry3d& T_camera_world, const Pinhole& pinhole,
+                                              double radius_px) const;
 
   /// Global brute-force Hamming search (no pose needed): k = 2 nearest neighbours with the ratio
   /// test, distance <= max_hamming_distance, and a mutual (cross) check.
-  std::vector<FeatureMatch> matchBruteForce(const KeyframePoints& reference,
-                                            const FrameFeatures& frame) const;
+  std::vector<FeatureMatch> matchBruteForce(const KeyframePoints& reference, const FrameFeatures& frame) const;
 
  private:
   TrackingOptions options_;
@@ -50,8 +48,7 @@ class FeatureMatcher {
 
 /// Keeps only matches whose angle difference falls in the three dominant 12-degree bins.
 std::vector<FeatureMatch> filterByRotationConsistency(const std::vector<FeatureMatch>& matches,
-                                                      const KeyframePoints& reference,
-                                                      const FrameFeatures& frame);
+                                                      const KeyframePoints& reference, const FrameFeatures& frame);
 
 }  // namespace tracking
 }  // namespace dypho

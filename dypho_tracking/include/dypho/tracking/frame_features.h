@@ -43,9 +43,8 @@ std::vector<Eigen::Vector2d> undistortPixels(const std::vector<cv::Point2f>& dis
 /// image. Keypoints whose depth is 0, NaN or outside [min_depth_m, max_depth_m] are DROPPED: this
 /// milestone uses only points with a metric 3D position (a later milestone may keep them as
 /// 2D-only observations). `depth_m` must be CV_32FC1 with the image size (not checked here).
-FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m,
-                                const CameraIntrinsics& camera, double min_depth_m,
-                                double max_depth_m);
+FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m, const CameraIntrinsics& camera,
+                                double min_depth_m, double max_depth_m);
 
 }  // namespace tracking
 }  // namespace dypho

@@ -20,12 +20,12 @@ namespace tracking {
 
 /// Result of KeyframeAligner::align.
 struct AlignmentResult {
-  bool success = false;  ///< pose found with >= min_inliers inliers
+  bool success = false;                                              ///< pose found with >= min_inliers inliers
   Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();  ///< world -> camera
-  std::vector<FeatureMatch> matches;  ///< matches used for the final pose
-  std::vector<bool> inliers;          ///< per match: pose inlier
-  int num_inliers = 0;                ///< count of inliers
-  bool used_pnp = false;              ///< the PnP RANSAC fallback produced the initial pose
+  std::vector<FeatureMatch> matches;                                 ///< matches used for the final pose
+  std::vector<bool> inliers;                                         ///< per match: pose inlier
+  int num_inliers = 0;                                               ///< count of inliers
+  bool used_pnp = false;  ///< the PnP RANSAC fallback produced the initial pose
   /// `matches[].reference_index` index the `brute_force_reference` passed to align (the tight
   /// pass over the main reference did not replace the PnP result); else the main reference.
   bool matches_refer_to_fallback = false;
@@ -35,7 +35,7 @@ struct AlignmentResult {
   std::vector<std::int8_t> probation;
   /// The pose was estimated from the verified points first (enough of them matched).
   bool verified_first = false;
-  std::string message;                ///< why it failed; empty on success
+  std::string message;  ///< why it failed; empty on success
 };
 
 /// Frame-to-keyframe pose estimation in three steps:
@@ -58,17 +58,15 @@ class KeyframeAligner {
   /// with points on probation (KeyframePoints::verified), estimate the pose from the verified
   /// points first (false: every match carries the pose; the verdicts of the inliers are still
   /// given). Never throws on data.
-  AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame,
-                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
-                        TrackingTimesMs* times,
-                        const KeyframePoints* brute_force_reference = nullptr,
-                        bool verified_first = true) const;
+  AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+                        const Eigen::Isometry3d& T_camera_world_predicted, TrackingTimesMs* times,
+                        const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true) const;
 
  private:
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
-              const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
-              bool verified_first, AlignmentResult* result) const;
+              const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init, bool verified_first,
+              AlignmentResult* result) const;
 
   TrackingOptions options_;
   FeatureMatcher matcher_;

@@ -22,10 +22,10 @@ struct KeyframePoints {
   /// the published keyframe (frame, mask, pose) when built by makeKeyframePoints; views of the
   /// tracker's map (TrackerMap::localPoints) leave it null, the map keeps no images
   KeyframeConstPtr keyframe;
-  std::vector<Eigen::Vector3d> p_world_m;      ///< 3D point in the world [m]
-  std::vector<cv::KeyPoint> keypoints;         ///< keypoint in the keyframe image (level-0 px)
-  cv::Mat descriptors;                         ///< row i = ORB descriptor of point i, CV_8UC1
-  std::vector<std::int64_t> map_point_ids;     ///< unique id of point i
+  std::vector<Eigen::Vector3d> p_world_m;   ///< 3D point in the world [m]
+  std::vector<cv::KeyPoint> keypoints;      ///< keypoint in the keyframe image (level-0 px)
+  cv::Mat descriptors;                      ///< row i = ORB descriptor of point i, CV_8UC1
+  std::vector<std::int64_t> map_point_ids;  ///< unique id of point i
   /// Distance camera -> point when the keypoint was detected [m]; empty = unknown. When filled,
   /// projection matching predicts the pyramid level from the current distance (scale invariance).
   std::vector<double> reference_distance_m;
@@ -44,17 +44,15 @@ struct KeyframePoints {
 /// the previous keyframe's point it was matched to as a pose inlier; every other feature gets a new
 /// id from `next_map_point_id` (incremented). The 3D position always comes from this frame's depth.
 /// The returned Keyframe holds deep copies of `frame` and `mask` (so callers may reuse buffers).
-KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& frame,
-                                  const cv::Mat& mask, const Eigen::Isometry3d& T_world_camera,
-                                  const FrameFeatures& features, const KeyframePoints* previous,
-                                  const std::vector<int>& previous_match,
+KeyframePoints makeKeyframePoints(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
+                                  const Eigen::Isometry3d& T_world_camera, const FrameFeatures& features,
+                                  const KeyframePoints* previous, const std::vector<int>& previous_match,
                                   std::int64_t* next_map_point_id);
 
 /// The published keyframe (deep copies of `frame` and `mask`) with one KeyframeKeypoint per
 /// feature carrying `map_point_ids[i]` (same length as the features; -1 = none).
 KeyframeConstPtr makeKeyframe(std::int64_t keyframe_id, const RgbdFrame& frame, const cv::Mat& mask,
-                              const Eigen::Isometry3d& T_world_camera,
-                              const FrameFeatures& features,
+                              const Eigen::Isometry3d& T_world_camera, const FrameFeatures& features,
                               const std::vector<std::int64_t>& map_point_ids);
 
 }  // namespace tracking

@@ -65,10 +65,11 @@ inline MaskJudgement liveJudgement(MaskSource source, bool expect_masks, MaskJud
 
 /// Counters since construction.
 struct LiveCounters {
-  std::uint64_t frames_in = 0;            ///< frames added
-  std::uint64_t frames_processed = 0;     ///< taken for preparation (then tracked, or failed: see frames_failed)
-  std::uint64_t frames_dropped = 0;       ///< dropped while waiting (beyond max_pending_frames)
-  std::uint64_t frames_discarded = 0;     ///< forgotten by clearWaiting() or stop() before preparation, or added after stop() or finish()
+  std::uint64_t frames_in = 0;         ///< frames added
+  std::uint64_t frames_processed = 0;  ///< taken for preparation (then tracked, or failed: see frames_failed)
+  std::uint64_t frames_dropped = 0;    ///< dropped while waiting (beyond max_pending_frames)
+  std::uint64_t frames_discarded =
+      0;  ///< forgotten by clearWaiting() or stop() before preparation, or added after stop() or finish()
   std::uint64_t frames_failed = 0;        ///< processed, but their conversion, tracking or sink threw
   std::uint64_t frames_matched = 0;       ///< released with their own mask
   std::uint64_t frames_mask_carried = 0;  ///< released with a carried mask
@@ -95,8 +96,8 @@ struct LiveFrameFigures {
 /// A frame that could not go through: dropped, the next frames go on.
 struct LiveFailure {
   Timestamp stamp_ns = 0;
-  std::string message;         ///< what failed and why, for a log
-  std::exception_ptr error;    ///< the exception itself (a caller may rethrow it)
+  std::string message;       ///< what failed and why, for a log
+  std::exception_ptr error;  ///< the exception itself (a caller may rethrow it)
 };
 
 /// `Input`: what the caller adds per frame (moved through; converted once on the preparing
@@ -132,7 +133,8 @@ class LiveTracker {
         callbacks_(std::move(callbacks)),
         preparer_(stage.options()),
         pairer_(pairing, expect_masks) {
-    if (!callbacks_.convert || !callbacks_.sink) throw std::invalid_argument("LiveTracker: convert and sink are required");
+    if (!callbacks_.convert || !callbacks_.sink)
+      throw std::invalid_argument("LiveTracker: convert and sink are required");
     preparing_thread_ = std::thread([this] { prepareLoop(); });
     tracking_thread_ = std::thread([this] { trackLoop(); });
   }
@@ -312,8 +314,7 @@ class LiveTracker {
       frames_waiting += static_cast<int>(pairer_.pending() + taken_);
     }
     try {
-      const MaskJudgement judgement =
-          liveJudgement(item.ready.source, expect_masks_, item.frame.own_mask_judgement);
+      const MaskJudgement judgement = liveJudgement(item.ready.source, expect_masks_, item.frame.own_mask_judgement);
       tracked.output = stage_.process(item.frame.frame, item.frame.mask, judgement, &item.features, frames_waiting);
     } catch (const std::exception& e) {
       fail(item.ready.stamp_ns, std::string("tracking failed on this frame, dropped: ") + e.what());
@@ -350,7 +351,7 @@ class LiveTracker {
   const Callbacks callbacks_;
   FeaturePreparer preparer_;  ///< the preparing thread's
 
-  mutable std::mutex mutex_;  ///< guards the pairer, the counters, the figures and closing_
+  mutable std::mutex mutex_;      ///< guards the pairer, the counters, the figures and closing_
   std::condition_variable wake_;  ///< a frame, a mask or a close for the preparing thread
   Pairer pairer_;
   Closing closing_ = Closing::kOpen;

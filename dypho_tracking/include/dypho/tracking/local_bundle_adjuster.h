@@ -19,31 +19,31 @@ namespace tracking {
 
 /// What LocalBundleAdjuster::adjust did.
 struct LocalBaResult {
-  bool ran = false;            ///< an optimisation ran and its solution was applied
-  int optimized_keyframes = 0;  ///< keyframes whose pose was free [count]
-  int fixed_keyframes = 0;      ///< keyframes held constant (they see the points) [count]
-  int points = 0;               ///< map points optimised [count]
-  int observations = 0;         ///< residuals [count]
+  bool ran = false;              ///< an optimisation ran and its solution was applied
+  int optimized_keyframes = 0;   ///< keyframes whose pose was free [count]
+  int fixed_keyframes = 0;       ///< keyframes held constant (they see the points) [count]
+  int points = 0;                ///< map points optimised [count]
+  int observations = 0;          ///< residuals [count]
   int removed_observations = 0;  ///< observations dropped as chi2 outliers [count]
-  std::string message;          ///< why it did not run; empty when it ran
+  std::string message;           ///< why it did not run; empty when it ran
 };
 
 /// One observation of a LocalBaProblem, copied out of the map.
 struct LocalBaObservation {
   std::int64_t keyframe_id = -1;
   std::int64_t point_id = -1;
-  int feature_index = -1;                         ///< keypoint index in the keyframe
+  int feature_index = -1;                           ///< keypoint index in the keyframe
   Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  ///< undistorted keypoint [px]
-  int level = 0;                                  ///< pyramid level
-  double depth_m = 0.0;                           ///< measured depth, 0 = none
+  int level = 0;                                    ///< pyramid level
+  double depth_m = 0.0;                             ///< measured depth, 0 = none
 };
 
 /// A local BA window copied out of the map (LocalBundleAdjuster::prepare): solving it touches
 /// nothing shared, so it may run on another thread while tracking goes on.
 struct LocalBaProblem {
   std::int64_t newest_keyframe_id = -1;
-  std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;  ///< free and fixed keyframes
-  std::map<std::int64_t, bool> fixed;                          ///< keyframe id -> held constant
+  std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;   ///< free and fixed keyframes
+  std::map<std::int64_t, bool> fixed;                           ///< keyframe id -> held constant
   std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< map points
   std::vector<LocalBaObservation> observations;
   Pinhole pinhole;
@@ -70,7 +70,8 @@ struct LocalBaSolution {
 /// local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
 /// Huber (huber_px); two rounds of local_ba_iterations LM steps (dense Schur); after the first,
 /// observations with chi2 > chi2_threshold (chi2_threshold_depth with the depth term) are
-/// removed from the map (a point's last observation is kept). Writes poses and points back into the map. adjust() does it at once
+/// removed from the map (a point's last observation is kept). Writes poses and points back into the map. adjust() does
+/// it at once
 /// (~40-80 ms per keyframe at 1000 features on one core of the 2-core VM); prepare(), solve()
 /// and apply() split it so that solve() can run beside tracking (RgbdOdometry,
 /// TrackingOptions::local_ba_async_frames).
@@ -81,8 +82,7 @@ class LocalBundleAdjuster {
 
   /// `map`: the map to adjust in place; `newest_keyframe_id`: the window's anchor. `pinhole` is
   /// the camera (all keyframes share it). Never throws on data.
-  LocalBaResult adjust(TrackerMap* map, std::int64_t newest_keyframe_id,
-                       const Pinhole& pinhole) const;
+  LocalBaResult adjust(TrackerMap* map, std::int64_t newest_keyframe_id, const Pinhole& pinhole) const;
 
   /// The window of `newest_keyframe_id`, copied out of `map` (message set when there is none).
   LocalBaProblem prepare(const TrackerMap& map, std::int64_t newest_keyframe_id, const Pinhole& pinhole) const;

@@ -19,7 +19,7 @@ namespace tracking {
 
 /// A verified loop between the newest keyframe and an old one.
 struct LoopResult {
-  bool found = false;                  ///< a candidate passed the geometric verification
+  bool found = false;                     ///< a candidate passed the geometric verification
   std::int64_t current_keyframe_id = -1;  ///< the newest keyframe
   std::int64_t loop_keyframe_id = -1;     ///< the old keyframe it closes onto
   /// Pose of the current keyframe measured against the old keyframe's local map (i.e. in the
@@ -28,8 +28,8 @@ struct LoopResult {
   int num_inliers = 0;  ///< pose inliers of the verification [count]
   /// (old map-point id, current keyframe's map-point id) of the inlier matches, for fusion.
   std::vector<std::pair<std::int64_t, std::int64_t>> point_matches;
-  int candidates = 0;    ///< candidates verified [count]
-  std::string message;   ///< why no loop was accepted (empty when found)
+  int candidates = 0;   ///< candidates verified [count]
+  std::string message;  ///< why no loop was accepted (empty when found)
 };
 
 /// Loop detection by place proximity and descriptor matching (no bag-of-words vocabulary to
@@ -47,8 +47,7 @@ class LoopDetector {
   explicit LoopDetector(const TrackingOptions& options);
 
   /// Never throws on data.
-  LoopResult detect(const TrackerMap& map, std::int64_t current_keyframe_id,
-                    const Pinhole& pinhole) const;
+  LoopResult detect(const TrackerMap& map, std::int64_t current_keyframe_id, const Pinhole& pinhole) const;
 
  private:
   TrackingOptions options_;

@@ -38,9 +38,12 @@ enum class MaskSource : std::uint8_t {
 
 inline const char* toString(MaskSource source) {
   switch (source) {
-    case MaskSource::kMatched: return "matched";
-    case MaskSource::kCarried: return "carried";
-    default: return "none";
+    case MaskSource::kMatched:
+      return "matched";
+    case MaskSource::kCarried:
+      return "carried";
+    default:
+      return "none";
   }
 }
 
@@ -65,7 +68,8 @@ struct MaskPairingOptions {
     if (!(max_wait_s >= 0)) throw std::invalid_argument("mask_max_wait_s must be >= 0");
     if (max_pending_frames < 1) throw std::invalid_argument("mask_max_pending_frames must be >= 1");
     if (!(max_carry_age_s >= 0)) throw std::invalid_argument("mask_max_carry_age_s must be >= 0");
-    if (!(same_stamp_tolerance_s >= 0)) throw std::invalid_argument("MaskPairingOptions::same_stamp_tolerance_s must be >= 0");
+    if (!(same_stamp_tolerance_s >= 0))
+      throw std::invalid_argument("MaskPairingOptions::same_stamp_tolerance_s must be >= 0");
   }
 };
 
@@ -86,9 +90,9 @@ class MaskPairer {
   struct Ready {
     Timestamp stamp_ns = 0;
     Frame frame;
-    Mask mask{};             ///< value-initialised when source is kNone
+    Mask mask{};  ///< value-initialised when source is kNone
     MaskSource source = MaskSource::kNone;
-    double waited_s = 0.0;   ///< from addFrame to release [s]
+    double waited_s = 0.0;  ///< from addFrame to release [s]
   };
 
   /// `expect_masks` = false: every frame goes on at once without a mask.
@@ -227,9 +231,15 @@ class MaskPairer {
 
   void count(MaskSource source) {
     switch (source) {
-      case MaskSource::kMatched: ++stats_.matched; break;
-      case MaskSource::kCarried: ++stats_.carried; break;
-      default: ++stats_.without_mask; break;
+      case MaskSource::kMatched:
+        ++stats_.matched;
+        break;
+      case MaskSource::kCarried:
+        ++stats_.carried;
+        break;
+      default:
+        ++stats_.without_mask;
+        break;
     }
   }
 

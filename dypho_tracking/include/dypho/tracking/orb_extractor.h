@@ -17,11 +17,11 @@ struct OrbFeatures {
   /// Keypoints in level-0 pixel coordinates of the input image [px]; `octave` = pyramid level,
   /// `angle` = orientation [deg], `size` = 31 * scale^level [px], `response` = FAST score.
   std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;          ///< keypoints.size() x 32, CV_8UC1 (256-bit rBRIEF), row i = keypoint i
-  double masked_fraction = 0;   ///< fraction of mask pixels that are dynamic [0, 1]
-  int fast_threshold_used = 0;  ///< FAST threshold after the mask relaxation [grey levels]
+  cv::Mat descriptors;                ///< keypoints.size() x 32, CV_8UC1 (256-bit rBRIEF), row i = keypoint i
+  double masked_fraction = 0;         ///< fraction of mask pixels that are dynamic [0, 1]
+  int fast_threshold_used = 0;        ///< FAST threshold after the mask relaxation [grey levels]
   double relaxed_threshold_used = 0;  ///< sigma_dy of the relaxed test [fraction of local range]
-  int num_relaxed = 0;  ///< keypoints kept from the relaxed test (they follow the FAST ones) [count]
+  int num_relaxed = 0;                ///< keypoints kept from the relaxed test (they follow the FAST ones) [count]
 };
 
 /// ORB extractor in the style of ORB-SLAM: per pyramid level a keypoint budget that falls

@@ -27,8 +27,7 @@ class PoseGraphError final : public ceres::SizedCostFunction<6, 4, 3, 4, 3> {
   /// T_a_b: measured relative pose; sigma_rot_rad, sigma_trans_m: standard deviations (> 0).
   PoseGraphError(const Eigen::Isometry3d& T_a_b, double sigma_rot_rad, double sigma_trans_m);
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   Eigen::Quaterniond q_ab_inv_;
@@ -39,19 +38,19 @@ class PoseGraphError final : public ceres::SizedCostFunction<6, 4, 3, 4, 3> {
 
 /// One relative-pose constraint T_from_to (= T_world_from^-1 T_world_to).
 struct PoseGraphEdge {
-  std::int64_t from = -1;  ///< keyframe id a
-  std::int64_t to = -1;    ///< keyframe id b
+  std::int64_t from = -1;                                       ///< keyframe id a
+  std::int64_t to = -1;                                         ///< keyframe id b
   Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();  ///< measured relative pose
   double weight = 1.0;  ///< multiplies both information weights (loop edges may be trusted more)
 };
 
 /// Result of PoseGraphOptimizer::optimize.
 struct PoseGraphResult {
-  bool success = false;  ///< Ceres produced a usable solution
+  bool success = false;                                        ///< Ceres produced a usable solution
   std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;  ///< optimised poses (all nodes)
-  double initial_cost = 0;  ///< Ceres cost before [-]
-  double final_cost = 0;    ///< Ceres cost after [-]
-  std::string message;      ///< why it failed; empty on success
+  double initial_cost = 0;                                     ///< Ceres cost before [-]
+  double final_cost = 0;                                       ///< Ceres cost after [-]
+  std::string message;                                         ///< why it failed; empty on success
 };
 
 /// Optimises all keyframe poses of a graph of relative-pose edges (odometry, covisibility, loop)

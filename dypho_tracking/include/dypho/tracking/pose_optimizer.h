@@ -43,9 +43,9 @@ struct PoseOptimizerResult {
 /// Minimises sum_j rho_huber(|e_j|^2 / sigma_j^2), e_j = uv_j - pi(T_camera_world P_j) (plus the
 /// depth component u - b fx / z when the observation has a depth, see RgbdReprojectionError), over
 /// the pose only, with Levenberg-Marquardt (Ceres, dense normal Cholesky, analytic Jacobians).
-/// Outliers use chi2_threshold (2 dof) or chi2_threshold_depth (3 dof). Parameterisation: unit quaternion (ceres::EigenQuaternionManifold) +
-/// translation. Outliers are handled as in ORB-SLAM: round 0 starts with every observation in
-/// front of the camera; each of the `outlier_rounds` rounds runs up to `refine_iterations` LM steps
+/// Outliers use chi2_threshold (2 dof) or chi2_threshold_depth (3 dof). Parameterisation: unit quaternion
+/// (ceres::EigenQuaternionManifold) + translation. Outliers are handled as in ORB-SLAM: round 0 starts with every
+/// observation in front of the camera; each of the `outlier_rounds` rounds runs up to `refine_iterations` LM steps
 /// (Huber loss) on the current inliers and then re-classifies EVERY observation by chi2 at the new
 /// pose, so an outlier can come back. The returned inliers are the last classification.
 class PoseOptimizer {
@@ -55,8 +55,7 @@ class PoseOptimizer {
 
   /// Never throws on data: returns !success with a message when fewer than 3 observations are in
   /// front of the camera or Ceres fails.
-  PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations,
-                               const Pinhole& pinhole,
+  PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                                const Eigen::Isometry3d& T_camera_world_init) const;
 
   /// True when `observation` is an inlier at `T_camera_world`: in front of the camera and its
@@ -76,9 +75,8 @@ class PoseOptimizer {
                                                               const Pinhole& pinhole) const;
   /// Marks each observation an inlier at (q_cw, t_cw) in `inliers` (size of `observations`): in
   /// front of the camera when `accept_all_in_front`, else agreesInCamera; returns the count.
-  int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-               const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, bool accept_all_in_front,
-               std::vector<bool>* inliers) const;
+  int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole, const Eigen::Quaterniond& q_cw,
+               const Eigen::Vector3d& t_cw, bool accept_all_in_front, std::vector<bool>* inliers) const;
 
   TrackingOptions options_;
   std::vector<double> level_sigma_;

@@ -19,9 +19,9 @@ inline double relaxedThreshold(double sigma0, double k, double masked_fraction) 
 
 /// Result of the relaxed test at one pixel.
 struct RelaxedResponse {
-  int count = 0;       ///< ring pixels differing from the centre by more than sigma_dy * range
-  int range = 0;       ///< grey range (max - min) over the ring and the centre [grey levels]
-  float score = 0.f;   ///< sum of |G(N) - G(p)| over the differing ring pixels [grey levels]
+  int count = 0;      ///< ring pixels differing from the centre by more than sigma_dy * range
+  int range = 0;      ///< grey range (max - min) over the ring and the centre [grey levels]
+  float score = 0.f;  ///< sum of |G(N) - G(p)| over the differing ring pixels [grey levels]
 };
 
 /// Offsets of the 16-pixel Bresenham circle of radius 3 (the FAST ring), clockwise from the top.

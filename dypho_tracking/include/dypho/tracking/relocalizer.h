@@ -22,9 +22,9 @@ struct RelocalizationResult {
   bool success = false;           ///< pose found with >= relocalization_min_inliers inliers
   std::int64_t keyframe_id = -1;  ///< keyframe it was found against
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< the pose found
-  int num_inliers = 0;   ///< pose inliers against that keyframe's local map [count]
-  int tried = 0;         ///< keyframes tried [count]
-  std::string message;   ///< why it failed; empty on success
+  int num_inliers = 0;  ///< pose inliers against that keyframe's local map [count]
+  int tried = 0;        ///< keyframes tried [count]
+  std::string message;  ///< why it failed; empty on success
 };
 
 /// Relocalisation: candidates are the keyframes of the map, newest first (at most
@@ -39,8 +39,8 @@ class Relocalizer {
   explicit Relocalizer(const TrackingOptions& options);
 
   /// Never throws on data. `times` (may be null) accumulates matching/pnp/refine.
-  RelocalizationResult relocalize(const TrackerMap& map, const FrameFeatures& frame,
-                                  const Pinhole& pinhole, TrackingTimesMs* times) const;
+  RelocalizationResult relocalize(const TrackerMap& map, const FrameFeatures& frame, const Pinhole& pinhole,
+                                  TrackingTimesMs* times) const;
 
  private:
   TrackingOptions options_;

@@ -24,12 +24,11 @@ class ReprojectionError final : public ceres::SizedCostFunction<2, 4, 3> {
  public:
   /// p_world_m: 3D point [m]; uv_px: observed undistorted pixel [px]; sigma_px: keypoint
   /// standard deviation [px] (> 0).
-  ReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px,
-                    double sigma_px, const Pinhole& pinhole)
+  ReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double sigma_px,
+                    const Pinhole& pinhole)
       : p_world_m_(p_world_m), uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
   /// Rotates p by the (possibly not exactly unit) quaternion q = [x, y, z, w] with the formula above.
   static Eigen::Vector3d rotate(const double* q, const Eigen::Vector3d& p);
@@ -50,8 +49,8 @@ class RgbdReprojectionError final : public ceres::SizedCostFunction<3, 4, 3> {
  public:
   /// depth_m: depth measured at the observation in the current frame [m] (> 0);
   /// baseline_m: virtual stereo baseline b [m] (> 0).
-  RgbdReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px,
-                        double depth_m, double baseline_m, double sigma_px, const Pinhole& pinhole)
+  RgbdReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
+                        double baseline_m, double sigma_px, const Pinhole& pinhole)
       : p_world_m_(p_world_m),
         uv_px_(uv_px),
         u_right_px_(uv_px.x() - baseline_m * pinhole.fx / depth_m),
@@ -59,8 +58,7 @@ class RgbdReprojectionError final : public ceres::SizedCostFunction<3, 4, 3> {
         inv_sigma_(1.0 / sigma_px),
         pinhole_(pinhole) {}
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   Eigen::Vector3d p_world_m_;
@@ -82,8 +80,7 @@ class BaReprojectionError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
   BaReprojectionError(const Eigen::Vector2d& uv_px, double sigma_px, const Pinhole& pinhole)
       : uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   Eigen::Vector2d uv_px_;
@@ -101,8 +98,7 @@ class BaDepthError final : public ceres::SizedCostFunction<1, 4, 3, 3> {
   BaDepthError(double depth_m, double bf_px_m, double sigma_px)
       : inv_depth_(1.0 / depth_m), bf_(bf_px_m), inv_sigma_(1.0 / sigma_px) {}
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   double inv_depth_;

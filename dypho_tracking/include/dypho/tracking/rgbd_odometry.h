@@ -78,8 +78,7 @@ class RgbdOdometry {
   /// `frames_waiting`: frames queued behind this one (a live caller that fell behind the camera);
   /// from TrackingOptions::catch_up_frames_waiting on, the frame is tracked in catch-up mode
   /// (TrackingResult::caught_up). Offline callers pass 0.
-  TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask,
-                       MaskJudgement judgement = MaskJudgement::kUnknown,
+  TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement = MaskJudgement::kUnknown,
                        const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
 
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
@@ -141,16 +140,14 @@ class RgbdOdometry {
   /// (TrackingOptions::moving_point_still_only).
   bool cameraStill() const;
   /// Explains why a frame has too few keypoints with depth.
-  std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
-                                 const FrameFeatures& features) const;
+  std::string explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb, const FrameFeatures& features) const;
   /// Adds `features` as a new keyframe at T_world_camera (map_point_ids per feature: the matched
   /// map point or -1), runs local BA, point and keyframe culling and loop closure, fills the result fields.
   /// T_world_tracked is taken by value: it may be the last pose, which a local BA finished here
   /// moves.
   void addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
-                   Eigen::Isometry3d T_world_tracked,
-                   const std::vector<std::int64_t>& map_point_ids, const Pinhole& pinhole,
-                   TrackingResult* result);
+                   Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& map_point_ids,
+                   const Pinhole& pinhole, TrackingResult* result);
   /// Keyframes (other than the new one) whose pose moved by more than the correction thresholds
   /// since it was last reported, appended to result->corrected_keyframes; the pose mapping holds
   /// thus never differs from the tracker's by more than those thresholds.
@@ -171,9 +168,8 @@ class RgbdOdometry {
   void setReference(std::int64_t keyframe_id);
   /// Bookkeeping after a tracked frame: visible / found counts of the local map's points, and
   /// the moving-point test (TrackingOptions::moving_point_min_hits) with its culling.
-  void updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,
-                             const FrameFeatures& features, const RgbdFrame& frame,
-                             const cv::Mat& mask, TrackingResult* result);
+  void updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole, const FrameFeatures& features,
+                             const RgbdFrame& frame, const cv::Mat& mask, TrackingResult* result);
   /// Where the static check's dense refinement starts: the feature pose, or the last pose or the
   /// reference keyframe's pose when one explains more of the static samples
   /// (TrackingOptions::static_check_other_starts). T_camera_world poses.
@@ -196,8 +192,8 @@ class RgbdOdometry {
   Relocalizer relocalizer_;
   LoopDetector loop_detector_;
   LoopCloser loop_closer_;
-  PoseOptimizer pose_optimizer_;        ///< re-estimation after the static check
-  StaticSceneCheck static_check_;       ///< dense check against the reference keyframe
+  PoseOptimizer pose_optimizer_;   ///< re-estimation after the static check
+  StaticSceneCheck static_check_;  ///< dense check against the reference keyframe
   /// Local BA in flight (local_ba_async_frames > 0); declared after local_ba_, which it uses.
   std::future<LocalBaSolution> pending_ba_;
   std::int64_t pending_ba_keyframe_id_ = -1;
@@ -208,7 +204,7 @@ class RgbdOdometry {
   KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
   ConstantVelocityModel motion_;  ///< the shared constant-velocity prediction (motion_prior.h)
-  std::map<std::int64_t, Eigen::Isometry3d> reported_poses_;  ///< keyframe poses last handed on
+  std::map<std::int64_t, Eigen::Isometry3d> reported_poses_;        ///< keyframe poses last handed on
   Eigen::Isometry3d T_world_odom_ = Eigen::Isometry3d::Identity();  ///< loop corrections so far
   bool has_stamp_ = false;
   Timestamp last_stamp_ns_ = 0;

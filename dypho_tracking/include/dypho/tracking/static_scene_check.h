@@ -76,8 +76,8 @@ class StaticSceneCheck {
  private:
   struct Level {
     Pinhole pinhole;
-    std::vector<Eigen::Vector3d> p_reference_m;  ///< samples in the reference camera [m]
-    std::vector<float> grey_reference;           ///< their grey values
+    std::vector<Eigen::Vector3d> p_reference_m;   ///< samples in the reference camera [m]
+    std::vector<float> grey_reference;            ///< their grey values
     cv::Mat grey, grad_x, grad_y, depth_m, mask;  ///< current frame at this level (CV_32F / 8U)
   };
   void sampleLevel(const cv::Mat& grey, const cv::Mat& depth_m, const cv::Mat& mask, Level* level) const;
@@ -85,7 +85,7 @@ class StaticSceneCheck {
 
   StaticSceneCheckSettings settings_;
   std::int64_t reference_id_ = -1;
-  Level levels_[2];  ///< [0] fine (scale), [1] coarse (scale / 2)
+  Level levels_[2];             ///< [0] fine (scale), [1] coarse (scale / 2)
   UndistortMaps undistort_[2];  ///< per level; used when the camera has distortion
 };
 

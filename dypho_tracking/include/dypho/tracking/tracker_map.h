@@ -23,13 +23,13 @@ namespace tracking {
 
 /// A 3D point of the map, seen by one or more keyframes.
 struct MapPoint {
-  std::int64_t id = -1;                                  ///< unique map-point id
-  Eigen::Vector3d p_world_m = Eigen::Vector3d::Zero();   ///< position in the world [m]
-  cv::Mat descriptor;                                    ///< 1 x 32 CV_8UC1 ORB descriptor (first observation)
-  cv::KeyPoint keypoint;                                 ///< keypoint of the first observation (level, angle)
-  double reference_distance_m = 0;  ///< distance camera -> point at the first observation [m]
-  std::int64_t first_keyframe_id = -1;  ///< keyframe that created the point
-  std::map<std::int64_t, int> observations;  ///< keyframe id -> keypoint index in that keyframe
+  std::int64_t id = -1;                                 ///< unique map-point id
+  Eigen::Vector3d p_world_m = Eigen::Vector3d::Zero();  ///< position in the world [m]
+  cv::Mat descriptor;                                   ///< 1 x 32 CV_8UC1 ORB descriptor (first observation)
+  cv::KeyPoint keypoint;                                ///< keypoint of the first observation (level, angle)
+  double reference_distance_m = 0;                      ///< distance camera -> point at the first observation [m]
+  std::int64_t first_keyframe_id = -1;                  ///< keyframe that created the point
+  std::map<std::int64_t, int> observations;             ///< keyframe id -> keypoint index in that keyframe
   int num_visible = 0;  ///< frames in whose local map the point was projected into the image [count]
   int num_found = 0;    ///< frames where it was a pose inlier [count]
   /// tracked frames that saw it on a dynamic surface (TrackerMap::cullMovingPoints) [count]
@@ -45,20 +45,20 @@ struct MapPoint {
 
 /// A keyframe as the map stores it: its features (undistorted, with depth) and their map points.
 struct MapKeyframe {
-  std::int64_t id = -1;                                                  ///< keyframe id
-  Timestamp stamp_ns = 0;                                                ///< frame stamp [ns]
-  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();     ///< pose (changed by BA / loops)
-  FrameFeatures features;                  ///< keypoints, undistorted px, depth, 3D in camera
-  std::vector<std::int64_t> map_point_ids;  ///< per feature: its map point id (-1 = culled)
+  std::int64_t id = -1;                                              ///< keyframe id
+  Timestamp stamp_ns = 0;                                            ///< frame stamp [ns]
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< pose (changed by BA / loops)
+  FrameFeatures features;                                            ///< keypoints, undistorted px, depth, 3D in camera
+  std::vector<std::int64_t> map_point_ids;                           ///< per feature: its map point id (-1 = culled)
   // The keyframe's images are handed to mapping and not kept here: nothing in tracking reads
   // them, and a long run would otherwise hold every keyframe's images (2.4 MB each at 640x480).
 };
 
 /// The tracker's global map: every keyframe and map point of the run (the sparse counterpart of
 /// the Gaussian map). Tracking works on views of it: the local map of the reference keyframe
-/// (localPoints) and one keyframe's own points (keyframePoints). Map points are created from the keyframe's depth (RGB-D: each
-/// feature with valid depth is a metric point at once); a feature matched to an existing map point
-/// as a pose inlier adds an observation to that point instead (ids passed in map_point_ids).
+/// (localPoints) and one keyframe's own points (keyframePoints). Map points are created from the keyframe's depth
+/// (RGB-D: each feature with valid depth is a metric point at once); a feature matched to an existing map point as a
+/// pose inlier adds an observation to that point instead (ids passed in map_point_ids).
 ///
 /// Covisibility: two keyframes are covisible when they observe >= covisibility_min_shared common
 /// map points; weights are computed on demand from the observations (no cached graph to keep in
@@ -106,8 +106,7 @@ class TrackerMap {
 
   /// Bookkeeping after a tracked frame: `visible` map-point ids were projected into the image,
   /// `found` were pose inliers.
-  void updateVisibility(const std::vector<std::int64_t>& visible,
-                        const std::vector<std::int64_t>& found);
+  void updateVisibility(const std::vector<std::int64_t>& visible, const std::vector<std::int64_t>& found);
 
   /// Removes bad points (see class comment); returns how many.
   int cullPoints();

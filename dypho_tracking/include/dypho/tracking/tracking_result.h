@@ -38,28 +38,28 @@ const char* toString(TrackingState state);
 
 /// Wall-clock time spent in each stage of `track` [ms].
 struct TrackingTimesMs {
-  double features = 0;  ///< ORB extraction, undistortion and depth look-up, on the thread that prepared them [ms]
-  double matching = 0;  ///< descriptor matching, guided and brute force [ms]
-  double pnp = 0;       ///< PnP RANSAC (0 when the motion prediction was good enough) [ms]
-  double refine = 0;    ///< Ceres motion-only refinement, all passes [ms]
-  double local_ba = 0;  ///< local bundle adjustment and map-point culling (keyframes only) [ms]
-  double loop = 0;      ///< loop detection, pose graph and map correction (keyframes only) [ms]
+  double features = 0;        ///< ORB extraction, undistortion and depth look-up, on the thread that prepared them [ms]
+  double matching = 0;        ///< descriptor matching, guided and brute force [ms]
+  double pnp = 0;             ///< PnP RANSAC (0 when the motion prediction was good enough) [ms]
+  double refine = 0;          ///< Ceres motion-only refinement, all passes [ms]
+  double local_ba = 0;        ///< local bundle adjustment and map-point culling (keyframes only) [ms]
+  double loop = 0;            ///< loop detection, pose graph and map correction (keyframes only) [ms]
   double relocalization = 0;  ///< relocalisation against the map's keyframes (lost frames) [ms]
   double static_check = 0;    ///< dense check against the reference keyframe's static pixels [ms]
-  double total = 0;     ///< whole `track` call [ms]
+  double total = 0;           ///< whole `track` call [ms]
 };
 
 /// Result of tracking one frame.
 struct TrackingResult {
-  Timestamp stamp_ns = 0;                       ///< stamp of the frame [ns]
+  Timestamp stamp_ns = 0;                                ///< stamp of the frame [ns]
   TrackingState state = TrackingState::kNotInitialized;  ///< tracker state after this frame
   /// Camera optical frame in the world frame (world = first keyframe). When not kOk: the last good
   /// pose (identity before initialisation). Always finite.
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
-  bool is_keyframe = false;  ///< this frame became a new keyframe
-  int num_features = 0;      ///< keypoints with valid depth in this frame [count]
-  int num_matches = 0;       ///< keyframe-to-frame matches used for the final pose [count]
-  int num_inliers = 0;       ///< pose inliers after the chi2 outlier rounds [count]
+  bool is_keyframe = false;    ///< this frame became a new keyframe
+  int num_features = 0;        ///< keypoints with valid depth in this frame [count]
+  int num_matches = 0;         ///< keyframe-to-frame matches used for the final pose [count]
+  int num_inliers = 0;         ///< pose inliers after the chi2 outlier rounds [count]
   double masked_fraction = 0;  ///< fraction of pixels marked dynamic in the mask [0, 1]
   KeyframeConstPtr keyframe;   ///< the new keyframe; non-null exactly when is_keyframe
   std::string message;         ///< why LOST / NOT_INITIALIZED / reset; empty when all went well
@@ -92,10 +92,10 @@ struct TrackingResult {
   std::int64_t reference_keyframe_id = -1;
   /// T_world_camera expressed in the reference keyframe, T_world_reference^-1 T_world_camera.
   Eigen::Isometry3d T_reference_camera = Eigen::Isometry3d::Identity();
-  int num_map_points = 0;      ///< map points in the tracker's map [count]
+  int num_map_points = 0;  ///< map points in the tracker's map [count]
   /// map points removed on this frame as moving (TrackingOptions::moving_point_min_hits) [count]
   int num_moving_points_removed = 0;
-  int num_keyframes = 0;       ///< keyframes in the tracker's map [count]
+  int num_keyframes = 0;  ///< keyframes in the tracker's map [count]
   /// Share of the reference keyframe's static samples the final pose explains (TrackingOptions::
   /// static_check); -1 when not checked.
   double static_agreement = -1.0;
@@ -113,7 +113,7 @@ struct TrackingResult {
   /// feature pose (the coherent group that had carried it). Handed to the mask (MovingPoints) so
   /// that it covers the surface they lie on from the next frame on.
   std::vector<cv::Point3f> moving_points_camera_m;
-  TrackingTimesMs times;       ///< stage timings [ms]
+  TrackingTimesMs times;  ///< stage timings [ms]
 };
 
 }  // namespace tracking

@@ -35,10 +35,10 @@ namespace dypho::tracking {
 
 /// What one frame gave.
 struct TrackingOutput {
-  TrackingResult result;               ///< the tracker's result (pose, state, keyframe, timings)
-  PoseUpdate pose;                     ///< for the mask and mapping stages
+  TrackingResult result;  ///< the tracker's result (pose, state, keyframe, timings)
+  PoseUpdate pose;        ///< for the mask and mapping stages
   const KeyframePoseCorrections& corrections() const { return result.corrected_keyframes; }
-  bool restarted = false;              ///< the stamp jumped back: tracker and trajectory reset
+  bool restarted = false;  ///< the stamp jumped back: tracker and trajectory reset
   /// The frame was dropped (repeated or late stamp, see stamp_gate.h): not tracked, nothing to
   /// publish; result.message says why, pose is NaN and untrusted.
   bool dropped = false;
@@ -58,8 +58,7 @@ class TrackingStage {
   /// by a FeaturePreparer made with options(); the stage's lock is not needed for that).
   /// `frames_waiting`: frames queued behind this one (live callers; catch-up mode, see
   /// RgbdOdometry::track).
-  TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask,
-                         MaskJudgement judgement = MaskJudgement::kUnknown,
+  TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement = MaskJudgement::kUnknown,
                          const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
 
   /// Final trajectory: every recorded frame, following its keyframe's current pose.

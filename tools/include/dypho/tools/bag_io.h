@@ -18,10 +18,10 @@ namespace dypho::tools {
 /// BagRgbdWriter writes (BagRgbdReader accepts every supported encoding whatever these say).
 struct BagTopics {
   std::string rgb = "/camera/rgb/image_color";          ///< sensor_msgs/Image, colour
-  std::string depth = "/camera/depth/image";             ///< sensor_msgs/Image, registered depth
-  std::string camera_info = "/camera/rgb/camera_info";   ///< sensor_msgs/CameraInfo of the colour image
-  std::string frame_id = "openni_rgb_optical_frame";     ///< header.frame_id written by BagRgbdWriter
-  std::string colour_encoding = "rgb8";  ///< written colour encoding: `rgb8` or `bgr8`
+  std::string depth = "/camera/depth/image";            ///< sensor_msgs/Image, registered depth
+  std::string camera_info = "/camera/rgb/camera_info";  ///< sensor_msgs/CameraInfo of the colour image
+  std::string frame_id = "openni_rgb_optical_frame";    ///< header.frame_id written by BagRgbdWriter
+  std::string colour_encoding = "rgb8";                 ///< written colour encoding: `rgb8` or `bgr8`
   /// written depth encoding: `32FC1` (metres, NaN = no measurement) or `16UC1` (millimetres
   /// rounded to nearest, 0 = no measurement, as RealSense and OpenNI drivers publish)
   std::string depth_encoding = "32FC1";

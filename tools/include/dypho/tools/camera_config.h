@@ -12,9 +12,9 @@ namespace dypho::tools {
 
 /// A camera as described by one config/cameras/<name>.yaml file.
 struct CameraConfig {
-  CameraIntrinsics camera;     ///< pinhole intrinsics [px] and plumb_bob distortion of the colour image
-  double depth_scale = 5000.0; ///< raw uint16 depth value per metre: depth_m = raw / depth_scale
-  std::string name;            ///< identifier, e.g. "tum_fr1"
+  CameraIntrinsics camera;      ///< pinhole intrinsics [px] and plumb_bob distortion of the colour image
+  double depth_scale = 5000.0;  ///< raw uint16 depth value per metre: depth_m = raw / depth_scale
+  std::string name;             ///< identifier, e.g. "tum_fr1"
 };
 
 /// Reads a camera YAML (keys: name, width, height, fx, fy, cx, cy, distortion[5], depth_scale).

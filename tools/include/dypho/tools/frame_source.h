@@ -42,8 +42,7 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& path, const std:
                                              const std::string& config_dir);
 
 /// Bag input; defined in frame_source_bag.cpp when built with ROS, else throws saying so.
-std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path,
-                                                const std::string& camera,
+std::unique_ptr<FrameSource> openBagFrameSource(const std::string& bag_path, const std::string& camera,
                                                 const std::string& config_dir);
 
 }  // namespace dypho::tools

@@ -74,9 +74,9 @@ CameraIntrinsics defaultSynthCamera();
 /// <= 1.4 m/s. The lane layout does not depend on `frames` (the loop formation does, like the
 /// rings).
 struct SynthOptions {
-  int frames = 300;                                ///< number of frames, >= 1 (loop: duration >= 9 s)
-  SynthMotion motion = SynthMotion::kHalfsphere;   ///< camera trajectory
-  int people = 2;                                  ///< walking people, 0..8
+  int frames = 300;                               ///< number of frames, >= 1 (loop: duration >= 9 s)
+  SynthMotion motion = SynthMotion::kHalfsphere;  ///< camera trajectory
+  int people = 2;                                 ///< walking people, 0..8
   /// How the people walk. The loop motion takes kCross only (its people walk round with it).
   SynthWalk walk = SynthWalk::kCross;
   /// true = every person's body (its full width; top and bottom may be cut when close) is inside
@@ -105,7 +105,7 @@ struct SynthOptions {
   /// holes (0) in a thin band at depth discontinuities, 1 % random dropout, 0 beyond 8 m.
   /// false = exact depth of the geometry (no noise, no holes, no range limit).
   bool depth_noise = true;
-  double start_stamp_s = 1600000000.0;             ///< time of frame 0 [s since the Unix epoch]
+  double start_stamp_s = 1600000000.0;  ///< time of frame 0 [s since the Unix epoch]
 
   /// Throws std::runtime_error naming the bad field, its value and the accepted range.
   void validate() const;
@@ -115,8 +115,8 @@ struct SynthOptions {
 
 /// One rendered frame with its ground truth.
 struct SynthFrame {
-  RgbdFrame frame;       ///< BGR CV_8UC3 colour, CV_32FC1 depth [m] (noisy if depth_noise), camera
-  cv::Mat mask_gt;       ///< CV_8UC1, 255 where a person is the first surface hit, else 0
+  RgbdFrame frame;  ///< BGR CV_8UC3 colour, CV_32FC1 depth [m] (noisy if depth_noise), camera
+  cv::Mat mask_gt;  ///< CV_8UC1, 255 where a person is the first surface hit, else 0
   /// CV_8UC1, k + 1 where person k (0 <= k < people) is the first surface hit, else 0
   cv::Mat person_id_gt;
   cv::Mat static_depth_m;  ///< CV_32FC1 noise-free depth [m] of the room without people

@@ -22,11 +22,11 @@ struct SynthWriteOptions {
 
 /// What writeSyntheticDataset() produced.
 struct SynthWriteSummary {
-  int frames = 0;                 ///< frames written
+  int frames = 0;                    ///< frames written
   double mean_dynamic_fraction = 0;  ///< mean share of pixels covered by people (mask == 255)
   double max_dynamic_fraction = 0;   ///< largest per-frame share of people pixels
-  double path_length_m = 0;       ///< camera path length [m]
-  double duration_s = 0;          ///< time of the last frame minus the first [s]
+  double path_length_m = 0;          ///< camera path length [m]
+  double duration_s = 0;             ///< time of the last frame minus the first [s]
 };
 
 /// Renders `options.frames` frames into `out_dir` (created if missing):

@@ -23,11 +23,11 @@ class DatasetError : public std::runtime_error {
 
 /// One associated RGB-D pair.
 struct DatasetEntry {
-  double stamp_s = 0;      ///< colour image time [s], as written in rgb.txt
-  Timestamp stamp_ns = 0;  ///< the same time in [ns], parsed exactly from the text
+  double stamp_s = 0;        ///< colour image time [s], as written in rgb.txt
+  Timestamp stamp_ns = 0;    ///< the same time in [ns], parsed exactly from the text
   double depth_stamp_s = 0;  ///< time of the associated depth image [s]
-  std::string rgb_path;    ///< absolute path of the colour PNG
-  std::string depth_path;  ///< absolute path of the 16-bit depth PNG
+  std::string rgb_path;      ///< absolute path of the colour PNG
+  std::string depth_path;    ///< absolute path of the 16-bit depth PNG
 };
 
 /// One line of rgb.txt / depth.txt.
@@ -40,15 +40,13 @@ struct StampedFile {
 /// Reads a TUM "timestamp filename" list ('#' comments). Throws DatasetError naming file:line.
 /// With `skipped` (not null) a malformed line is skipped and described there ("file:line: ...")
 /// instead of throwing: a recording with one bad line must not cost the whole run.
-std::vector<StampedFile> readStampedFileList(const std::string& list_path,
-                                             std::vector<std::string>* skipped = nullptr);
+std::vector<StampedFile> readStampedFileList(const std::string& list_path, std::vector<std::string>* skipped = nullptr);
 
 /// TUM associate.py rule: all (a, b) pairs with |a - b| < max_dt_s, taken greedily by smallest
 /// difference (ties: smaller a, then smaller b), each element used at most once. Returns index
 /// pairs (into `first`, into `second`) sorted by the stamp in `first`.
 std::vector<std::pair<std::size_t, std::size_t>> associateStamps(const std::vector<double>& first,
-                                                                 const std::vector<double>& second,
-                                                                 double max_dt_s);
+                                                                 const std::vector<double>& second, double max_dt_s);
 
 /// Parses a decimal seconds string ("1305031229.528748") to nanoseconds without rounding through a
 /// double. Returns false when the text is not a plain decimal number.
