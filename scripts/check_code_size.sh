@@ -16,8 +16,10 @@ if ! ctags --version 2>/dev/null | grep -q "Universal Ctags"; then
   echo "check_code_size: universal-ctags is needed (sudo apt-get install universal-ctags)" >&2
   exit 2
 fi
-mapfile -t FILES < <(git ls-files 'dypho_*/src/*' 'dypho_*/include/*' 'dypho_*/standalone/*' 'tools/src/*' \
-  'tools/include/*' 'tools/apps/*' | grep -E '\.(cpp|h|hpp|cu|cuh)$' | grep -v -E '/test/|synthetic_')
+source "$ROOT/scripts/source_files.sh"
+mapfile -t FILES < <(source_files '^dypho_[a-z]+/(src|include|standalone)/.*\.(cpp|h|hpp|cu|cuh)$' \
+  '^tools/(src|include|apps)/.*\.(cpp|h|hpp|cu|cuh)$' | grep -v -E '/test/|synthetic_')
+if [ ${#FILES[@]} -eq 0 ]; then echo "check_code_size: no source file found under $ROOT" >&2; exit 1; fi
 functions() {  # prints: lines name file:line
   ctags -x --c++-kinds=f --fields=+ne --_xformat='%N	%n	%e	%F' --language-force=C++ "${FILES[@]}" 2>/dev/null |
     awk -F'\t' '{ name = $1; gsub(/ /, "", name); print $3 - $2 + 1, name, $4 ":" $2 }' | sort -rn

@@ -13,7 +13,9 @@ if [ "$version" != "14" ]; then
   echo "check_format: needs clang-format 14 (Debian bookworm: sudo apt-get install clang-format); found '${version:-none}'" >&2
   exit 2
 fi
-mapfile -t FILES < <(git ls-files '*.cpp' '*.h' '*.hpp' '*.cu' '*.cuh' | grep -v '^third_party/')
+source "$ROOT/scripts/source_files.sh"
+mapfile -t FILES < <(source_files '\.(cpp|h|hpp|cu|cuh)$')
+if [ ${#FILES[@]} -eq 0 ]; then echo "check_format: no C++ file found under $ROOT" >&2; exit 1; fi
 if [ "${1:-}" = "--fix" ]; then
   "$FORMAT" -i "${FILES[@]}"
   echo "check_format: formatted ${#FILES[@]} files"
