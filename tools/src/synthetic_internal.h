@@ -164,4 +164,44 @@ BodySpan bodySpan(const Eigen::Vector2d& position, const Eigen::Isometry3d& T_wo
 double intersectPerson(const PersonState& state, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                        Eigen::Vector3d* normal, Eigen::Vector2d* uv);
 
+/// The static content of a scene, built once by SyntheticScene: room, furniture, people's paths
+/// and clothing, light.
+struct SceneContent {
+  TexturedBox room;  ///< faces textured for a viewer inside
+  std::vector<TexturedBox> furniture;
+  std::vector<PersonPath> paths;
+  std::vector<Texture> clothing;                ///< one per person
+  Eigen::Vector3d light_world{0.6, -0.4, 2.7};  ///< point light [m]
+};
+
+/// Everything the ray caster needs for one instant: the camera pose, where the people are, and
+/// the screen-space culling rectangles of the furniture and the people.
+struct RayCastView {
+  Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  std::vector<PersonState> people;
+  std::vector<cv::Rect> box_rects;     ///< one per furniture box
+  std::vector<cv::Rect> person_rects;  ///< one per person
+};
+
+/// The view of `content` at time `t_s` after frame 0 for the options' camera and motion.
+RayCastView makeRayCastView(const SceneContent& content, const SynthOptions& options, double t_s);
+
+/// What the ray through one pixel hits.
+struct PixelSample {
+  cv::Vec3f bgr;               ///< shaded colour before rounding to 8 bits, B, G, R in [0, 255+]
+  float depth_m = 0.f;         ///< depth (camera z) of the first hit [m]
+  float static_depth_m = 0.f;  ///< depth of the room and furniture alone [m]
+  int person = -1;             ///< index of the person hit first, -1 = none
+};
+
+/// Ray casts pixel (u, v) of `camera` in `view`.
+PixelSample castPixel(const SceneContent& content, const RayCastView& view, const CameraIntrinsics& camera, int u,
+                      int v);
+
+/// The shaded colour rounded to 8 bits (saturating), as in the colour image.
+inline cv::Vec3b toBgr8(const cv::Vec3f& bgr) {
+  return cv::Vec3b(cv::saturate_cast<std::uint8_t>(bgr[0]), cv::saturate_cast<std::uint8_t>(bgr[1]),
+                   cv::saturate_cast<std::uint8_t>(bgr[2]));
+}
+
 }  // namespace dypho::tools::synth_detail

@@ -86,26 +86,23 @@ void applyKinectNoise(const cv::Mat& clean, cv::Mat& depth, cv::RNG& rng) {
 
 struct SyntheticScene::Impl {
   SynthOptions options;
-  TexturedBox room;  // faces textured for a viewer inside
-  std::vector<TexturedBox> furniture;
-  std::vector<synth_detail::PersonPath> paths;
-  std::vector<Texture> clothing;
-  Eigen::Vector3d light_world{0.6, -0.4, 2.7};  // point light [m]
+  synth_detail::SceneContent content;
 };
 
 SyntheticScene::SyntheticScene(const SynthOptions& options) {
   options.validate();
   auto impl = std::make_unique<Impl>();
   impl->options = options;
+  synth_detail::SceneContent& c = impl->content;
   cv::RNG tex_rng(0x1234ABCDULL ^ (static_cast<std::uint64_t>(options.seed) * 2654435761ULL));
-  impl->room.lo = Eigen::Vector3d(-3.5, -3.0, 0.0);
-  impl->room.hi = Eigen::Vector3d(3.5, 3.0, 3.0);
+  c.room.lo = Eigen::Vector3d(-3.5, -3.0, 0.0);
+  c.room.hi = Eigen::Vector3d(3.5, 3.0, 3.0);
   for (int f = 0; f < 6; ++f) {
-    const Eigen::Vector2d size = synth_detail::faceSize(impl->room.lo, impl->room.hi, f);
+    const Eigen::Vector2d size = synth_detail::faceSize(c.room.lo, c.room.hi, f);
     cv::Mat tex = f == 4   ? synth_detail::makeFloorTexture(size.x(), size.y(), tex_rng)
                   : f == 5 ? synth_detail::makeCeilingTexture(size.x(), size.y(), tex_rng)
                            : synth_detail::makeWallTexture(size.x(), size.y(), f == 3 ? 2.2 : 1.6, tex_rng);
-    impl->room.faces[f] = Texture(tex, synth_detail::kTexelM);
+    c.room.faces[f] = Texture(tex, synth_detail::kTexelM);
   }
   // Furniture against the walls, clear of the people's paths and of the camera.
   const std::pair<Eigen::Vector3d, Eigen::Vector3d> boxes[] = {
@@ -114,13 +111,13 @@ SyntheticScene::SyntheticScene(const SynthOptions& options) {
       {{3.0, -1.2, 0.0}, {3.5, 0.4, 1.3}},     // shelf at the +x wall
       {{-3.5, -0.5, 0.0}, {-2.9, 0.6, 0.9}},   // crate at the -x wall
       {{-0.8, -3.0, 0.0}, {0.6, -2.5, 1.0}}};  // sideboard at the -y wall
-  for (const auto& b : boxes) impl->furniture.push_back(makeBox(b.first, b.second, 3.0, tex_rng));
+  for (const auto& b : boxes) c.furniture.push_back(makeBox(b.first, b.second, 3.0, tex_rng));
 
   cv::RNG people_rng(0x77E1ULL ^ (static_cast<std::uint64_t>(options.seed) * 40503ULL + 1));
-  impl->paths = synth_detail::makePeoplePaths(options, people_rng);
+  c.paths = synth_detail::makePeoplePaths(options, people_rng);
   for (int k = 0; k < options.people; ++k) {
-    impl->clothing.emplace_back(synth_detail::makeClothingTexture(synth_detail::bodyCircumferenceM(), people_rng),
-                                2 * synth_detail::kTexelM);
+    c.clothing.emplace_back(synth_detail::makeClothingTexture(synth_detail::bodyCircumferenceM(), people_rng),
+                            2 * synth_detail::kTexelM);
   }
   impl_ = std::move(impl);
 }
@@ -222,6 +219,84 @@ cv::Rect projectedRect(const Eigen::Isometry3d& T_camera_world, const CameraIntr
 
 }  // namespace
 
+namespace synth_detail {
+
+RayCastView makeRayCastView(const SceneContent& content, const SynthOptions& options, double t_s) {
+  const CameraIntrinsics& cam = options.camera;
+  RayCastView view;
+  view.T_world_camera = cameraPoseAt(options, t_s);
+  for (const auto& p : content.paths) view.people.push_back(personStateAt(p, t_s));
+  // Screen-space culling rectangles of the furniture and the people.
+  const Eigen::Isometry3d T_camera_world = view.T_world_camera.inverse();
+  for (const auto& box : content.furniture)
+    view.box_rects.push_back(projectedRect(T_camera_world, cam, box.lo, box.hi));
+  for (const auto& p : view.people) {
+    const double r = kBodyHalfWidthM + 0.01;
+    view.person_rects.push_back(
+        projectedRect(T_camera_world, cam, Eigen::Vector3d(p.position.x() - r, p.position.y() - r, 0.0),
+                      Eigen::Vector3d(p.position.x() + r, p.position.y() + r, kPersonHeightM + 0.01)));
+  }
+  return view;
+}
+
+PixelSample castPixel(const SceneContent& s, const RayCastView& view, const CameraIntrinsics& cam, int u, int v) {
+  const Eigen::Matrix3d& R = view.T_world_camera.linear();
+  const Eigen::Vector3d o = view.T_world_camera.translation();
+  const Eigen::Vector3d dc((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+  const Eigen::Vector3d d = R * dc;  // t along d = depth (camera z) [m]
+  int face = 0;
+  Eigen::Vector3d n;
+  const TexturedBox* hit_box = &s.room;
+  double t = roomExit(s.room, o, d, &face, &n);
+  for (std::size_t k = 0; k < s.furniture.size(); ++k) {
+    if (!view.box_rects[k].contains(cv::Point(u, v))) continue;
+    const TexturedBox& box = s.furniture[k];
+    int f;
+    Eigen::Vector3d nb;
+    const double tb = boxEntry(box, o, d, &f, &nb);
+    if (tb > 0.0 && tb < t) {
+      t = tb;
+      face = f;
+      n = nb;
+      hit_box = &box;
+    }
+  }
+  PixelSample out;
+  out.static_depth_m = static_cast<float>(t);
+  Eigen::Vector2d uv;
+  for (std::size_t k = 0; k < view.people.size(); ++k) {
+    if (!view.person_rects[k].contains(cv::Point(u, v))) continue;
+    Eigen::Vector3d np;
+    Eigen::Vector2d uvp;
+    const double tp = intersectPerson(view.people[k], o, d, &np, &uvp);
+    if (tp > 0.0 && tp < t) {
+      t = tp;
+      n = np;
+      uv = uvp;
+      out.person = static_cast<int>(k);
+    }
+  }
+  const Eigen::Vector3d p = o + t * d;
+  const double ray_len = t * d.norm();
+  const double cos_inc = std::max(0.2, std::abs(n.dot(d)) / d.norm());
+  const double footprint_m = ray_len / cam.fx / cos_inc;
+  cv::Vec3f albedo;
+  if (out.person >= 0) {
+    albedo = s.clothing[out.person].sample(uv.x(), uv.y(), footprint_m);
+  } else {
+    uv = faceUv(*hit_box, face, n, p);
+    albedo = hit_box->faces[face].sample(uv.x(), uv.y(), footprint_m);
+  }
+  const Eigen::Vector3d to_light = (s.light_world - p).normalized();
+  const float lambert = static_cast<float>(std::max(0.0, n.dot(to_light)));
+  const float shade = 255.f * (kAmbient + (1.f - kAmbient) * lambert);
+  out.bgr = cv::Vec3f(albedo[0] * shade, albedo[1] * shade, albedo[2] * shade);
+  out.depth_m = static_cast<float>(t);
+  return out;
+}
+
+}  // namespace synth_detail
+
 SynthFrame SyntheticScene::render(int index) const {
   const Impl& s = *impl_;
   const CameraIntrinsics& cam = s.options.camera;
@@ -236,21 +311,7 @@ SynthFrame SyntheticScene::render(int index) const {
   cv::Mat depth_clean(cam.height, cam.width, CV_32FC1);
 
   const double t_s = index / s.options.fps;
-  std::vector<PersonState> people;
-  for (const auto& p : s.paths) people.push_back(synth_detail::personStateAt(p, t_s));
-  const Eigen::Matrix3d R = out.T_world_camera.linear();
-  const Eigen::Vector3d o = out.T_world_camera.translation();
-  // Screen-space culling rectangles of the furniture and the people.
-  const Eigen::Isometry3d T_camera_world = out.T_world_camera.inverse();
-  std::vector<cv::Rect> box_rects, person_rects;
-  for (const auto& box : s.furniture) box_rects.push_back(projectedRect(T_camera_world, cam, box.lo, box.hi));
-  for (const auto& p : people) {
-    const double r = synth_detail::kBodyHalfWidthM + 0.01;
-    person_rects.push_back(
-        projectedRect(T_camera_world, cam, Eigen::Vector3d(p.position.x() - r, p.position.y() - r, 0.0),
-                      Eigen::Vector3d(p.position.x() + r, p.position.y() + r, synth_detail::kPersonHeightM + 0.01)));
-  }
-
+  const synth_detail::RayCastView view = synth_detail::makeRayCastView(s.content, s.options, t_s);
   cv::parallel_for_(cv::Range(0, cam.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
       auto* bgr = out.frame.bgr.ptr<cv::Vec3b>(v);
@@ -259,60 +320,12 @@ SynthFrame SyntheticScene::render(int index) const {
       auto* sdepth = out.static_depth_m.ptr<float>(v);
       auto* depth = depth_clean.ptr<float>(v);
       for (int u = 0; u < cam.width; ++u) {
-        const Eigen::Vector3d dc((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
-        const Eigen::Vector3d d = R * dc;  // t along d = depth (camera z) [m]
-        int face = 0;
-        Eigen::Vector3d n;
-        const TexturedBox* hit_box = &s.room;
-        double t = roomExit(s.room, o, d, &face, &n);
-        for (std::size_t k = 0; k < s.furniture.size(); ++k) {
-          if (!box_rects[k].contains(cv::Point(u, v))) continue;
-          const TexturedBox& box = s.furniture[k];
-          int f;
-          Eigen::Vector3d nb;
-          const double tb = boxEntry(box, o, d, &f, &nb);
-          if (tb > 0.0 && tb < t) {
-            t = tb;
-            face = f;
-            n = nb;
-            hit_box = &box;
-          }
-        }
-        sdepth[u] = static_cast<float>(t);
-        int person = -1;
-        Eigen::Vector2d uv;
-        for (std::size_t k = 0; k < people.size(); ++k) {
-          if (!person_rects[k].contains(cv::Point(u, v))) continue;
-          Eigen::Vector3d np;
-          Eigen::Vector2d uvp;
-          const double tp = synth_detail::intersectPerson(people[k], o, d, &np, &uvp);
-          if (tp > 0.0 && tp < t) {
-            t = tp;
-            n = np;
-            uv = uvp;
-            person = static_cast<int>(k);
-          }
-        }
-        const Eigen::Vector3d p = o + t * d;
-        const double ray_len = t * d.norm();
-        const double cos_inc = std::max(0.2, std::abs(n.dot(d)) / d.norm());
-        const double footprint_m = ray_len / cam.fx / cos_inc;
-        cv::Vec3f albedo;
-        if (person >= 0) {
-          albedo = s.clothing[person].sample(uv.x(), uv.y(), footprint_m);
-        } else {
-          uv = synth_detail::faceUv(*hit_box, face, n, p);
-          albedo = hit_box->faces[face].sample(uv.x(), uv.y(), footprint_m);
-        }
-        const Eigen::Vector3d to_light = (s.light_world - p).normalized();
-        const float lambert = static_cast<float>(std::max(0.0, n.dot(to_light)));
-        const float shade = 255.f * (kAmbient + (1.f - kAmbient) * lambert);
-        bgr[u] = cv::Vec3b(cv::saturate_cast<std::uint8_t>(albedo[0] * shade),
-                           cv::saturate_cast<std::uint8_t>(albedo[1] * shade),
-                           cv::saturate_cast<std::uint8_t>(albedo[2] * shade));
-        mask[u] = person >= 0 ? kMaskDynamic : kMaskStatic;
-        person_id[u] = static_cast<std::uint8_t>(person + 1);
-        depth[u] = static_cast<float>(t);
+        const synth_detail::PixelSample px = synth_detail::castPixel(s.content, view, cam, u, v);
+        bgr[u] = synth_detail::toBgr8(px.bgr);
+        mask[u] = px.person >= 0 ? kMaskDynamic : kMaskStatic;
+        person_id[u] = static_cast<std::uint8_t>(px.person + 1);
+        sdepth[u] = px.static_depth_m;
+        depth[u] = px.depth_m;
       }
     }
   });
