@@ -1,7 +1,10 @@
 // Camera trajectories of the synthetic scene, plus the option helpers.
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 #include "synthetic_internal.h"
 
@@ -28,16 +31,19 @@ std::string synthMotionName(SynthMotion motion) {
       return "rpy";
     case SynthMotion::kLoop:
       return "loop";
+    case SynthMotion::kFastRpy:
+      return "fast-rpy";
   }
   return "unknown";
 }
 
 SynthMotion parseSynthMotion(const std::string& name) {
-  for (SynthMotion m :
-       {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic, SynthMotion::kRpy, SynthMotion::kLoop}) {
+  for (SynthMotion m : {SynthMotion::kXyz, SynthMotion::kHalfsphere, SynthMotion::kStatic, SynthMotion::kRpy,
+                        SynthMotion::kLoop, SynthMotion::kFastRpy}) {
     if (synthMotionName(m) == name) return m;
   }
-  throw std::runtime_error("unknown synthetic motion '" + name + "'; valid names: xyz, halfsphere, static, rpy, loop");
+  throw std::runtime_error("unknown synthetic motion '" + name +
+                           "'; valid names: xyz, halfsphere, static, rpy, loop, fast-rpy");
 }
 
 std::string synthWalkName(SynthWalk walk) {
@@ -196,6 +202,34 @@ double wave(double amp, double freq_hz, double phase, double t) {
   return amp * std::sin(2.0 * kPi * freq_hz * t + phase);
 }
 
+/// Phase number `k` in [0, 2pi) of the hand tremor for `seed` (splitmix64 of seed and k).
+double tremorPhase(std::uint32_t seed, int k) {
+  std::uint64_t z = ((static_cast<std::uint64_t>(seed) << 8) | static_cast<std::uint64_t>(k)) + 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return 2.0 * kPi * static_cast<double>(z >> 11) / 9007199254740992.0;  // 53 bits -> [0, 1)
+}
+
+/// Hand tremor [m]: per axis three sinusoids of 1.5, 1.0 and 0.5 mm at sqrt(2), sqrt(7) and
+/// sqrt(23) Hz times sqrt(1 + 0.2 axis) (irrational ratios: never periodic), phases from the seed.
+/// Peak speed about 6 cm/s per axis; peak acceleration about 1.5 m/s^2 (measured over 20 s).
+Eigen::Vector3d handTremor(std::uint32_t seed, double t) {
+  constexpr double kAmpM[3] = {1.5e-3, 1.0e-3, 0.5e-3};
+  const double freq_hz[3] = {std::sqrt(2.0), std::sqrt(7.0), std::sqrt(23.0)};
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  for (int a = 0; a < 3; ++a) {
+    for (int j = 0; j < 3; ++j) {
+      d[a] += wave(kAmpM[j], freq_hz[j] * std::sqrt(1.0 + 0.2 * a), tremorPhase(seed, 3 * a + j), t);
+    }
+  }
+  return d;
+}
+
+/// Amplitude envelope of the fast turns: 1 - exp(-(t / 1 s)^2), C-infinity, at rest at t = 0 and
+/// above 0.98 from t = 2 s on (negative times mirror positive ones).
+double fastRpyEnvelope(double t) { return 1.0 - std::exp(-t * t); }
+
 const Eigen::Vector3d kEye0(kCameraHomeXM, kCameraHomeYM, 1.45);  // home position [m]
 const Eigen::Vector3d kTarget0(0.0, 3.0, 1.25);                   // a point on the +y wall [m]
 const Eigen::Vector3d kRoomCentre(0.0, 0.0, 1.45);
@@ -238,6 +272,18 @@ Eigen::Isometry3d cameraPoseAt(const SynthOptions& o, double t) {
                                  Eigen::AngleAxisd(wave(15 * kDeg, 0.20, 0.0, t), Eigen::Vector3d::UnitZ()))   // roll
                                     .toRotationMatrix();
       return makePose(R, kEye0);
+    }
+    case SynthMotion::kFastRpy: {
+      // Like TUM fr1/rpy: full amplitude +-27/20/22 deg at 0.50/0.40/0.35 Hz: peak rates 85/50/48
+      // deg/s, together at most about 110 deg/s; starts at rest (envelope) at the home view.
+      const double s = fastRpyEnvelope(t);
+      const Eigen::Matrix3d R =
+          lookAt(kEye0, kTarget0) *
+          (Eigen::AngleAxisd(s * wave(27 * kDeg, 0.50, 0.0, t), Eigen::Vector3d::UnitY()) *  // yaw
+           Eigen::AngleAxisd(s * wave(20 * kDeg, 0.40, 0.0, t), Eigen::Vector3d::UnitX()) *  // pitch
+           Eigen::AngleAxisd(s * wave(22 * kDeg, 0.35, 0.0, t), Eigen::Vector3d::UnitZ()))   // roll
+              .toRotationMatrix();
+      return makePose(R, kEye0 + handTremor(o.seed, t));
     }
     case SynthMotion::kLoop: {
       // alpha runs 0 -> 2pi from frame 0 to the last frame, so the last pose equals the first.

@@ -506,14 +506,13 @@ double minPeopleDistanceM(const SynthOptions& o) {
   switch (o.motion) {
     case SynthMotion::kStatic:
     case SynthMotion::kRpy:
+    case SynthMotion::kFastRpy:
       return kMinPeopleDistanceStillM;
-    case SynthMotion::kXyz:
-    case SynthMotion::kHalfsphere:
-      return kMinPeopleDistanceMovingM;
     case SynthMotion::kLoop:
       return 0.0;
+    default:  // xyz, halfsphere: those cameras come up to 0.2 m closer
+      return kMinPeopleDistanceMovingM;
   }
-  return kMinPeopleDistanceMovingM;
 }
 
 double maxPeopleDistanceM(const SynthOptions& o) {

@@ -144,6 +144,10 @@ Eigen::Isometry3d SyntheticScene::cameraPose(int index) const {
   return synth_detail::cameraPoseAt(impl_->options, index / impl_->options.fps);
 }
 
+Eigen::Isometry3d SyntheticScene::cameraPoseAtTime(double t_s) const {
+  return synth_detail::cameraPoseAt(impl_->options, t_s);
+}
+
 namespace {
 
 /// Nearest exit of a ray from inside a box: t, face and inward normal.

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "dypho/tools/synthetic_scene.h"
 
@@ -118,6 +119,81 @@ TEST(SynthLoop, ReturnsToTheStartAfterOneFullTurn) {
     EXPECT_NEAR((mid.translation() - first.translation()).norm(), 2 * radius, 0.02);
     EXPECT_GT(angleDeg(first.linear().transpose() * mid.linear()), 170.0);
     EXPECT_NEAR(measure(scene).path_m, 2 * 3.14159265358979323846 * radius, 0.02 * radius);
+  }
+}
+
+// fast-rpy (SynthMotion::kFastRpy): fast hand-held turns like TUM fr1/rpy. Sampled every 2 ms
+// over 20 s for two seeds. Bounds: the peak rate is 90-120 deg/s (the three sinusoids peak at 85,
+// 50 and 48 deg/s; they line up to about 110 deg/s at most); smooth: the angular acceleration
+// stays under 600 deg/s^2 (sum of the three sinusoids' 266 + 126 + 106 deg/s^2 plus the coupling
+// of the Euler angles) while a jump of 0.1 deg between two 2 ms samples would already be
+// 25000 deg/s^2; the position stays within 11 mm of the start (twice the tremor's largest offset
+// sqrt(3) * 3 mm), moves (> 1 mm: the tremor is there) and depends on the seed; starts at rest.
+TEST(SynthFastRpy, TurnsFastAndSmoothlyAboutAFixedPoint) {
+  Eigen::Vector3d first_positions[2];
+  for (std::uint32_t seed : {1u, 2u}) {
+    SynthOptions o;
+    o.motion = SynthMotion::kFastRpy;
+    o.frames = 600;
+    o.seed = seed;
+    const SyntheticScene scene(o);
+    const double dt = 0.002;
+    const Eigen::Vector3d home = scene.cameraPoseAtTime(0.0).translation();
+    double peak_rate = 0, peak_ang_acc = 0, peak_acc = 0, max_offset = 0, mean_rate = 0;
+    Eigen::Vector3d prev_w = Eigen::Vector3d::Zero();
+    const int n = static_cast<int>(20.0 / dt);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Isometry3d a = scene.cameraPoseAtTime(i * dt), b = scene.cameraPoseAtTime((i + 1) * dt);
+      const Eigen::AngleAxisd aa(a.linear().transpose() * b.linear());
+      const Eigen::Vector3d w = aa.axis() * aa.angle() * kRadToDeg / dt;  // camera frame [deg/s]
+      peak_rate = std::max(peak_rate, w.norm());
+      mean_rate += w.norm() / n;
+      if (i > 0) peak_ang_acc = std::max(peak_ang_acc, (w - prev_w).norm() / dt);
+      prev_w = w;
+      const Eigen::Vector3d acc =
+          (scene.cameraPoseAtTime((i + 2) * dt).translation() - 2 * b.translation() + a.translation()) / (dt * dt);
+      peak_acc = std::max(peak_acc, acc.norm());
+      max_offset = std::max(max_offset, (a.translation() - home).norm());
+    }
+    const MotionStats frames = measure(scene);
+    std::printf(
+        "fast-rpy seed %u: peak %.1f deg/s (frames: %.1f), mean %.1f deg/s, max %.0f deg/s^2, %.2f m/s^2, "
+        "offset %.2f mm, max rotation %.1f deg\n",
+        seed, peak_rate, frames.max_rate_degs, mean_rate, peak_ang_acc, peak_acc, 1000 * max_offset,
+        frames.max_rotation_from_start_deg);
+    EXPECT_GE(peak_rate, 90.0);
+    EXPECT_LE(peak_rate, 120.0);
+    EXPECT_GE(frames.max_rate_degs, 85.0) << "30 fps frame to frame";
+    EXPECT_LE(peak_ang_acc, 600.0);
+    EXPECT_LE(peak_acc, 3.0) << "hand tremor of a few mm";
+    EXPECT_LE(max_offset, 0.011);
+    EXPECT_GE(max_offset, 0.001);
+    EXPECT_LE(frames.max_rotation_from_start_deg, 50.0);
+    EXPECT_LT(angleDeg(scene.cameraPose(0).linear().transpose() * scene.cameraPose(1).linear()) * o.fps, 5.0)
+        << "starts at rest";
+    first_positions[seed - 1] = scene.cameraPoseAtTime(5.0).translation();
+  }
+  EXPECT_GT((first_positions[0] - first_positions[1]).norm(), 1e-4) << "the tremor's phases come from the seed";
+}
+
+// fast-rpy keeps the room in view: every 30th frame of 10 s (noisy depth, 2 people) has valid
+// depth on >= 90 % of the pixels (noise holes and dropout take 1-5 %) and sees the room at >= 1 m
+// in the image centre (no wall or furniture right in front of the lens).
+TEST(SynthFastRpy, EveryFrameSeesTheRoom) {
+  SynthOptions o;
+  o.motion = SynthMotion::kFastRpy;
+  o.frames = 300;
+  o.camera.width = 320;
+  o.camera.height = 240;
+  o.camera.fx = o.camera.fy = 262.5;
+  o.camera.cx = 159.5;
+  o.camera.cy = 119.5;
+  const SyntheticScene scene(o);
+  for (int i = 0; i < o.frames; i += 30) {
+    const dypho::tools::SynthFrame f = scene.render(i);
+    const double valid = cv::countNonZero(f.frame.depth_m > 0.f) / static_cast<double>(f.frame.depth_m.total());
+    EXPECT_GE(valid, 0.9) << "frame " << i;
+    EXPECT_GE(f.static_depth_m.at<float>(120, 160), 1.0f) << "frame " << i;
   }
 }
 

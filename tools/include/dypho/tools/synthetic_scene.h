@@ -20,8 +20,8 @@
 
 namespace dypho::tools {
 
-/// Camera trajectory of a synthetic sequence. Every motion stays within about 0.5 m/s and
-/// 40 deg/s (TUM hand-held speeds) and is smooth (C-infinity sinusoids).
+/// Camera trajectory of a synthetic sequence. Every motion is smooth (C-infinity sinusoids) and,
+/// but kFastRpy, stays within about 0.5 m/s and 40 deg/s (TUM hand-held speeds).
 enum class SynthMotion {
   kXyz,         ///< translation along x/y/z (amplitudes 0.3/0.2/0.2 m), fixed orientation
   kHalfsphere,  ///< camera on a 1 m radius half sphere, always looking at a point 3 m ahead
@@ -29,12 +29,20 @@ enum class SynthMotion {
   kRpy,         ///< rotation only: roll, pitch, yaw of +-15 deg about a fixed position
   kLoop,        ///< one closed horizontal circle around the room centre looking inwards;
                 ///< radius min(1.5 m, 0.45 m/s * duration / 2pi); last frame == first frame
+  /// fast hand-held turns like TUM fr1/rpy about the home position: yaw +-27 deg at 0.5 Hz,
+  /// pitch +-20 deg at 0.4 Hz, roll +-22 deg at 0.35 Hz (peak rates 85, 50, 48 deg/s; together
+  /// up to about 110 deg/s, on average about 70 deg/s), growing from rest over the first 2 s
+  /// (amplitudes times 1 - exp(-(t / 1 s)^2)), plus hand tremor: a non-periodic sum of
+  /// sinusoids of up to 3 mm per axis with phases drawn from the seed. The view stays on the
+  /// textured walls, floor and ceiling (the +y wall and its neighbours, <= 6 m away).
+  kFastRpy,
 };
 
-/// Name of a motion as accepted by parseSynthMotion ("xyz", "halfsphere", "static", "rpy", "loop").
+/// Name of a motion as accepted by parseSynthMotion ("xyz", "halfsphere", "static", "rpy", "loop",
+/// "fast-rpy").
 std::string synthMotionName(SynthMotion motion);
 
-/// Parses "xyz" | "halfsphere" | "static" | "rpy" | "loop" (case-sensitive). Throws
+/// Parses "xyz" | "halfsphere" | "static" | "rpy" | "loop" | "fast-rpy" (case-sensitive). Throws
 /// std::runtime_error listing the valid names for anything else.
 SynthMotion parseSynthMotion(const std::string& name);
 
@@ -90,12 +98,12 @@ struct SynthOptions {
   /// nearest lane (kCross, kStopAndGo), of the group's front row (kGroup) or of the near turning
   /// point (kTowards). 0 = auto: 1.0 m for kTowards, else 1.4 m or, where that leaves too little
   /// room, the largest allowed distance (1.1 m for 8 people on lanes, 1.22 m for a group of 4 or
-  /// more). Otherwise at least 0.6 m (static, rpy) or 0.8 m (xyz, halfsphere: those cameras come
-  /// up to 0.2 m closer), and at most 2.2 m (kTowards), 2.75 m less 0.51 m per row behind the
-  /// first (kGroup, up to 4 abreast), or the farthest distance at which the lanes in front of
-  /// the furniture give everyone >= 0.6 m of lane (kCross, kStopAndGo: 2.75 m for up to 3
-  /// people, 2.2 m for 4-5, 1.65 m for 6-7, 1.1 m for 8). Must be 0 for the loop motion. With a
-  /// static camera, 6 people at 0.9 m cover about 30 % of the image on average, 8 at 0.8 m
+  /// more). Otherwise at least 0.6 m (static, rpy, fast-rpy) or 0.8 m (xyz, halfsphere: those
+  /// cameras come up to 0.2 m closer), and at most 2.2 m (kTowards), 2.75 m less 0.51 m per row
+  /// behind the first (kGroup, up to 4 abreast), or the farthest distance at which the lanes in
+  /// front of the furniture give everyone >= 0.6 m of lane (kCross, kStopAndGo: 2.75 m for up to
+  /// 3 people, 2.2 m for 4-5, 1.65 m for 6-7, 1.1 m for 8). Must be 0 for the loop motion. With
+  /// a static camera, 6 people at 0.9 m cover about 30 % of the image on average, 8 at 0.8 m
   /// about 45 %.
   double people_distance_m = 0.0;
   std::uint32_t seed = 1;                          ///< seeds textures, people paths and depth noise
@@ -148,6 +156,8 @@ class SyntheticScene {
   Timestamp stampNs(int index) const;
   /// stampNs(index) in seconds.
   double stampSeconds(int index) const;
+  /// Camera pose at `t_s` seconds after frame 0 (any t_s; frame i is at i / fps).
+  Eigen::Isometry3d cameraPoseAtTime(double t_s) const;
 
  private:
   struct Impl;
