@@ -3,6 +3,7 @@
 # when dypho_bag is built); unit tests.
 add_library(dypho_synth_core
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_scene.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_camera_effects.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_geometry.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_motion.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_people.cpp
@@ -34,7 +35,8 @@ if(TARGET dypho_tools)
   list(APPEND _dypho_synth_test_libs dypho_tools)
   set(_dypho_synth_test_defs DYPHO_HAVE_TOOLS_IO=1)
 endif()
-foreach(_t test_synthetic_scene test_synthetic_motion test_synthetic_writer test_synthetic_people)
+foreach(_t test_synthetic_scene test_synthetic_motion test_synthetic_writer test_synthetic_people
+    test_synthetic_camera_effects)
   if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/test/${_t}.cpp)
     dypho_add_gtest(${_t} SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/test/${_t}.cpp
       LIBS ${_dypho_synth_test_libs} ${OpenCV_LIBS})

@@ -204,4 +204,19 @@ inline cv::Vec3b toBgr8(const cv::Vec3f& bgr) {
                    cv::saturate_cast<std::uint8_t>(bgr[2]));
 }
 
+/// Camera effects of the colour image (synthetic_camera_effects.cpp).
+/// Most ray casts one pixel of a motion-blurred image averages.
+constexpr int kMaxBlurSamples = 8;
+/// Number of ray casts per pixel for the motion blur of the frame at `t_s`: the largest image
+/// motion [px] during [t_s - exposure_s, t_s] of the static scene (pixels of a 8 x 6 grid at their
+/// frame-time depth `depth_m`) and of each person's chest, rounded up, in 1..kMaxBlurSamples; 1 when
+/// exposure_s is 0.
+int blurSampleCount(const SceneContent& content, const SynthOptions& options, double t_s, const cv::Mat& depth_m);
+/// Time of row `row` relative to the frame's stamp [s] under the options' rolling shutter.
+double rowTimeOffsetS(const SynthOptions& options, int row);
+/// Renders the colour image of the frame at `t_s` with motion blur (`samples` ray casts per pixel
+/// over each row's exposure) and rolling shutter into `bgr` (CV_8UC3, allocated).
+void renderColourWithEffects(const SceneContent& content, const SynthOptions& options, double t_s, int samples,
+                             cv::Mat& bgr);
+
 }  // namespace dypho::tools::synth_detail

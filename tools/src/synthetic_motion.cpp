@@ -136,6 +136,19 @@ void validatePeople(const SynthOptions& o) {
   }
 }
 
+/// Checks exposure_s and rolling_shutter_s: both within one frame period.
+void validateCameraEffects(const SynthOptions& o) {
+  const double period_s = 1.0 / o.fps;
+  for (const auto& [name, value] : {std::pair<const char*, double>{"exposure_s", o.exposure_s},
+                                    std::pair<const char*, double>{"rolling_shutter_s", o.rolling_shutter_s}}) {
+    if (!std::isfinite(value) || value < 0.0 || value > period_s) {
+      throw std::runtime_error(std::string("SynthOptions: ") + name + " = " + numberText(value) +
+                               " must be in [0, 1/fps = " + numberText(period_s) +
+                               "] s (0 = off; it cannot last longer than a frame)");
+    }
+  }
+}
+
 }  // namespace
 
 void SynthOptions::validate() const {
@@ -151,6 +164,7 @@ void SynthOptions::validate() const {
          std::to_string(camera.height) + ")");
   }
   if (camera.distorted()) fail("camera distortion must be zero: the renderer draws a pinhole image");
+  validateCameraEffects(*this);
   if (motion == SynthMotion::kLoop) {
     const double duration_s = (frames - 1) / fps;
     const double rate = 360.0 / std::max(duration_s, 1e-9);
@@ -171,7 +185,8 @@ std::string SynthOptions::toString() const {
      << " walk=" << synthWalkName(walk) << " people_in_view_at_start=" << (people_in_view_at_start ? "true" : "false")
      << " people_distance_m=" << people_distance_m << " seed=" << seed << " fps=" << fps << " camera=" << camera.width
      << "x" << camera.height << " fx=" << camera.fx << " fy=" << camera.fy << " cx=" << camera.cx << " cy=" << camera.cy
-     << " depth_noise=" << (depth_noise ? "true" : "false") << " start_stamp_s=" << std::fixed << start_stamp_s;
+     << " depth_noise=" << (depth_noise ? "true" : "false") << " exposure_s=" << exposure_s
+     << " rolling_shutter_s=" << rolling_shutter_s << " start_stamp_s=" << std::fixed << start_stamp_s;
   return ss.str();
 }
 

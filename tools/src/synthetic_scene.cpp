@@ -148,6 +148,8 @@ Eigen::Isometry3d SyntheticScene::cameraPoseAtTime(double t_s) const {
   return synth_detail::cameraPoseAt(impl_->options, t_s);
 }
 
+double SyntheticScene::rowTimeOffsetS(int row) const { return synth_detail::rowTimeOffsetS(impl_->options, row); }
+
 namespace {
 
 /// Nearest exit of a ray from inside a box: t, face and inward normal.
@@ -314,6 +316,7 @@ SynthFrame SyntheticScene::render(int index) const {
   out.static_depth_m.create(cam.height, cam.width, CV_32FC1);
   cv::Mat depth_clean(cam.height, cam.width, CV_32FC1);
 
+  // Everything but a blurred or rolling-shutter colour image is the global render at the frame's time.
   const double t_s = index / s.options.fps;
   const synth_detail::RayCastView view = synth_detail::makeRayCastView(s.content, s.options, t_s);
   cv::parallel_for_(cv::Range(0, cam.height), [&](const cv::Range& rows) {
@@ -333,6 +336,10 @@ SynthFrame SyntheticScene::render(int index) const {
       }
     }
   });
+  const int blur_samples = synth_detail::blurSampleCount(s.content, s.options, t_s, depth_clean);
+  if (blur_samples > 1 || s.options.rolling_shutter_s > 0.0) {
+    synth_detail::renderColourWithEffects(s.content, s.options, t_s, blur_samples, out.frame.bgr);
+  }
 
   if (s.options.depth_noise) {
     cv::RNG rng = frameRng(s.options.seed, index);

@@ -124,6 +124,12 @@ std::string readme(const SynthOptions& o, const SynthWriteOptions& w, const Synt
   } else {
     ss << "Depth: exact (no noise).\n";
   }
+  if (o.exposure_s > 0.0 || o.rolling_shutter_s > 0.0) {
+    ss << "Colour: motion blur over an exposure of " << 1000.0 * o.exposure_s
+       << " ms ending at each stamp (up to 8 renders averaged); rolling shutter readout "
+       << 1000.0 * o.rolling_shutter_s << " ms, the middle row at the stamp.\n"
+       << "Depth, masks and ground truth are at the stamp (sharp, global shutter).\n";
+  }
   if (!w.command_line.empty()) ss << "\nGenerated with:\n  " << w.command_line << "\n";
   return ss.str();
 }

@@ -114,6 +114,23 @@ struct SynthOptions {
   /// false = exact depth of the geometry (no noise, no holes, no range limit).
   bool depth_noise = true;
   double start_stamp_s = 1600000000.0;  ///< time of frame 0 [s since the Unix epoch]
+  /// Motion blur of the colour image: exposure time [s], in [0, 1/fps]; 0 (default) = none, the
+  /// images of earlier versions. The colour image is the mean of N ray casts at times t - (k +
+  /// 0.5) exposure_s / N, k = 0..N-1, over the exposure [t - exposure_s, t] that ends at the
+  /// frame's time t (camera and people move). N = min(8, ceil(largest image motion during the
+  /// exposure [px])), so each step moves about 1 px or less (more when capped: 15 ms of a
+  /// 100 deg/s turn is about 14 px, so 1.7 px steps); N = 1 (image motion under 1 px) is the sharp
+  /// frame-time render. Depth, masks, static depth and the ground-truth pose stay at t: a Kinect's
+  /// depth is not blurred like its colour. Example: 0.015 (15 ms, indoor auto exposure).
+  double exposure_s = 0.0;
+  /// Rolling shutter of the colour image: readout time [s] from the first image row to the last,
+  /// in [0, 1/fps]; 0 (default) = global shutter. Row r ends its exposure at
+  /// t + ((r + 0.5) / rows - 0.5) rolling_shutter_s (SyntheticScene::rowTimeOffsetS): the middle
+  /// row at the frame's time t, the top row earlier, the bottom row later. Depth, masks, static
+  /// depth and the ground-truth pose stay at t (depth like a global shutter), so the ground truth
+  /// is the pose of the middle row. Example: 0.03 (TUM's Kinect colour camera reads out in about
+  /// 30 ms).
+  double rolling_shutter_s = 0.0;
 
   /// Throws std::runtime_error naming the bad field, its value and the accepted range.
   void validate() const;
@@ -156,8 +173,12 @@ class SyntheticScene {
   Timestamp stampNs(int index) const;
   /// stampNs(index) in seconds.
   double stampSeconds(int index) const;
-  /// Camera pose at `t_s` seconds after frame 0 (any t_s; frame i is at i / fps).
+  /// Camera pose at `t_s` seconds after frame 0 (any t_s; frame i is at i / fps): the pose of
+  /// row r of frame i under a rolling shutter is cameraPoseAtTime(i / fps + rowTimeOffsetS(r)).
   Eigen::Isometry3d cameraPoseAtTime(double t_s) const;
+  /// Time [s] at which image row `row` of the colour image ends its exposure, relative to the
+  /// frame's time: ((row + 0.5) / rows - 0.5) rolling_shutter_s; 0 for a global shutter.
+  double rowTimeOffsetS(int row) const;
 
  private:
   struct Impl;
