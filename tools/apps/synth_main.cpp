@@ -1,5 +1,6 @@
 // dypho_synth: writes a synthetic dynamic RGB-D sequence as a TUM-layout folder (+ a rosbag when
 // built with dypho_bag).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -7,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -20,13 +22,17 @@
 namespace {
 
 const char* kUsage =
-    "usage: dypho_synth --out DIR [--frames N] [--motion xyz|halfsphere|static|rpy|loop]\n"
+    "usage: dypho_synth --out DIR [--frames N] [--motion xyz|halfsphere|static|rpy|loop|fast-rpy]\n"
     "                   [--people 0-8] [--walk cross|stop-and-go|towards|group] [--people-in-view]\n"
     "                   [--people-distance M] [--seed N] [--no-bag] [--no-noise]\n"
+    "                   [--exposure-ms MS] [--rolling-shutter-ms MS] [--hard-case kinect-fast]\n"
     "Writes a synthetic room with walking people in the TUM RGB-D layout to DIR (rgb/, depth/,\n"
     "mask/, rgb.txt, depth.txt, groundtruth.txt, camera.yaml, README.txt) and, unless --no-bag,\n"
     "DIR/synthetic.bag with the TUM topic names. Defaults: 300 frames, halfsphere, 2 people,\n"
-    "walk cross, people distance 0 (auto), seed 1, Kinect-like depth noise.\n"
+    "walk cross, people distance 0 (auto), seed 1, Kinect-like depth noise, sharp global-shutter\n"
+    "colour.\n"
+    "  --motion NAME        camera path (default halfsphere); fast-rpy: fast hand-held turns like TUM\n"
+    "                       fr1/rpy (+-20-27 deg, up to about 110 deg/s, mm hand tremor)\n"
     "  --people N           walking people, 0..8 (default 2)\n"
     "  --walk STYLE         cross: back and forth across the view (default); stop-and-go: as cross,\n"
     "                       standing still for 1-3 s now and then; towards: towards the camera from\n"
@@ -37,14 +43,27 @@ const char* kUsage =
     "  --people-distance M  distance [m] of the nearest lane (towards: of the near turning point)\n"
     "                       in front of the camera's home position; 0 = auto (default): 1.4, or\n"
     "                       less where 8 people or a group need the room; towards 1.0. At least\n"
-    "                       0.6 (static, rpy) or 0.8 (xyz, halfsphere), at most 1.1-2.75 by walk\n"
-    "                       and people (the error names the range). With a static camera 6 people\n"
-    "                       at 0.9 cover about 30 % of the image, 8 at 0.8 about 45 %. Not for loop.\n"
+    "                       0.6 (static, rpy, fast-rpy) or 0.8 (xyz, halfsphere), at most 1.1-2.75\n"
+    "                       by walk and people (the error names the range). With a static camera 6\n"
+    "                       people at 0.9 cover about 30 % of the image, 8 at 0.8 about 45 %. Not\n"
+    "                       for loop.\n"
+    "  --exposure-ms MS     motion blur: the colour image averages up to 8 renders over the MS\n"
+    "                       milliseconds before each frame's stamp, camera and people moving\n"
+    "                       (0..33.3 at 30 fps; default 0 = sharp). Depth and masks stay sharp.\n"
+    "  --rolling-shutter-ms MS\n"
+    "                       rolling shutter: colour rows are read out over MS milliseconds, the\n"
+    "                       middle row at the frame's stamp, the top row MS/2 earlier (0..33.3;\n"
+    "                       default 0 = global shutter). Depth, masks and ground truth: the stamp.\n"
+    "  --hard-case NAME     a preset, applied before the other flags (which then override it):\n"
+    "                       kinect-fast = --motion fast-rpy --exposure-ms 15\n"
+    "                       --rolling-shutter-ms 30 with depth noise (a Kinect turned fast by hand)\n"
     "With at most 3 people, walk cross and neither --people-in-view nor --people-distance, the\n"
     "people walk as in earlier versions (same images for the same seed).\n"
     "Hard cases (static camera):\n"
     "  dypho_synth --out DIR --motion static --people 6 --people-in-view --people-distance 0.9\n"
-    "  dypho_synth --out DIR --motion static --people 8 --people-distance 0.8\n";
+    "  dypho_synth --out DIR --motion static --people 8 --people-distance 0.8\n"
+    "Hard cases (tracking precision: blur, rolling shutter, fast turns):\n"
+    "  dypho_synth --out DIR --hard-case kinect-fast\n";
 
 long parseInteger(const std::string& flag, const std::string& text, long lo, long hi) {
   std::size_t used = 0;
@@ -75,6 +94,30 @@ double parseNumber(const std::string& flag, const std::string& text) {
   return value;
 }
 
+/// A camera-effect duration given in milliseconds, 0 .. one frame period; returned in seconds.
+double parseMillisecondsAsSeconds(const std::string& flag, const std::string& text, double fps) {
+  const double ms = parseNumber(flag, text);
+  const double max_ms = 1000.0 / fps;
+  if (ms < 0.0 || ms > max_ms) {
+    std::ostringstream ss;
+    ss << flag << " expects milliseconds in 0.." << max_ms << " (one frame at " << fps << " fps), got '" << text << "'";
+    throw std::runtime_error(ss.str());
+  }
+  return std::min(ms / 1000.0, 1.0 / fps);  // 1000 / fps ms may round above 1 / fps s
+}
+
+/// Applies the preset --hard-case `name` to `o`.
+void applyHardCase(const std::string& name, dypho::tools::SynthOptions& o) {
+  if (name == "kinect-fast") {
+    o.motion = dypho::tools::SynthMotion::kFastRpy;
+    o.exposure_s = 0.015;
+    o.rolling_shutter_s = 0.030;
+    o.depth_noise = true;
+    return;
+  }
+  throw std::runtime_error("--hard-case expects one of: kinect-fast, got '" + name + "'");
+}
+
 struct Args {
   dypho::tools::SynthOptions options;
   std::string out_dir;
@@ -83,6 +126,10 @@ struct Args {
 
 Args parseArgs(int argc, char** argv) {
   Args a;
+  // A preset first, wherever it is: the other flags override it.
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--hard-case") applyHardCase(argv[i + 1], a.options);
+  }
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     auto value = [&]() -> std::string {
@@ -109,6 +156,12 @@ Args parseArgs(int argc, char** argv) {
       a.write_bag = false;
     } else if (flag == "--no-noise") {
       a.options.depth_noise = false;
+    } else if (flag == "--exposure-ms") {
+      a.options.exposure_s = parseMillisecondsAsSeconds(flag, value(), a.options.fps);
+    } else if (flag == "--rolling-shutter-ms") {
+      a.options.rolling_shutter_s = parseMillisecondsAsSeconds(flag, value(), a.options.fps);
+    } else if (flag == "--hard-case") {
+      value();  // applied before the loop
     } else if (flag == "-h" || flag == "--help") {
       std::cout << kUsage;
       std::exit(0);
@@ -177,6 +230,10 @@ int main(int argc, char** argv) {
         "seed %u\n",
         args.options.people, dypho::tools::synthWalkName(args.options.walk).c_str(), 100.0 * s.mean_dynamic_fraction,
         100.0 * s.max_dynamic_fraction, args.options.depth_noise ? "on" : "off", args.options.seed);
+    if (args.options.exposure_s > 0.0 || args.options.rolling_shutter_s > 0.0) {
+      std::printf("  colour: exposure %.1f ms (motion blur), rolling shutter readout %.1f ms\n",
+                  1000.0 * args.options.exposure_s, 1000.0 * args.options.rolling_shutter_s);
+    }
     if (!bag_path.empty()) std::printf("  bag: %s\n", bag_path.c_str());
     std::printf("  took %.1f s (%.1f ms per frame incl. PNG writing)\n", secs, 1000.0 * secs / s.frames);
   } catch (const std::exception& e) {

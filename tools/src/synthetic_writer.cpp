@@ -125,9 +125,10 @@ std::string readme(const SynthOptions& o, const SynthWriteOptions& w, const Synt
     ss << "Depth: exact (no noise).\n";
   }
   if (o.exposure_s > 0.0 || o.rolling_shutter_s > 0.0) {
-    ss << "Colour: motion blur over an exposure of " << 1000.0 * o.exposure_s
-       << " ms ending at each stamp (up to 8 renders averaged); rolling shutter readout "
-       << 1000.0 * o.rolling_shutter_s << " ms, the middle row at the stamp.\n"
+    ss << "Colour: exposure " << 1000.0 * o.exposure_s
+       << " ms ending at each stamp (motion blur, up to 8 renders averaged; 0 = sharp); rolling\n"
+       << "shutter readout " << 1000.0 * o.rolling_shutter_s
+       << " ms, the middle row at the stamp (0 = global shutter).\n"
        << "Depth, masks and ground truth are at the stamp (sharp, global shutter).\n";
   }
   if (!w.command_line.empty()) ss << "\nGenerated with:\n  " << w.command_line << "\n";
