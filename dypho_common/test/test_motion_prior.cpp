@@ -36,6 +36,35 @@ TEST(ConstantVelocityModel, PredictsScaledByTime) {
   EXPECT_TRUE(skip->isApprox(step * poseAt(0.02, 0.04), 1e-9)) << skip->matrix();
 }
 
+// After a dropped frame the last step spans two intervals: the next frame, one interval on, is
+// predicted with half of it, not all of it; and a step that spans a gap from the start is found
+// out by the first normal spacing.
+TEST(ConstantVelocityModel, AStepOverADroppedFrameIsOneMotionPerInterval) {
+  for (const bool turning : {false, true}) {  // a sideways move and a turn on the spot
+    auto pose = [&](double k) { return turning ? poseAt(0.0, 0.02 * k) : poseAt(0.01 * k, 0.0); };
+    ConstantVelocityModel model;
+    model.observe({0, pose(0), true, false});
+    model.observe({kFrameNs, pose(1), true, false});
+    model.observe({3 * kFrameNs, pose(3), true, false});  // frame 2 dropped
+    EXPECT_EQ(model.frameIntervalNs(), kFrameNs);
+    EXPECT_DOUBLE_EQ(model.stepIntervals(), 2.0);
+    const auto next = model.predict(4 * kFrameNs);
+    ASSERT_TRUE(next.has_value());
+    EXPECT_TRUE(next->isApprox(pose(4), 1e-9)) << next->matrix();
+  }
+
+  ConstantVelocityModel gap_first;
+  gap_first.observe({0, poseAt(0.0, 0.0), true, false});
+  gap_first.observe({2 * kFrameNs, poseAt(0.02, 0.0), true, false});  // frame 1 dropped
+  gap_first.observe({3 * kFrameNs, poseAt(0.03, 0.0), true, false});
+  EXPECT_EQ(gap_first.frameIntervalNs(), kFrameNs);
+  const auto after = gap_first.predict(4 * kFrameNs);
+  ASSERT_TRUE(after.has_value());
+  EXPECT_NEAR(after->translation().x(), 0.04, 1e-9);
+  // Jitter of a few ms does not scale the prediction.
+  EXPECT_NEAR(gap_first.predict(4 * kFrameNs + 4'000'000)->translation().x(), 0.04, 1e-9);
+}
+
 TEST(ConstantVelocityModel, ResetRules) {
   ConstantVelocityModel model(1.0);
   model.observe({0, poseAt(0.0, 0.0), true, false});

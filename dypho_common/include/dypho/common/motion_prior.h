@@ -11,8 +11,10 @@
 ///    last pose with no velocity, so no ego-motion is computed from two poses that straddle it;
 ///  - a stamp not after the last one (bag restarted, duplicate) starts over from that pose;
 ///  - a gap longer than `max_gap_s` between two poses is treated as a jump.
-/// The step is repeated once per elapsed frame interval (rounded), so a dropped frame does not
-/// halve the predicted motion while stamp jitter does not scale it.
+/// The model keeps the camera's frame interval (the shortest recent spacing of its stamps,
+/// averaged over jitter). The last step is divided by the whole intervals it spans and repeated
+/// once per whole interval to the predicted stamp: a dropped frame neither halves nor doubles a
+/// prediction, before or after the gap, while stamp jitter does not scale it.
 
 #include <algorithm>
 #include <cmath>
@@ -63,6 +65,7 @@ class ConstantVelocityModel {
     if (continuous) {
       step_ = last_->inverse() * update.T_world_camera;
       step_ns_ = update.stamp_ns - last_stamp_ns_;
+      observeInterval(step_ns_);
     } else {
       step_.reset();
       step_ns_ = 0;
@@ -94,6 +97,12 @@ class ConstantVelocityModel {
   Timestamp stepNs() const { return step_ns_; }
   /// The last observed step T_prev_last (between the last two poses), if any.
   const std::optional<Eigen::Isometry3d>& lastStep() const { return step_; }
+  /// The camera's frame interval [ns]: the shortest recent stamp spacing, averaged over jitter;
+  /// 0 before two continuous poses.
+  Timestamp frameIntervalNs() const { return interval_ns_; }
+  /// Whole frame intervals the last step spans (2 when one frame was dropped between them); 1
+  /// without a velocity.
+  double stepIntervals() const { return step_ ? wholeIntervals(step_ns_) : 1.0; }
 
   /// Motion from the last pose to the camera at `stamp_ns`, T_last_predicted = delta T. With no
   /// usable velocity (none yet, stamp not after the last, or further than max_gap_s ahead): empty.
@@ -102,9 +111,8 @@ class ConstantVelocityModel {
       return std::nullopt;
     }
     // Whole frame intervals: camera stamps jitter by several ms (TUM: 29-39 ms at 30 Hz) while the
-    // frames themselves are regular, so the step is repeated once per elapsed interval.
-    const double s =
-        std::max(1.0, std::round(static_cast<double>(stamp_ns - last_stamp_ns_) / static_cast<double>(step_ns_)));
+    // frames themselves are regular, so the step per interval is repeated once per elapsed one.
+    const double s = wholeIntervals(stamp_ns - last_stamp_ns_) / stepIntervals();
     const Eigen::AngleAxisd rotation(step_->rotation());
     Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
     scaled.linear() = Eigen::AngleAxisd(rotation.angle() * s, rotation.axis()).toRotationMatrix();
@@ -122,6 +130,23 @@ class ConstantVelocityModel {
  private:
   Timestamp max_gap_ns_;
   std::optional<Eigen::Isometry3d> last_;
+  /// Whole frame intervals in `dt_ns`, at least 1.
+  double wholeIntervals(Timestamp dt_ns) const {
+    const double interval = static_cast<double>(interval_ns_ > 0 ? interval_ns_ : step_ns_);
+    return interval > 0.0 ? std::max(1.0, std::round(static_cast<double>(dt_ns) / interval)) : 1.0;
+  }
+  /// A continuous step of dt_ns: a shorter spacing replaces the interval (the first step may have
+  /// spanned a dropped frame), one within half an interval of it is averaged in (jitter), a
+  /// longer one spans dropped frames and says nothing about it.
+  void observeInterval(Timestamp dt_ns) {
+    if (interval_ns_ <= 0 || 4 * dt_ns < 3 * interval_ns_) {
+      interval_ns_ = dt_ns;
+    } else if (2 * dt_ns < 3 * interval_ns_) {
+      interval_ns_ = (7 * interval_ns_ + dt_ns) / 8;
+    }
+  }
+
+  Timestamp interval_ns_ = 0;              ///< the camera's frame interval [ns]; kept over resets
   std::optional<Eigen::Isometry3d> step_;  ///< T_prev_last
   Timestamp last_stamp_ns_ = 0;
   Timestamp step_ns_ = 0;  ///< time between prev and last [ns]

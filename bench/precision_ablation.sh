@@ -1,0 +1,84 @@
+#!/bin/bash
+# Tracking precision, each part on and off: the offline runner (`--no-map`, deterministic) on the
+# shared sequences whole, with every 15th frame removed and with 10 % removed at random
+# (bench/drop_frames.sh), and on the generator's hard case when its folder is given. Prints one
+# line per run: sequence, frames, configuration, ATE of the final trajectory [cm], its max [cm],
+# median tracking and dense-refinement ms per frame.
+# Usage: bench/precision_ablation.sh [BUILD_DIR] [OUT_DIR]
+#   DYPHO_ABLATION_CONFIGS: configurations to run (default: all below), e.g. "features dense"
+#   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
+#   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
+#   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
+set -euo pipefail
+export PATH=/usr/bin:/bin:$PATH
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+BUILD="${1:-$ROOT/build}"
+OUT="${2:-/tmp/dypho_precision}"
+BIN="$BUILD/devel/lib/dypho_slam"
+SHARED="${DYPHO_SHARED_DIR:-$ROOT/../shared}"
+FR1="$SHARED/data/tum_fr1_rpy_first150"
+BONN="$SHARED/data/rgbd_bonn_crowd_frames200to399"
+MODEL="$SHARED/models/yolox_nano.onnx"
+mkdir -p "$OUT"
+
+# name -> tracking options (YAML lines under tracking:)
+declare -A CONFIG=(
+  [features]=$'  dense_refinement: false\n  wide_search_radius_px: 0'
+  [wide]=$'  dense_refinement: false'
+  [dense_only]=$'  dense_feature_prior_weight: 0'
+  [dense]=''
+)
+CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense})
+DROPS=(${DYPHO_ABLATION_DROPS:-whole every15 random10})
+SEQUENCES=(${DYPHO_ABLATION_SEQUENCES:-fr1_flow fr1_none bonn_flow bonn_detector synth_hard})
+
+synth_hard() {
+  local dir="${DYPHO_SYNTH_HARD:-$OUT/synth_hard}"
+  if [ ! -f "$dir/rgb.txt" ]; then
+    "$BIN/dypho_synth" --out "$dir" --frames 300 --hard-case kinect-fast --people 2 --seed 1 --no-bag > /dev/null
+  fi
+  echo "$dir"
+}
+
+dataset() {  # $1 = sequence, $2 = drop -> folder
+  local src
+  case "$1" in
+    fr1_*) src="$FR1" ;;
+    bonn_*) src="$BONN" ;;
+    synth_hard) src="$(synth_hard)" ;;
+  esac
+  case "$2" in
+    whole) echo "$src" ;;
+    every15) bash "$ROOT/bench/drop_frames.sh" "$src" "$OUT/data/$1_$2" every 15 > /dev/null; echo "$OUT/data/$1_$2" ;;
+    random10) bash "$ROOT/bench/drop_frames.sh" "$src" "$OUT/data/$1_$2" random 0.1 7 > /dev/null; echo "$OUT/data/$1_$2" ;;
+  esac
+}
+
+stats() {  # $1 = run folder: median tracking ms, median dense ms
+  /usr/bin/python3 - "$1/timing.csv" <<'PY'
+import csv, statistics, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+print(f"{statistics.median(float(r['tracking_ms']) for r in rows):.1f} "
+      f"{statistics.median(float(r.get('dense_ms', 0) or 0) for r in rows):.1f}")
+PY
+}
+
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo none)"
+printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' sequence frames config ATE_cm max_cm track_ms dense_ms
+for seq in "${SEQUENCES[@]}"; do
+  for drop in "${DROPS[@]}"; do
+    data="$(dataset "$seq" "$drop")"
+    mask=flow; [ "$seq" = fr1_none ] && mask=none
+    for cfg in "${CONFIGS[@]}"; do
+      name="${seq}_${drop}_${cfg}"
+      { if [ "$seq" = bonn_detector ]; then printf 'mask:\n  yolo_model_path: "%s"\n' "$MODEL"; fi
+        printf 'tracking:\n%s\n' "${CONFIG[$cfg]}"; } > "$OUT/$name.yaml"
+      "$BIN/dypho_run_dataset" --dataset "$data" --out "$OUT/$name" --quiet --no-map --mask "$mask" \
+        --config "$OUT/$name.yaml" > "$OUT/$name.log" 2>&1 || { echo "$name: failed (see $OUT/$name.log)"; continue; }
+      ate=$(grep -m1 -E "^ATE" "$OUT/$name.log" | sed -E 's/.*rmse ([0-9.]+) cm.*/\1/')
+      max=$(grep -m1 -E "^ATE" "$OUT/$name.log" | sed -E 's/.*max ([0-9.]+) cm.*/\1/')
+      printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' "$seq" "$drop" "$cfg" "$ate" "$max" $(stats "$OUT/$name")
+    done
+  done
+done
