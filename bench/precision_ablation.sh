@@ -24,12 +24,13 @@ mkdir -p "$OUT"
 
 # name -> tracking options (YAML lines under tracking:)
 declare -A CONFIG=(
-  [features]=$'  dense_refinement: false\n  wide_search_radius_px: 0'
-  [wide]=$'  dense_refinement: false'
+  [features]=$'  dense_refinement: false'
+  [wide]=$'  dense_refinement: false\n  wide_search_radius_px: 45'
   [dense_only]=$'  dense_feature_prior_weight: 0'
+  [dense_all]=$'  dense_max_frame_rotation_deg: 180'
   [dense]=''
 )
-CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense})
+CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense_all dense})
 DROPS=(${DYPHO_ABLATION_DROPS:-whole every15 random10})
 SEQUENCES=(${DYPHO_ABLATION_SEQUENCES:-fr1_flow fr1_none bonn_flow bonn_detector synth_hard})
 
@@ -76,8 +77,8 @@ for seq in "${SEQUENCES[@]}"; do
         printf 'tracking:\n%s\n' "${CONFIG[$cfg]}"; } > "$OUT/$name.yaml"
       "$BIN/dypho_run_dataset" --dataset "$data" --out "$OUT/$name" --quiet --no-map --mask "$mask" \
         --config "$OUT/$name.yaml" > "$OUT/$name.log" 2>&1 || { echo "$name: failed (see $OUT/$name.log)"; continue; }
-      ate=$(grep -m1 -E "^ATE" "$OUT/$name.log" | sed -E 's/.*rmse ([0-9.]+) cm.*/\1/')
-      max=$(grep -m1 -E "^ATE" "$OUT/$name.log" | sed -E 's/.*max ([0-9.]+) cm.*/\1/')
+      ate=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/^ATE RMSE: *([0-9.]+) cm.*/\1/')
+      max=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/.*max ([0-9.]+),.*/\1/')
       printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' "$seq" "$drop" "$cfg" "$ate" "$max" $(stats "$OUT/$name")
     done
   done

@@ -63,7 +63,7 @@ TEST(DenseRgbdAligner, KeepsThePriorWherePixelsCannotTell) {
   aligner.setCurrent(wallAfterMotion(blank, 0.0, 0.04, 1), cv::Mat());
   DensePosePrior prior;
   prior.T_current_reference = currentFromReference(0.01, 0.0);  // sideways right, depth wrong by 4 cm
-  prior.information = PoseInformation::Identity() * 1e4;         // 1 cm / 0.6 deg standard deviation
+  prior.information = PoseInformation::Identity() * 1e4;        // 1 cm / 0.6 deg standard deviation
   const DenseAlignment a = aligner.align(prior.T_current_reference, prior);
   ASSERT_TRUE(a.success) << a.message;
   EXPECT_EQ(a.photometric_samples, 0);
@@ -131,8 +131,8 @@ TEST(DenseRgbdAligner, FeatureInformationIsTheGaussNewtonHessianOfTheReprojectio
       Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
       d[k] = h;
       Eigen::Isometry3d plus = Eigen::Isometry3d::Identity(), minus = Eigen::Isometry3d::Identity();
-      plus.linear() = Eigen::AngleAxisd(d.tail<3>().norm(), (d.tail<3>().norm() > 0 ? d.tail<3>().normalized()
-                                                                                     : Eigen::Vector3d::UnitX()))
+      plus.linear() = Eigen::AngleAxisd(d.tail<3>().norm(),
+                                        (d.tail<3>().norm() > 0 ? d.tail<3>().normalized() : Eigen::Vector3d::UnitX()))
                           .toRotationMatrix();
       plus.translation() = d.head<3>();
       minus = plus.inverse();

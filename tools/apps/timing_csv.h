@@ -27,7 +27,8 @@ inline void writeTiming(const std::string& path, const std::vector<TimingRow>& r
   writeFileAtomically(path, [&](std::ostream& os) {
     os << "frame,stamp_s,load_ms,render_ms,mask_ms,features_ms,matching_ms,pnp_ms,refine_ms,tracking_ms,"
           "mapping_ms,total_ms,state,is_keyframe,num_features,num_inliers,masked_fraction,rendered_depth_used,"
-          "static_check_ms,static_agreement,static_corrected,moving_points_removed,moving_points_seen\n";
+          "static_check_ms,static_agreement,static_corrected,moving_points_removed,moving_points_seen,dense_ms,"
+          "dense_correction_m\n";
     os << std::fixed;
     for (const TimingRow& r : rows) {
       const auto& t = r.report.tracking;
@@ -38,7 +39,8 @@ inline void writeTiming(const std::string& path, const std::vector<TimingRow>& r
          << ',' << t.num_inliers << ',' << std::setprecision(4) << r.report.masked_fraction << ','
          << (r.report.rendered_depth_used ? 1 : 0) << ',' << std::setprecision(3) << t.times.static_check << ','
          << std::setprecision(4) << t.static_agreement << ',' << (t.static_check_corrected ? 1 : 0) << ','
-         << t.num_moving_points_removed << ',' << t.moving_points_camera_m.size() << '\n';
+         << t.num_moving_points_removed << ',' << t.moving_points_camera_m.size() << ',' << std::setprecision(3)
+         << t.times.dense << ',' << std::setprecision(5) << t.dense_correction_m << '\n';
     }
   });
 }

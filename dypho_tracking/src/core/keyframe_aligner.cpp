@@ -145,6 +145,22 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   return true;
 }
 
+bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+                                 const Eigen::Isometry3d& T_camera_world_predicted, double radius_px,
+                                 bool use_verified_first, std::size_t* num_guided, AlignmentResult* result,
+                                 TrackingTimesMs* times) const {
+  auto t0 = Clock::now();
+  const std::vector<FeatureMatch> guided =
+      matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, radius_px);
+  times->matching += msSince(t0);
+  *num_guided = guided.size();
+  if (static_cast<int>(guided.size()) < options_.min_inliers) return false;
+  t0 = Clock::now();
+  const bool ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, result);
+  times->refine += msSince(t0);
+  return ok;
+}
+
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
@@ -155,17 +171,16 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   AlignmentResult result;
   result.T_camera_world = T_camera_world_predicted;
 
-  // 1. Guided by the prediction.
-  auto t0 = Clock::now();
-  std::vector<FeatureMatch> guided =
-      matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, options_.search_radius_px);
-  t.matching += msSince(t0);
-  bool ok = false;
-  if (static_cast<int>(guided.size()) >= options_.min_inliers) {
-    t0 = Clock::now();
-    ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, &result);
-    t.refine += msSince(t0);
+  // 1. Guided by the prediction; when that fails (a jerk of the hand, frames dropped before this
+  // one), guided again over a wider radius before the global search.
+  std::size_t num_guided = 0;
+  bool ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.search_radius_px,
+                       use_verified_first, &num_guided, &result, &t);
+  if (!ok && options_.wide_search_radius_px > options_.search_radius_px) {
+    ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.wide_search_radius_px,
+                    use_verified_first, &num_guided, &result, &t);
   }
+  auto t0 = Clock::now();
 
   // 2. Global search + PnP RANSAC when the prediction did not work out.
   if (!ok) {
@@ -173,7 +188,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     const std::vector<FeatureMatch> global = matcher_.matchBruteForce(global_ref, frame);
     t.matching += msSince(t0);
     if (static_cast<int>(global.size()) < options_.min_inliers) {
-      result.message = "only " + std::to_string(guided.size()) + " guided and " + std::to_string(global.size()) +
+      result.message = "only " + std::to_string(num_guided) + " guided and " + std::to_string(global.size()) +
                        " brute-force matches to keyframe (need " + std::to_string(options_.min_inliers) + ")";
       return result;
     }

@@ -27,6 +27,15 @@ StaticSceneCheckSettings staticCheckSettings(const TrackingOptions& o) {
   return s;
 }
 
+DenseAlignerSettings denseSettings(const TrackingOptions& o) {
+  DenseAlignerSettings s;
+  s.scale = o.dense_scale;
+  s.levels = o.dense_levels;
+  s.iterations = o.dense_iterations;
+  s.depth_sigma_per_m2 = o.dense_depth_sigma_per_m2;
+  return s;
+}
+
 }  // namespace
 
 RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
@@ -40,7 +49,8 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
       loop_detector_(options),
       loop_closer_(options),
       pose_optimizer_(options),
-      static_check_(staticCheckSettings(options)) {}
+      static_check_(staticCheckSettings(options)),
+      dense_(denseSettings(options)) {}
 
 void RgbdOdometry::reset() {
   if (pending_ba_.valid()) pending_ba_.wait();  // its copy belongs to the world being forgotten
@@ -49,6 +59,7 @@ void RgbdOdometry::reset() {
   pending_ba_frames_left_ = 0;
   map_.clear();
   static_check_.clear();
+  dense_.clear();
   reference_id_ = -1;
   views_stale_ = false;
   local_view_ = KeyframePoints();
@@ -141,6 +152,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, cons
   result->keyframe = makeKeyframe(id, frame, mask, stored->T_world_camera, stored->features, stored->map_point_ids);
   setReference(id);
   if (options_.static_check) static_check_.setReference(id, frame, mask);
+  if (options_.dense_refinement) dense_.setReference(id, frame, mask);
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   result->T_world_camera = T_world_last_;
@@ -244,9 +256,11 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, 
 
 bool RgbdOdometry::cameraStill() const {
   if (!motion_.hasVelocity()) return false;
+  // Per frame interval: a step over a dropped frame spans two.
   const Eigen::Isometry3d& step = *motion_.lastStep();
-  return step.translation().norm() < kStillMaxStepM &&
-         Eigen::AngleAxisd(step.rotation()).angle() * 180.0 / M_PI < kStillMaxStepDeg;
+  const double intervals = motion_.stepIntervals();
+  return step.translation().norm() / intervals < kStillMaxStepM &&
+         Eigen::AngleAxisd(step.rotation()).angle() * 180.0 / M_PI / intervals < kStillMaxStepDeg;
 }
 
 void RgbdOdometry::updatePointStatistics(const AlignmentResult& aligned, const Pinhole& pinhole,

@@ -50,8 +50,9 @@ struct RgbdOdometry::TrackingFrame {
   AlignmentResult aligned;
 
   // verifyPose: `aligned` corrected by the static check when moving matches carried it, and
-  // its pose as T_world_camera.
+  // its pose as T_world_camera; the camera's turn per frame interval (frameTurnDeg) [deg].
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
+  double turn_deg = -1.0;
 
   /// What track() returns; every step adds to it.
   TrackingResult result;

@@ -48,6 +48,23 @@ double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoin
   return std::atan(*median / pinhole.fx) * 180.0 / M_PI;
 }
 
+/// The pose observations of the inlier matches of `aligned` (into `ref`).
+std::vector<PoseObservation> inlierObservations(const AlignmentResult& aligned, const KeyframePoints& ref,
+                                                const FrameFeatures& features) {
+  std::vector<PoseObservation> observations;
+  for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
+    if (!aligned.inliers[m]) continue;
+    const auto f = static_cast<std::size_t>(aligned.matches[m].frame_index);
+    PoseObservation o;
+    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(aligned.matches[m].reference_index)];
+    o.uv_px = features.uv_undistorted_px[f];
+    o.level = features.keypoints[f].octave;
+    o.depth_m = features.depth_m[f];
+    observations.push_back(o);
+  }
+  return observations;
+}
+
 }  // namespace
 
 TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement,
@@ -67,6 +84,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   predictPose(&work);
   matchAndOptimise(&work);
   verifyPose(&work);
+  refineDensely(&work);
   if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
     acceptPose(&work);
     // Local map: the points' visibility and moving-point culling, then a keyframe when due.
@@ -188,7 +206,7 @@ double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
   // matches that carry the pose also switch the check off.
   double turn_deg = -1.0;
   if (motion_.hasVelocity()) {
-    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI;
+    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI / motion_.stepIntervals();
   } else if (work.aligned.success && map_.keyframe(reference_id_) != nullptr) {
     const AlignmentResult& aligned = work.aligned;
     turn_deg = imageTurnDeg(aligned.matches, aligned.matches_refer_to_fallback ? own_view_ : local_view_,
@@ -199,6 +217,7 @@ double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
 
 void RgbdOdometry::verifyPose(TrackingFrame* work) {
   const double turn_deg = frameTurnDeg(*work);
+  work->turn_deg = turn_deg;
   const bool slow = turn_deg >= 0.0 && turn_deg < options_.static_check_max_frame_rotation_deg;
   if (work->aligned.success && options_.static_check && slow && static_check_.referenceId() == reference_id_) {
     const auto t_check = Clock::now();
@@ -206,6 +225,41 @@ void RgbdOdometry::verifyPose(TrackingFrame* work) {
     work->result.times.static_check = msSince(t_check);
   }
   work->T_world_camera = work->aligned.T_camera_world.inverse();
+}
+
+void RgbdOdometry::refineDensely(TrackingFrame* work) {
+  const MapKeyframe* reference = map_.keyframe(reference_id_);
+  AlignmentResult& aligned = work->aligned;
+  if (!options_.dense_refinement || catching_up_ || !aligned.success || reference == nullptr ||
+      dense_.referenceId() != reference_id_ || !aligned.T_camera_world.matrix().allFinite() ||
+      !(work->turn_deg >= 0.0 && work->turn_deg < options_.dense_max_frame_rotation_deg)) {
+    return;
+  }
+  const auto t_dense = Clock::now();
+  const Eigen::Isometry3d T_world_reference = reference->T_world_camera;
+  const Eigen::Isometry3d T_features = aligned.T_camera_world;
+  DensePosePrior prior;
+  prior.T_current_reference = T_features * T_world_reference;
+  if (options_.dense_feature_prior_weight > 0.0) {
+    const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+    prior.information = options_.dense_feature_prior_weight *
+                        featurePoseInformation(inlierObservations(aligned, ref, work->features()), work->pinhole,
+                                               T_features, options_.scale_factor, options_.depth_baseline_m);
+  }
+  dense_.setCurrent(work->frame, work->mask);
+  const DenseAlignment dense = dense_.align(prior.T_current_reference, prior);
+  work->result.times.dense = msSince(t_dense);
+  if (!dense.success) return;
+  const Eigen::Isometry3d T_dense = dense.T_current_reference * T_world_reference.inverse();
+  const Eigen::Isometry3d correction = T_dense * T_features.inverse();
+  const double correction_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+  if (correction.translation().norm() > options_.dense_max_correction_m ||
+      correction_deg > options_.dense_max_correction_deg) {
+    return;  // left the feature pose's basin: a wrong minimum, not a refinement
+  }
+  aligned.T_camera_world = T_dense;
+  work->T_world_camera = T_dense.inverse();
+  work->result.dense_correction_m = correction.translation().norm();
 }
 
 void RgbdOdometry::acceptPose(TrackingFrame* work) {
@@ -233,8 +287,9 @@ KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
   query.frames_since_keyframe = frames_since_keyframe_;
   query.static_doubt = work.result.static_check_doubt;
   // Inter-frame rotation; unknown (0) right after lost frames.
-  query.frame_rotation_deg =
-      motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI : 0.0;
+  query.frame_rotation_deg = motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 /
+                                                         M_PI / motion_.stepIntervals()
+                                                   : 0.0;
   return selector_.decide(query);
 }
 

@@ -1,74 +1,22 @@
 /// StaticSceneCheck: dense photometric agreement and refinement against the reference keyframe.
 #include "dypho/tracking/static_scene_check.h"
 
+#include "dense_image.h"
+
 #include <algorithm>
 #include <cmath>
 
 #include <Eigen/Cholesky>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace dypho {
 namespace tracking {
 namespace {
 
-inline bool validDepth(float z) { return z > 0.1f && z < 20.f && std::isfinite(z); }
-
-/// Bilinear sample of a CV_32FC1 image; (u, v) must lie in [0, cols - 1) x [0, rows - 1).
-inline float bilinear(const cv::Mat& img, double u, double v) {
-  const int x = static_cast<int>(u), y = static_cast<int>(v);
-  const float a = static_cast<float>(u - x), b = static_cast<float>(v - y);
-  const float* r0 = img.ptr<float>(y) + x;
-  const float* r1 = img.ptr<float>(y + 1) + x;
-  return (1.f - b) * ((1.f - a) * r0[0] + a * r0[1]) + b * ((1.f - a) * r1[0] + a * r1[1]);
-}
-
-/// Grey (CV_32F), depth and mask of `frame` reduced by `scale` (a pixel is dynamic when any of
-/// the full-resolution pixels under it is), undistorted when the camera has distortion.
-void reduce(const RgbdFrame& frame, const cv::Mat& mask, double scale, UndistortMaps* maps, cv::Mat* grey,
-            cv::Mat* depth_m, cv::Mat* mask_small) {
-  const cv::Size size(std::max(8, static_cast<int>(std::lround(frame.bgr.cols * scale))),
-                      std::max(8, static_cast<int>(std::lround(frame.bgr.rows * scale))));
-  cv::Mat g8;
-  if (frame.bgr.channels() == 3) {
-    cv::cvtColor(frame.bgr, g8, cv::COLOR_BGR2GRAY);
-  } else {
-    g8 = frame.bgr;
-  }
-  cv::Mat g;
-  cv::resize(g8, g, size, 0, 0, cv::INTER_AREA);
-  g.convertTo(*grey, CV_32F);
-  cv::resize(frame.depth_m, *depth_m, size, 0, 0, cv::INTER_NEAREST);
-  if (mask.empty()) {
-    *mask_small = cv::Mat::zeros(size, CV_8UC1);
-  } else {
-    cv::resize(mask, *mask_small, size, 0, 0, cv::INTER_AREA);
-    cv::threshold(*mask_small, *mask_small, 0, 255, cv::THRESH_BINARY);
-  }
-  if (!frame.camera.distorted()) return;
-  // Undistorted onto the same scaled pinhole that the samples use (sx, sy as scaledPinhole).
-  const double sx = static_cast<double>(size.width) / frame.bgr.cols,
-               sy = static_cast<double>(size.height) / frame.bgr.rows;
-  const cv::Matx33d K(frame.camera.fx * sx, 0.0, (frame.camera.cx + 0.5) * sx - 0.5, 0.0, frame.camera.fy * sy,
-                      (frame.camera.cy + 0.5) * sy - 0.5, 0.0, 0.0, 1.0);
-  if (maps->map_x.size() != size || !sameCamera(maps->camera, frame.camera)) {  // computed once per camera
-    const cv::Mat D(1, 5, CV_64F, const_cast<double*>(frame.camera.distortion.data()));
-    cv::initUndistortRectifyMap(K, D, cv::noArray(), K, size, CV_32FC1, maps->map_x, maps->map_y);
-    maps->camera = frame.camera;
-  }
-  cv::Mat grey_out, depth_out, mask_out;  // separate outputs: remap reuses buffers
-  cv::remap(*grey, grey_out, maps->map_x, maps->map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::remap(*depth_m, depth_out, maps->map_x, maps->map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
-  // Outside the distorted image: no depth, and marked dynamic so that nothing is compared there.
-  cv::remap(*mask_small, mask_out, maps->map_x, maps->map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(255));
-  *grey = grey_out;
-  *depth_m = depth_out;
-  *mask_small = mask_out;
-}
-
-Pinhole scaledPinhole(const CameraIntrinsics& c, double sx, double sy) {
-  return Pinhole{c.fx * sx, c.fy * sy, (c.cx + 0.5) * sx - 0.5, (c.cy + 0.5) * sy - 0.5};
-}
+using dense::bilinear;
+using dense::reduce;
+using dense::scaledPinhole;
+using dense::validDepth;
 
 /// Median of `values` (reordered); 0 when empty.
 double median(std::vector<double>* values) {
@@ -228,12 +176,8 @@ void StaticSceneCheck::refineLevel(const Level& level, Eigen::Isometry3d* T_curr
     H.diagonal() *= 1.0 + 1e-4;
     const Eigen::Matrix<double, 6, 1> delta = -H.ldlt().solve(g);
     if (!delta.allFinite()) return;
-    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-    const double angle = delta.tail<3>().norm();
-    if (angle > 1e-12) step.linear() = Eigen::AngleAxisd(angle, delta.tail<3>() / angle).toRotationMatrix();
-    step.translation() = delta.head<3>();
-    *T_current_reference = step * *T_current_reference;
-    if (delta.head<3>().norm() < 1e-5 && angle < 1e-5) return;
+    *T_current_reference = dense::leftStep(delta) * *T_current_reference;
+    if (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-5) return;
   }
 }
 

@@ -42,6 +42,7 @@ void TrackingOptions::validate() const {
   requireRange("ratio_test", ratio_test, 0.0, 1.0, true);
   requireRange("search_radius_px", search_radius_px, 1.0, 200.0);
   requireRange("refine_search_radius_px", refine_search_radius_px, 0.5, 50.0);
+  requireRange("wide_search_radius_px", wide_search_radius_px, 0.0, 300.0);
   requireRange("max_level_difference", max_level_difference, 0, num_levels - 1);
   requireRange("ransac_iterations", ransac_iterations, 10, 100000);
   requireRange("ransac_reprojection_px", ransac_reprojection_px, 0.0, 50.0, true);
@@ -73,6 +74,14 @@ void TrackingOptions::validate() const {
   requireRange("static_check_min_gain", static_check_min_gain, 0.0, 1.0, true);
   requireRange("static_check_scale", static_check_scale, 0.1, 1.0);
   requireRange("static_check_max_frame_rotation_deg", static_check_max_frame_rotation_deg, 0.0, 180.0, true);
+  requireRange("dense_scale", dense_scale, 0.1, 1.0);
+  requireRange("dense_levels", dense_levels, 1, 5);
+  requireRange("dense_iterations", dense_iterations, 1, 50);
+  requireRange("dense_feature_prior_weight", dense_feature_prior_weight, 0.0, 1e6);
+  requireRange("dense_depth_sigma_per_m2", dense_depth_sigma_per_m2, 0.0, 0.1, true);
+  requireRange("dense_max_correction_m", dense_max_correction_m, 0.0, 1.0, true);
+  requireRange("dense_max_correction_deg", dense_max_correction_deg, 0.0, 180.0, true);
+  requireRange("dense_max_frame_rotation_deg", dense_max_frame_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_cull_redundant_ratio", keyframe_cull_redundant_ratio, 0.0, 1.0);
   requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
   requireRange("local_ba_iterations", local_ba_iterations, 1, 100);

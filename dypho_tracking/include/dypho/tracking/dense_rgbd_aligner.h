@@ -29,17 +29,17 @@ struct DenseAlignerSettings {
   /// Finest working resolution: the images are reduced by this factor [-]; each further level
   /// halves it.
   double scale = 0.5;
-  int levels = 3;                       ///< pyramid levels, coarse to fine [count], >= 1
-  int max_photometric_samples = 3000;   ///< photometric samples per level, most [count]
-  int max_depth_samples = 1500;         ///< depth samples per level, most [count]
-  double min_gradient = 4.0;            ///< grey-level gradient (Sobel / 8) of a photometric sample [grey levels]
-  int iterations = 8;                   ///< Gauss-Newton iterations per level, most [count]
-  double t_dof = 5.0;                   ///< degrees of freedom of the t-distribution weights (DVO-SLAM: 5) [-]
+  int levels = 3;                        ///< pyramid levels, coarse to fine [count], >= 1
+  int max_photometric_samples = 3000;    ///< photometric samples per level, most [count]
+  int max_depth_samples = 1500;          ///< depth samples per level, most [count]
+  double min_gradient = 4.0;             ///< grey-level gradient (Sobel / 8) of a photometric sample [grey levels]
+  int iterations = 8;                    ///< Gauss-Newton iterations per level, most [count]
+  double t_dof = 5.0;                    ///< degrees of freedom of the t-distribution weights (DVO-SLAM: 5) [-]
   double photometric_sigma_floor = 2.0;  ///< smallest photometric noise assumed [grey levels]
   /// Depth noise of a structured-light sensor: sigma(z) = depth_sigma_per_m2 z^2 (Khoshelham and
   /// Elberink 2012 measured 1.4e-3 for the Kinect v1), never below depth_sigma_floor_m [1/m].
   double depth_sigma_per_m2 = 1.425e-3;
-  double depth_sigma_floor_m = 0.002;   ///< smallest depth noise assumed [m]
+  double depth_sigma_floor_m = 0.002;  ///< smallest depth noise assumed [m]
   /// A residual beyond this many sigmas has no weight at all (occlusion, a mover the mask
   /// missed, a specular highlight) [-].
   double max_residual_sigmas = 6.0;
@@ -58,8 +58,8 @@ struct DensePosePrior {
 struct DenseAlignment {
   bool success = false;  ///< converged on enough samples at the finest level
   Eigen::Isometry3d T_current_reference = Eigen::Isometry3d::Identity();
-  int photometric_samples = 0;  ///< photometric residuals used at the finest level [count]
-  int depth_samples = 0;        ///< depth residuals used at the finest level [count]
+  int photometric_samples = 0;     ///< photometric residuals used at the finest level [count]
+  int depth_samples = 0;           ///< depth residuals used at the finest level [count]
   double photometric_sigma = 0.0;  ///< robust photometric noise at the finest level [grey levels]
   /// Information of the dense residuals alone at the result (no prior).
   PoseInformation information = PoseInformation::Zero();
@@ -109,8 +109,8 @@ class DenseRgbdAligner {
 
   DenseAlignerSettings settings_;
   std::int64_t reference_id_ = -1;
-  std::vector<Level> levels_;               ///< [0] finest
-  std::vector<UndistortMaps> undistort_;    ///< per level; used when the camera has distortion
+  std::vector<Level> levels_;             ///< [0] finest
+  std::vector<UndistortMaps> undistort_;  ///< per level; used when the camera has distortion
 };
 
 /// Information of the feature pose T_camera_world from its inlier observations: the sum of

@@ -40,7 +40,8 @@ struct AlignmentResult {
 
 /// Frame-to-keyframe pose estimation in three steps:
 ///  1. projection-guided matching around the predicted pose (search_radius_px) and Ceres
-///     refinement from the prediction; accepted when >= min_inliers inliers remain;
+///     refinement from the prediction; accepted when >= min_inliers inliers remain; otherwise
+///     once more over wide_search_radius_px;
 ///  2. otherwise global brute-force matching + cv::solvePnPRansac (EPnP, undistorted pixels and K)
 ///     for an initial pose, refined with Ceres on all brute-force matches;
 ///  3. a second projection pass with the small refine_search_radius_px around the pose of step
@@ -63,6 +64,11 @@ class KeyframeAligner {
                         const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true) const;
 
  private:
+  /// Projection-guided matching within `radius_px` of T_camera_world_predicted, then refine();
+  /// true when it found the pose. `num_guided`: the matches found.
+  bool guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
+                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px, bool use_verified_first,
+                  std::size_t* num_guided, AlignmentResult* result, TrackingTimesMs* times) const;
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
               const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init, bool verified_first,

@@ -16,6 +16,7 @@
 #include "dypho/common/motion_prior.h"
 #include "dypho/common/types.h"
 #include "dypho/tracking/feature_preparer.h"
+#include "dypho/tracking/dense_rgbd_aligner.h"
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/keyframe_aligner.h"
 #include "dypho/tracking/keyframe_points.h"
@@ -121,6 +122,9 @@ class RgbdOdometry {
   /// Verify: the static check of the feature pose on slow frames (checkAgainstStaticScene), then
   /// the pose as T_world_camera.
   void verifyPose(TrackingFrame* work);
+  /// Refine: the dense alignment to the reference keyframe with the feature pose as its prior
+  /// (TrackingOptions::dense_refinement); the pose is replaced when the correction is plausible.
+  void refineDensely(TrackingFrame* work);
   /// A tracked frame: the motion model, the last pose and the counters take its pose.
   void acceptPose(TrackingFrame* work);
   /// Decide keyframe: KeyframeSelector on the tracked pose against the reference keyframe.
@@ -194,6 +198,7 @@ class RgbdOdometry {
   LoopCloser loop_closer_;
   PoseOptimizer pose_optimizer_;   ///< re-estimation after the static check
   StaticSceneCheck static_check_;  ///< dense check against the reference keyframe
+  DenseRgbdAligner dense_;         ///< dense refinement against the reference keyframe
   /// Local BA in flight (local_ba_async_frames > 0); declared after local_ba_, which it uses.
   std::future<LocalBaSolution> pending_ba_;
   std::int64_t pending_ba_keyframe_id_ = -1;

@@ -62,6 +62,10 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("refine_search_radius_px", options.refine_search_radius_px,
           "Search radius of the second, refining projection pass around the first pose estimate [px at level 0]; "
           "default 4, range [0.5, 50].");
+  visitor("wide_search_radius_px", options.wide_search_radius_px,
+          "When matching around the prediction fails (a jerk of the hand, dropped frames), it is tried once more "
+          "within this radius before the global search [px at level 0]; default 0 = off (45 raised the fr1/rpy ATE), "
+          "range [0, 300]; not above search_radius_px = off.");
   visitor("max_level_difference", options.max_level_difference,
           "Projection-guided search accepts candidates whose pyramid level differs by at most this from the keyframe "
           "point's level [levels]; default 1 (ORB-SLAM), range [0, num_levels - 1].");
@@ -185,6 +189,33 @@ void visitMapPointOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("static_check_max_frame_rotation_deg", options.static_check_max_frame_rotation_deg,
           "The static check runs only while the camera turned less than this between the last two frames: motion blur "
           "and rolling-shutter skew bias the photometric comparison [deg/frame]; default 0.5, range (0, 180].");
+  visitor("dense_refinement", options.dense_refinement,
+          "Dense refinement of every tracked frame: photometric and depth residuals over the reference keyframe's "
+          "static pixels, coarse to fine, t-distribution weights, depth residuals weighted by the depth noise; the "
+          "feature pose is a prior with its own information, so both form one cost. Skipped in catch-up mode. "
+          "Default true.");
+  visitor("dense_scale", options.dense_scale,
+          "Finest working resolution of the dense refinement [-]; default 0.5, range [0.1, 1].");
+  visitor("dense_levels", options.dense_levels,
+          "Pyramid levels of the dense refinement, each half the previous [count]; default 3, range [1, 5].");
+  visitor("dense_iterations", options.dense_iterations,
+          "Gauss-Newton iterations per level of the dense refinement [count]; default 8, range [1, 50].");
+  visitor("dense_feature_prior_weight", options.dense_feature_prior_weight,
+          "Weight of the feature pose's information in the dense cost [-]; default 1, range [0, 1e6]; 0 = dense "
+          "residuals alone.");
+  visitor("dense_depth_sigma_per_m2", options.dense_depth_sigma_per_m2,
+          "Depth noise sigma(z) = k z^2 weighting the dense depth residuals [1/m]; default 1.425e-3 (Kinect v1), "
+          "range (0, 0.1].");
+  visitor("dense_max_correction_m", options.dense_max_correction_m,
+          "A dense correction moving the feature pose further than this is not taken [m]; default 0.05, range (0, "
+          "1].");
+  visitor("dense_max_correction_deg", options.dense_max_correction_deg,
+          "A dense correction turning the feature pose further than this is not taken [deg]; default 2, range (0, "
+          "180].");
+  visitor("dense_max_frame_rotation_deg", options.dense_max_frame_rotation_deg,
+          "The dense refinement runs only while the camera turned less than this per frame interval: under faster "
+          "turns motion blur and rolling-shutter skew bias the pixels more than the features [deg/frame]; default 1, "
+          "range (0, 180].");
 }
 
 /// Local BA, catching up, relocalisation, loop closure and corrections (TrackingOptions).

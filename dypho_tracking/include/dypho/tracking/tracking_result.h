@@ -46,6 +46,7 @@ struct TrackingTimesMs {
   double loop = 0;            ///< loop detection, pose graph and map correction (keyframes only) [ms]
   double relocalization = 0;  ///< relocalisation against the map's keyframes (lost frames) [ms]
   double static_check = 0;    ///< dense check against the reference keyframe's static pixels [ms]
+  double dense = 0;           ///< dense refinement against the reference keyframe [ms]
   double total = 0;           ///< whole `track` call [ms]
 };
 
@@ -101,6 +102,9 @@ struct TrackingResult {
   double static_agreement = -1.0;
   /// The static check replaced the feature pose: moving matches had carried it.
   bool static_check_corrected = false;
+  /// The dense refinement moved the feature pose by this much [m]; -1 when it did not run or
+  /// its result was not taken (TrackingOptions::dense_refinement).
+  double dense_correction_m = -1.0;
   /// Share of the reference keyframe's static samples the static check's refined pose explains
   /// beyond the feature pose when it did not replace it (too little gain, or the features
   /// contradicted it); 0 when not checked, not better, or corrected [-].
