@@ -299,6 +299,20 @@ struct TrackingOptions {
   double correction_min_translation_m = 0.001;
   /// The same for rotation [rad]; default 0.001 (0.057 deg), range [0, 1].
   double correction_min_rotation_rad = 0.001;
+
+  // --- global bundle adjustment (GlobalBundleAdjuster): every keyframe and map point ---
+  /// Run a global BA right after each closed loop (after the pose graph), synchronously on the
+  /// tracking thread; default false: it takes 0.2-2 s on a loop-sized map (about 100 keyframes),
+  /// far beyond a frame's 33 ms, and the run's final one (global_ba_at_end) adjusts the same
+  /// map again. Turn it on for offline runs where the map after the loop matters before the end.
+  bool global_ba_after_loop = false;
+  /// Run a global BA at the end of a run (RgbdOdometry::finishRun: the offline runner before it
+  /// writes trajectory.txt, the tracking nodelet at shutdown before it saves), after which the
+  /// saved trajectory follows the adjusted keyframes; default true.
+  bool global_ba_at_end = true;
+  /// Levenberg-Marquardt iterations of each of the two global BA rounds (outliers removed in
+  /// between) [count]; default 10 (ORB-SLAM's global BA), range [1, 100].
+  int global_ba_iterations = 10;
 };
 
 }  // namespace tracking
