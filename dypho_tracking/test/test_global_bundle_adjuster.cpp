@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/tracking/global_bundle_adjuster.h"
+#include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/tracker_map.h"
 
 namespace dypho {
@@ -193,6 +194,19 @@ TEST(GlobalBundleAdjuster, EmptyAndSingleKeyframeMapsAreLeftAlone) {
   EXPECT_FALSE(r.ran);
   EXPECT_TRUE(one.keyframe(0)->T_world_camera.matrix() == pose_before.matrix());
   EXPECT_TRUE(one.point(3)->p_world_m == point_before);
+}
+
+/// A tracker that has seen no frame: finishRun is a no-op, with or without the global BA.
+TEST(RgbdOdometryFinishRun, WithoutFramesDoesNothing) {
+  TrackingOptions options;
+  options.global_ba_at_end = true;
+  RgbdOdometry odometry(options);
+  const RunEnd end = odometry.finishRun();
+  EXPECT_FALSE(end.global_ba.ran);
+  EXPECT_TRUE(end.corrected_keyframes.empty());
+  EXPECT_TRUE(odometry.map().keyframes().empty());
+  options.global_ba_at_end = false;
+  EXPECT_FALSE(RgbdOdometry(options).finishRun().global_ba.ran);
 }
 
 }  // namespace
