@@ -50,7 +50,6 @@ struct SyntheticMap {
         rot(0.0, M_PI / 180.0);
     points.resize(kPoints);
     for (auto& p : points) p = Eigen::Vector3d(0.6 + ux(rng), 0.6 * ux(rng), uz(rng));
-    cv::Mat descriptors(kPoints, 32, CV_8UC1, cv::Scalar(0));
     for (int k = 0; k < kKeyframes; ++k) {
       truth.push_back(makePose(Eigen::Vector3d(0, 0.01 * k, 0), Eigen::Vector3d(0.1 * k, 0.01 * k, 0)));
       MapKeyframe kf;
@@ -76,10 +75,28 @@ struct SyntheticMap {
         kf.features.p_camera_m.push_back(p_c + Eigen::Vector3d(pos(rng), pos(rng), pos(rng)));
         kf.map_point_ids.push_back(j);
       }
-      kf.features.descriptors = descriptors.clone();
+      if (k == kSingleViewKeyframe) addSingleViewPoints(&kf);
+      kf.features.descriptors = cv::Mat(static_cast<int>(kf.map_point_ids.size()), 32, CV_8UC1, cv::Scalar(0));
       map->addKeyframe(std::move(kf));
     }
   }
+
+  /// Keyframe kSingleViewKeyframe also sees kSingleViewPoints points no other keyframe sees
+  /// (ids from kSingleViewFirstId; their camera coordinates are exact).
+  static void addSingleViewPoints(MapKeyframe* kf) {
+    for (int i = 0; i < kSingleViewPoints; ++i) {
+      const Eigen::Vector3d p_c(-0.5 + 0.05 * i, 0.2, 2.5);
+      const Eigen::Vector2d uv = testPinhole().project(p_c);
+      kf->features.keypoints.emplace_back(static_cast<float>(uv.x()), static_cast<float>(uv.y()), 31.f);
+      kf->features.uv_undistorted_px.push_back(uv);
+      kf->features.depth_m.push_back(static_cast<float>(p_c.z()));
+      kf->features.p_camera_m.push_back(p_c);
+      kf->map_point_ids.push_back(kSingleViewFirstId + i);
+    }
+  }
+  static constexpr int kSingleViewKeyframe = 6;
+  static constexpr int kSingleViewPoints = 20;
+  static constexpr std::int64_t kSingleViewFirstId = 100000;
 
   /// Mean translation error of keyframes 1.. against the truth [m].
   double meanKeyframeError(const TrackerMap& map) const {
@@ -112,11 +129,35 @@ TEST(GlobalBundleAdjuster, ReducesKeyframePoseErrorTenfold) {
   EXPECT_EQ(r.keyframes, SyntheticMap::kKeyframes);
   EXPECT_EQ(r.fixed_keyframes, 1);
   EXPECT_EQ(r.points, SyntheticMap::kPoints);
+  EXPECT_EQ(r.single_view_points, SyntheticMap::kSingleViewPoints);
   const double after = scene.meanKeyframeError(map);
   EXPECT_LT(after, before / 10.0) << "before " << before << " m, after " << after << " m";
   // Without wrong matches, at most a handful of the 4800 observations may exceed chi2 (5.99 /
   // 7.81 at 0.5 px noise: 5 % of a chi2 distribution would be 240; Huber keeps the fit robust).
   EXPECT_LT(r.removed_observations, 48);
+}
+
+/// Points seen by one keyframe are left out of the problem and move with their keyframe: their
+/// camera coordinates there are unchanged (to rounding), while the keyframe itself moved.
+TEST(GlobalBundleAdjuster, MovesSingleViewPointsWithTheirKeyframe) {
+  const TrackingOptions options = testOptions();
+  TrackerMap map(options);
+  SyntheticMap scene;
+  scene.build(&map, /*perturb_first=*/false, /*outlier_ratio=*/0.0, 23);
+  const std::int64_t k = SyntheticMap::kSingleViewKeyframe;
+  const Eigen::Isometry3d T_before = map.keyframe(k)->T_world_camera;
+  std::vector<Eigen::Vector3d> p_camera_before;
+  for (int i = 0; i < SyntheticMap::kSingleViewPoints; ++i) {
+    p_camera_before.push_back(T_before.inverse() * map.point(SyntheticMap::kSingleViewFirstId + i)->p_world_m);
+  }
+  ASSERT_TRUE(GlobalBundleAdjuster(options).adjust(&map, testPinhole()).ran);
+  const Eigen::Isometry3d T_after = map.keyframe(k)->T_world_camera;
+  ASSERT_GT(translationError(T_before, T_after), 0.005);  // the keyframe moved
+  for (int i = 0; i < SyntheticMap::kSingleViewPoints; ++i) {
+    const Eigen::Vector3d p_camera_after =
+        T_after.inverse() * map.point(SyntheticMap::kSingleViewFirstId + i)->p_world_m;
+    EXPECT_LT((p_camera_after - p_camera_before[static_cast<size_t>(i)]).norm(), 1e-9) << "point " << i;
+  }
 }
 
 /// The oldest keyframe is the gauge: even when its own pose is off (so the cost would fall by

@@ -1,6 +1,8 @@
 #include "dypho/tracking/global_bundle_adjuster.h"
 
 #include <chrono>
+#include <map>
+#include <vector>
 #include <iomanip>
 #include <sstream>
 
@@ -8,6 +10,29 @@
 
 namespace dypho {
 namespace tracking {
+
+namespace {
+
+/// The points left out of the problem (seen by one keyframe) move rigidly with their keyframe:
+/// their optimum, as they then fit their observation exactly as before. Returns how many moved.
+int moveSingleViewPoints(const std::map<std::int64_t, Eigen::Isometry3d>& moves, const LocalBaSolution& solution,
+                         TrackerMap* map) {
+  std::vector<std::int64_t> single;
+  for (const auto& [id, point] : map->points()) {
+    if (point.observations.size() == 1 && solution.p_world_m.count(id) == 0) single.push_back(id);
+  }
+  int moved = 0;
+  for (std::int64_t id : single) {
+    MapPoint* point = map->mutablePoint(id);
+    const auto move = moves.find(point->observations.begin()->first);
+    if (move == moves.end()) continue;  // the fixed keyframe's points stay
+    point->p_world_m = move->second * point->p_world_m;
+    ++moved;
+  }
+  return moved;
+}
+
+}  // namespace
 
 GlobalBundleAdjuster::GlobalBundleAdjuster(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
@@ -44,11 +69,14 @@ LocalBaProblem GlobalBundleAdjuster::prepare(const TrackerMap& map, const Pinhol
     problem.fixed[id] = id == oldest_id || extra_fixed.count(id) > 0;
     for (std::int64_t point_id : keyframe.map_point_ids) {
       if (point_id < 0 || problem.p_world_m.count(point_id) > 0) continue;
-      if (const MapPoint* point = map.point(point_id)) problem.p_world_m[point_id] = point->p_world_m;
+      // A point seen by one keyframe only fits its observation exactly wherever the keyframe is:
+      // it adds nothing to the poses and moves with its keyframe in apply().
+      const MapPoint* point = map.point(point_id);
+      if (point != nullptr && point->observations.size() >= 2) problem.p_world_m[point_id] = point->p_world_m;
     }
   }
   if (problem.p_world_m.empty()) {
-    problem.message = "no map points";
+    problem.message = "no map point seen by two keyframes";
     return problem;
   }
   addBaObservations(map, options_, &problem);
@@ -63,8 +91,15 @@ LocalBaSolution GlobalBundleAdjuster::solve(const LocalBaProblem& problem) const
 }
 
 GlobalBaResult GlobalBundleAdjuster::apply(const LocalBaSolution& solution, TrackerMap* map) const {
+  // Each free keyframe's move, T_world_new * T_world_old^-1, taken before it is written.
+  std::map<std::int64_t, Eigen::Isometry3d> moves;
+  for (const auto& [id, T_world_keyframe] : solution.T_world_keyframe) {
+    if (const MapKeyframe* keyframe = map->keyframe(id))
+      moves[id] = T_world_keyframe * keyframe->T_world_camera.inverse();
+  }
   const LocalBaResult applied = applyBundleAdjustment(solution, map);
   GlobalBaResult result;
+  if (applied.ran) result.single_view_points = moveSingleViewPoints(moves, solution, map);
   result.ran = applied.ran;
   result.keyframes = applied.optimized_keyframes + applied.fixed_keyframes;
   result.fixed_keyframes = applied.fixed_keyframes;
@@ -81,8 +116,9 @@ std::string describe(const GlobalBaResult& result) {
   if (!result.ran) {
     os << "not run (" << result.message << ")";
   } else {
-    os << result.time_ms << " ms (" << result.keyframes << " keyframes, " << result.points << " points, "
-       << result.observations << " observations, " << result.removed_observations << " outliers removed)";
+    os << result.time_ms << " ms (" << result.keyframes << " keyframes, " << result.points << " points (+"
+       << result.single_view_points << " seen once, moved with their keyframe), " << result.observations
+       << " observations, " << result.removed_observations << " outliers removed)";
   }
   return os.str();
 }
