@@ -53,11 +53,11 @@ std::string describeAfterLoop(const GlobalBaStats& stats);
 /// A point seen by a single keyframe (most of an RGB-D map: each keyframe makes points from its
 /// depth) fits its one observation exactly wherever that keyframe ends up, so it adds nothing to
 /// the poses: it is left out of the problem and moved rigidly with its keyframe afterwards (its
-/// exact optimum; 85 % of the points on TUM fr1_rpy, 3.5x less time there).
+/// exact optimum; 85 % of the points on TUM fr1_rpy: 716 -> 156 ms there, back to back).
 ///
-/// Cost grows with the observations of the multi-view points: on one core of the 2-core VM,
-/// 0.3 s for 19-26 keyframes and 3-4k observations (Bonn crowd, TUM fr1_rpy), 2.3-2.7 s for 82
-/// keyframes and 44k observations (600-frame synthetic loop).
+/// Cost grows with the observations of the multi-view points: one thread on the shared 2-core
+/// VM (the range is its load), 0.1-0.4 s for 18-26 keyframes and 3-4k observations (Bonn crowd,
+/// TUM fr1_rpy), 1.3-2.7 s for 81-82 keyframes and 43k observations (600-frame synthetic loop).
 class GlobalBundleAdjuster {
  public:
   /// Uses global_ba_iterations, local_ba_depth_baseline_m, huber_px, chi2_threshold(_depth),

@@ -256,10 +256,11 @@ void visitBackEndOptions(TrackingOptions& options, Visitor&& visitor) {
 /// Global bundle adjustment (TrackingOptions), the last block of the struct.
 template <typename Visitor>
 void visitGlobalBaOptions(TrackingOptions& options, Visitor&& visitor) {
-  visitor("global_ba_after_loop", options.global_ba_after_loop,
-          "Run a global BA (every keyframe and map point) right after each closed loop, synchronously on the tracking "
-          "thread; default false: 2.7 s on the 600-frame synthetic loop (82 keyframes), far beyond a frame's 33 ms, "
-          "and no better final trajectory when global_ba_at_end runs.");
+  visitor(
+      "global_ba_after_loop", options.global_ba_after_loop,
+      "Run a global BA (every keyframe and map point) right after each closed loop, synchronously on the tracking "
+      "thread; default false: 1.4-2.7 s on the 600-frame synthetic loop (82 keyframes), far beyond a frame's 33 ms, "
+      "and no better final trajectory when global_ba_at_end runs.");
   visitor("global_ba_at_end", options.global_ba_at_end,
           "Run a global BA at the end of a run (offline runner before trajectory.txt is written, tracking nodelet at "
           "shutdown before it saves); the saved trajectory follows the adjusted keyframes; default false: not reliably "
