@@ -86,4 +86,10 @@ FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameRepor
   return report;
 }
 
+tracking::RunEnd SlamPipeline::finishTracking() {
+  tracking::RunEnd end = tracking_.finishRun();
+  if (options_.build_map) mapping_.correctKeyframes(end.corrected_keyframes);
+  return end;
+}
+
 }  // namespace dypho::pipeline

@@ -298,6 +298,9 @@ struct RunOutputs {
   std::vector<StampedPose> trajectory;        ///< trajectory_online.txt
   std::size_t num_final_keyframes = 0;
   mapping::KeyframeEvaluation map_eval;  ///< default (zeros) with --no-map
+  /// trajectory.txt as it was before the tracker's end of run (final global BA), for the gain
+  std::vector<StampedPose> final_trajectory_before_end;
+  tracking::RunEnd run_end;  ///< the tracker's end of run (final global BA)
 };
 
 /// The pipeline options: config/*.yaml with --config on top, plus --mask and --no-map.
@@ -438,6 +441,9 @@ RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally
   // trajectory.txt: every frame re-expressed with the final pose of the keyframe it was tracked
   // against (after local BA and loop closure; what ORB-SLAM saves); trajectory_online.txt: the
   // poses as published at frame time; keyframes.txt. The final map gets the final refinement.
+  // The tracker's end of run (final global BA) comes first: trajectory.txt follows it.
+  outputs.final_trajectory_before_end = toStampedPoses(pipeline.tracking().finalTrajectory());
+  outputs.run_end = pipeline.finishTracking();
   pipeline.tracking().saveTrajectories(args.out);
   outputs.final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
   outputs.trajectory = toStampedPoses(pipeline.tracking().onlineTrajectory());
@@ -472,6 +478,8 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
             << (tally.realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
                                  "waits between the stages not counted)\n"
                                : " ms/frame median (mask + tracking + mapping)\n")
+            << "global BA:    at end " << tracking::describe(outputs.run_end.global_ba) << "; after loops "
+            << tracking::describeAfterLoop(pipeline.tracking().odometry().globalBaStats()) << "\n"
             << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n";
@@ -523,6 +531,10 @@ void evaluateRun(const Args& args, const FrameSource& source, const RunTally& ta
      << "RPE (1 s):    " << rpe_line << "\n"
      << "ATE online:   " << ate_online.rmse_m * 100
      << " cm (trajectory_online.txt, poses as published at frame time)\n";
+  if (outputs.run_end.global_ba.ran) {
+    ev << "ATE pre-GBA:  " << computeAte(outputs.final_trajectory_before_end, gt).rmse_m * 100
+       << " cm (trajectory.txt before the final global BA)\n";
+  }
   if (tally.realtime) {
     // Realtime: the ATE covers the frames that got a pose; how many did belongs beside it.
     const std::size_t n = tally.num_frames;

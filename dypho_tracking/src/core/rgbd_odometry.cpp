@@ -48,6 +48,7 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
       relocalizer_(options),
       loop_detector_(options),
       loop_closer_(options),
+      global_ba_(options),
       pose_optimizer_(options),
       static_check_(staticCheckSettings(options)),
       dense_(denseSettings(options)) {}
@@ -109,6 +110,8 @@ void RgbdOdometry::setReference(std::int64_t keyframe_id) {
 void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
                                Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& tracked_point_ids,
                                const Pinhole& pinhole, TrackingResult* result) {
+  pinhole_ = pinhole;  // for the global BA at the end of the run (finishRun)
+  has_pinhole_ = true;
   // The previous keyframe's adjustment goes into the map first; this frame was tracked against
   // the map before it, so its pose moves with the reference keyframe and its matches to points
   // removed since are dropped.
@@ -252,6 +255,7 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, 
                     std::to_string(loop.loop_keyframe_id) + " (" + std::to_string(loop.num_inliers) + " inliers, " +
                     std::to_string(correction.corrected_keyframes.size()) + " keyframes corrected, " +
                     std::to_string(correction.fused_points) + " points fused)";
+  globalBaAfterLoop(keyframe_id, result);
 }
 
 bool RgbdOdometry::cameraStill() const {

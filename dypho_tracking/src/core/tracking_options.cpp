@@ -103,6 +103,7 @@ void TrackingOptions::validate() const {
   requireRange("pose_graph_iterations", pose_graph_iterations, 1, 1000);
   requireRange("correction_min_translation_m", correction_min_translation_m, 0.0, 1.0);
   requireRange("correction_min_rotation_rad", correction_min_rotation_rad, 0.0, 1.0);
+  requireRange("global_ba_iterations", global_ba_iterations, 1, 100);
 }
 
 std::string TrackingOptions::toString() const {

@@ -41,6 +41,11 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
   return out;
 }
 
+RunEnd TrackingStage::finishRun() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return odometry_.finishRun();
+}
+
 PoseList TrackingStage::finalTrajectory() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return recorder_.finalPoses(odometry_.map());

@@ -157,14 +157,17 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   /// Shutdown order (nodelet_runtime.h): the path, diagnostics, the live tracker's threads (the
-  /// frames already prepared are still published), then the trajectory is written.
+  /// frames already prepared are still published), then the tracker's end of run (final global
+  /// BA) and the trajectory is written.
   ~TrackingNodelet() override {
     if (path_) path_->stopPublishing();
     if (diagnostics_) diagnostics_->stop();
     if (live_) live_->stop();
     if (!stage_) return;
-    rc::saveOnShutdown(getName(), params_.output_dir, stage_->numFrames() == 0, "no frame tracked",
-                       [this] { saveTrajectory(params_.output_dir); });
+    rc::saveOnShutdown(getName(), params_.output_dir, stage_->numFrames() == 0, "no frame tracked", [this] {
+      finishRun();
+      saveTrajectory(params_.output_dir);
+    });
   }
 
  private:
@@ -339,6 +342,15 @@ class TrackingNodelet : public nodelet::Nodelet {
       res.message = e.what();
     }
     return true;
+  }
+
+  /// At shutdown, before the trajectory is saved: the final global BA
+  /// (TrackingOptions::global_ba_at_end), which trajectory.txt then follows. Its keyframe
+  /// corrections are not published: the graph is going down.
+  void finishRun() {
+    const tracking::RunEnd end = stage_->finishRun();
+    NODELET_INFO_STREAM("final global BA: " << tracking::describe(end.global_ba) << ", "
+                                            << end.corrected_keyframes.size() << " keyframes corrected");
   }
 
   std::string saveTrajectory(const std::string& dir) {

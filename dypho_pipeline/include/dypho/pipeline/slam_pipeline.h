@@ -87,6 +87,11 @@ class SlamPipeline {
   /// mapping. `report`: the frame's render/mask fields; returned with the tracking ones filled.
   FrameReport handOnTracked(tracking::TrackingOutput out, FrameReport report);
 
+  /// End of the tracking, after the last frame and before the trajectories are saved and
+  /// finish(): the tracking stage's finishRun (the final global BA with
+  /// TrackingOptions::global_ba_at_end); the keyframes it moved go to mapping.
+  tracking::RunEnd finishTracking();
+
   /// End of the sequence: the mapping stage finishes its queue and runs the final refinement.
   void finish() { mapping_.finish(); }
 

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <future>
 #include <memory>
+#include <set>
 #include <string>
 #include <map>
 #include <unordered_map>
@@ -18,6 +19,7 @@
 #include "dypho/tracking/feature_preparer.h"
 #include "dypho/tracking/dense_rgbd_aligner.h"
 #include "dypho/tracking/frame_features.h"
+#include "dypho/tracking/global_bundle_adjuster.h"
 #include "dypho/tracking/keyframe_aligner.h"
 #include "dypho/tracking/keyframe_points.h"
 #include "dypho/tracking/keyframe_selector.h"
@@ -35,6 +37,16 @@
 
 namespace dypho {
 namespace tracking {
+
+/// What RgbdOdometry::finishRun did.
+struct RunEnd {
+  /// The final global BA (TrackingOptions::global_ba_at_end); ran = false when off or when the
+  /// map has nothing to adjust (message says why).
+  GlobalBaResult global_ba;
+  /// Keyframes moved since they were last reported (the local BA in flight, the global BA), for
+  /// mapping to re-anchor, as TrackingResult::corrected_keyframes.
+  KeyframePoseCorrections corrected_keyframes;
+};
 
 /// RGB-D visual odometry against a local map, with local BA, relocalisation and loop closure.
 ///
@@ -81,6 +93,16 @@ class RgbdOdometry {
   /// (TrackingResult::caught_up). Offline callers pass 0.
   TrackingResult track(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement = MaskJudgement::kUnknown,
                        const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
+
+  /// End of a run (offline runner after the last frame, nodelet at shutdown): applies the local
+  /// BA in flight, then, with TrackingOptions::global_ba_at_end, a global BA of the whole map
+  /// (GlobalBundleAdjuster). The last pose keeps its place relative to its reference keyframe
+  /// and the local-map views are rebuilt, so tracking may go on after it. Call it before saving
+  /// a trajectory: trajectories re-expressed on their keyframes (TrajectoryRecorder) follow it.
+  RunEnd finishRun();
+
+  /// Global BA calls so far (after loops and at the end), for run summaries.
+  const GlobalBaStats& globalBaStats() const { return global_ba_stats_; }
 
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).
@@ -168,6 +190,16 @@ class RgbdOdometry {
   Eigen::Isometry3d finishLocalBa(const Pinhole& pinhole, TrackingResult* result);
   /// Loop detection and correction for the newest keyframe.
   void closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, TrackingResult* result);
+  /// Global BA of the whole map (src/core/rgbd_odometry_global_ba.cpp), timed into the stats.
+  /// Holds the oldest keyframe fixed, and the first keyframe of an unanchored segment.
+  GlobalBaResult runGlobalBa();
+  /// The keyframes besides the oldest that a global BA holds fixed: the first keyframe of a
+  /// re-initialised segment not yet tied to the map by a loop (its gauge is free).
+  std::set<std::int64_t> globalBaExtraFixed() const;
+  /// After a loop (TrackingOptions::global_ba_after_loop): a global BA; the loop correction of
+  /// the odometry frame takes the current keyframe's move. The caller's correction of the last
+  /// pose and of the views (addKeyframe, finishLocalBa) covers the rest.
+  void globalBaAfterLoop(std::int64_t keyframe_id, TrackingResult* result);
   /// Makes `keyframe_id` the reference and rebuilds the local-map views.
   void setReference(std::int64_t keyframe_id);
   /// Bookkeeping after a tracked frame: visible / found counts of the local map's points, and
@@ -196,6 +228,10 @@ class RgbdOdometry {
   Relocalizer relocalizer_;
   LoopDetector loop_detector_;
   LoopCloser loop_closer_;
+  GlobalBundleAdjuster global_ba_;
+  GlobalBaStats global_ba_stats_;
+  Pinhole pinhole_;  ///< the camera of the keyframes (set with the first keyframe)
+  bool has_pinhole_ = false;
   PoseOptimizer pose_optimizer_;   ///< re-estimation after the static check
   StaticSceneCheck static_check_;  ///< dense check against the reference keyframe
   DenseRgbdAligner dense_;         ///< dense refinement against the reference keyframe

@@ -61,6 +61,11 @@ class TrackingStage {
   TrackingOutput process(const RgbdFrame& frame, const cv::Mat& mask, MaskJudgement judgement = MaskJudgement::kUnknown,
                          const PreparedFeatures* prepared = nullptr, int frames_waiting = 0);
 
+  /// End of the run, before the trajectories are saved: RgbdOdometry::finishRun (the local BA in
+  /// flight, then the final global BA with TrackingOptions::global_ba_at_end). The recorded
+  /// frames follow their keyframes; the corrections are for mapping.
+  RunEnd finishRun();
+
   /// Final trajectory: every recorded frame, following its keyframe's current pose.
   PoseList finalTrajectory() const;
   /// The poses as published at frame time.

@@ -1,0 +1,40 @@
+#pragma once
+/// \file bundle_adjustment.h
+/// The bundle-adjustment machinery shared by LocalBundleAdjuster and GlobalBundleAdjuster
+/// (private to dypho_tracking_core): one copy of the problem set-up, the solve with its chi2
+/// outlier round, and the write-back into the map. The two adjusters differ only in which
+/// keyframes they put into the problem, which they hold fixed, and the solver settings.
+
+#include "dypho/tracking/local_bundle_adjuster.h"
+#include "dypho/tracking/tracker_map.h"
+#include "dypho/tracking/tracking_options.h"
+
+namespace dypho {
+namespace tracking {
+
+/// How solveBundleAdjustment runs Ceres.
+struct BaSolverSettings {
+  int iterations = 5;   ///< Levenberg-Marquardt steps per round (two rounds) [count]
+  bool sparse = false;  ///< sparse Schur (many keyframes) instead of dense Schur (a small window)
+};
+
+/// Copies into `problem` one observation per (keyframe, point) pair of the problem's keyframes
+/// (T_world_keyframe) and points (p_world_m): undistorted keypoint, level (clamped to
+/// num_levels - 1) and measured depth.
+void addBaObservations(const TrackerMap& map, const TrackingOptions& options, LocalBaProblem* problem);
+
+/// Solves `problem`: BaReprojectionError plus BaDepthError where a depth was measured (when
+/// local_ba_depth_baseline_m > 0), whitened by scale_factor^level, Huber (huber_px); a round of
+/// `settings.iterations` LM steps, removal of the chi2 outliers (chi2_threshold, or
+/// chi2_threshold_depth with the depth term), a second round. Reads nothing else (thread-safe on
+/// distinct problems).
+LocalBaSolution solveBundleAdjustment(const LocalBaProblem& problem, const TrackingOptions& options,
+                                      const BaSolverSettings& settings);
+
+/// Writes `solution` into `map`: free keyframes' poses, points, and the outlier observations
+/// removed (a point's last observation is kept); skips keyframes, points and observations removed
+/// or re-assigned since the problem was prepared.
+LocalBaResult applyBundleAdjustment(const LocalBaSolution& solution, TrackerMap* map);
+
+}  // namespace tracking
+}  // namespace dypho

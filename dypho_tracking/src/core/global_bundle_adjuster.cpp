@@ -1,0 +1,137 @@
+#include "dypho/tracking/global_bundle_adjuster.h"
+
+#include <chrono>
+#include <map>
+#include <vector>
+#include <iomanip>
+#include <sstream>
+
+#include "bundle_adjustment.h"
+
+namespace dypho {
+namespace tracking {
+
+namespace {
+
+/// The points left out of the problem (seen by one keyframe) move rigidly with their keyframe:
+/// their optimum, as they then fit their observation exactly as before. Returns how many moved.
+int moveSingleViewPoints(const std::map<std::int64_t, Eigen::Isometry3d>& moves, const LocalBaSolution& solution,
+                         TrackerMap* map) {
+  std::vector<std::int64_t> single;
+  for (const auto& [id, point] : map->points()) {
+    if (point.observations.size() == 1 && solution.p_world_m.count(id) == 0) single.push_back(id);
+  }
+  int moved = 0;
+  for (std::int64_t id : single) {
+    MapPoint* point = map->mutablePoint(id);
+    const auto move = moves.find(point->observations.begin()->first);
+    if (move == moves.end()) continue;  // the fixed keyframe's points stay
+    point->p_world_m = move->second * point->p_world_m;
+    ++moved;
+  }
+  return moved;
+}
+
+}  // namespace
+
+GlobalBundleAdjuster::GlobalBundleAdjuster(const TrackingOptions& options) : options_(options) { options_.validate(); }
+
+GlobalBaResult GlobalBundleAdjuster::adjust(TrackerMap* map, const Pinhole& pinhole,
+                                            const std::set<std::int64_t>& extra_fixed) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  GlobalBaResult result;
+  if (map == nullptr) {
+    result.message = "no map";
+    return result;
+  }
+  const LocalBaProblem problem = prepare(*map, pinhole, extra_fixed);
+  if (!problem.message.empty()) {
+    result.message = problem.message;
+    return result;
+  }
+  result = apply(solve(problem), map);
+  result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+LocalBaProblem GlobalBundleAdjuster::prepare(const TrackerMap& map, const Pinhole& pinhole,
+                                             const std::set<std::int64_t>& extra_fixed) const {
+  LocalBaProblem problem;
+  problem.pinhole = pinhole;
+  if (map.keyframes().size() < 2) {
+    problem.message = "fewer than two keyframes";
+    return problem;
+  }
+  problem.newest_keyframe_id = map.keyframes().rbegin()->first;
+  const std::int64_t oldest_id = map.keyframes().begin()->first;
+  for (const auto& [id, keyframe] : map.keyframes()) {
+    problem.T_world_keyframe[id] = keyframe.T_world_camera;
+    problem.fixed[id] = id == oldest_id || extra_fixed.count(id) > 0;
+    for (std::int64_t point_id : keyframe.map_point_ids) {
+      if (point_id < 0 || problem.p_world_m.count(point_id) > 0) continue;
+      // A point seen by one keyframe only fits its observation exactly wherever the keyframe is:
+      // it adds nothing to the poses and moves with its keyframe in apply().
+      const MapPoint* point = map.point(point_id);
+      if (point != nullptr && point->observations.size() >= 2) problem.p_world_m[point_id] = point->p_world_m;
+    }
+  }
+  if (problem.p_world_m.empty()) {
+    problem.message = "no map point seen by two keyframes";
+    return problem;
+  }
+  addBaObservations(map, options_, &problem);
+  return problem;
+}
+
+LocalBaSolution GlobalBundleAdjuster::solve(const LocalBaProblem& problem) const {
+  BaSolverSettings settings;
+  settings.iterations = options_.global_ba_iterations;
+  settings.sparse = true;
+  return solveBundleAdjustment(problem, options_, settings);
+}
+
+GlobalBaResult GlobalBundleAdjuster::apply(const LocalBaSolution& solution, TrackerMap* map) const {
+  // Each free keyframe's move, T_world_new * T_world_old^-1, taken before it is written.
+  std::map<std::int64_t, Eigen::Isometry3d> moves;
+  for (const auto& [id, T_world_keyframe] : solution.T_world_keyframe) {
+    if (const MapKeyframe* keyframe = map->keyframe(id))
+      moves[id] = T_world_keyframe * keyframe->T_world_camera.inverse();
+  }
+  const LocalBaResult applied = applyBundleAdjustment(solution, map);
+  GlobalBaResult result;
+  if (applied.ran) result.single_view_points = moveSingleViewPoints(moves, solution, map);
+  result.ran = applied.ran;
+  result.keyframes = applied.optimized_keyframes + applied.fixed_keyframes;
+  result.fixed_keyframes = applied.fixed_keyframes;
+  result.points = applied.points;
+  result.observations = applied.observations;
+  result.removed_observations = applied.removed_observations;
+  result.message = applied.message;
+  return result;
+}
+
+std::string describe(const GlobalBaResult& result) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(1);
+  if (!result.ran) {
+    os << "not run (" << result.message << ")";
+  } else {
+    os << result.time_ms << " ms (" << result.keyframes << " keyframes, " << result.points << " points (+"
+       << result.single_view_points << " seen once, moved with their keyframe), " << result.observations
+       << " observations, " << result.removed_observations << " outliers removed)";
+  }
+  return os.str();
+}
+
+std::string describeAfterLoop(const GlobalBaStats& stats) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(1) << stats.after_loop_runs << " runs";
+  if (stats.after_loop_runs > 0) {
+    os << ", " << stats.after_loop_total_ms / stats.after_loop_runs << " ms mean, " << stats.after_loop_max_ms
+       << " ms max";
+  }
+  return os.str();
+}
+
+}  // namespace tracking
+}  // namespace dypho
