@@ -4,7 +4,7 @@
 # Usage: bench/drop_frames.sh SRC_DIR OUT_DIR every N      (removes frames N-1, 2N-1, ...: every Nth)
 #        bench/drop_frames.sh SRC_DIR OUT_DIR random P SEED (removes each frame with probability P,
 #                                                            never the first; repeatable per SEED)
-# depth.txt, groundtruth.txt and the image folders are linked unchanged.
+# Everything else (depth.txt, groundtruth.txt, masks, camera.yaml, the image folders) is linked.
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ] || [ $# -lt 4 ]; then
   awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; [ $# -ge 4 ]; exit $?
 fi
@@ -13,8 +13,8 @@ SRC="$(cd "$1" && pwd)"
 OUT="$2"
 MODE="$3"
 mkdir -p "$OUT"
-for f in depth.txt groundtruth.txt rgb depth; do
-  if [ -e "$SRC/$f" ]; then ln -sfn "$SRC/$f" "$OUT/$f"; fi
+for f in "$SRC"/*; do
+  if [ "$(basename "$f")" != rgb.txt ]; then ln -sfn "$f" "$OUT/$(basename "$f")"; fi
 done
 case "$MODE" in
   every) awk -v n="$4" '/^#/ {print; next} {k++; if (k % n != 0) print}' "$SRC/rgb.txt" > "$OUT/rgb.txt.tmp" ;;

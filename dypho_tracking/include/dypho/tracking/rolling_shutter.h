@@ -1,0 +1,35 @@
+#pragma once
+/// \file rolling_shutter.h
+/// First-order rolling-shutter compensation of a frame's keypoints: each image row is exposed at
+/// its own time, so under a fast turn the image is skewed. A keypoint seen at row v is moved to
+/// where the camera at the frame's stamp would have seen it, by the rotation the camera made in
+/// between (its angular velocity from the motion model). Translation during the readout is
+/// neglected (millimetres for a hand-held camera).
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "dypho/common/camera.h"
+#include "dypho/tracking/frame_features.h"
+
+namespace dypho {
+namespace tracking {
+
+/// Time of image row `row` (0 = top) relative to the frame's stamp [s]: rows are read out over
+/// `readout_s`, the middle row at the stamp.
+inline double rowTimeOffsetS(double row, int rows, double readout_s) {
+  return ((row + 0.5) / rows - 0.5) * readout_s;
+}
+
+/// `features` as a global shutter at the frame's stamp would have seen them: each keypoint's
+/// undistorted position is rotated by exp(omega * dt(row)) (omega_camera_rad_s: the camera's
+/// angular velocity in its own optical frame [rad/s]; rows read out over readout_s [s]), its depth
+/// read again from `depth_m` (registered to the input image, captured at the stamp) where it
+/// moved to, and its 3D point made from both. A keypoint whose new depth is missing keeps its old
+/// one. Identity for readout_s <= 0.
+FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::Mat& depth_m,
+                                       const CameraIntrinsics& camera, const Eigen::Vector3d& omega_camera_rad_s,
+                                       double readout_s);
+
+}  // namespace tracking
+}  // namespace dypho

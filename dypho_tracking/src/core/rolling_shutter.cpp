@@ -1,0 +1,47 @@
+/// First-order rolling-shutter compensation of keypoints (rolling_shutter.h).
+#include "dypho/tracking/rolling_shutter.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "dypho/tracking/pinhole.h"
+
+namespace dypho {
+namespace tracking {
+
+FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::Mat& depth_m,
+                                       const CameraIntrinsics& camera, const Eigen::Vector3d& omega_camera_rad_s,
+                                       double readout_s) {
+  FrameFeatures out = features;
+  if (!(readout_s > 0.0) || !omega_camera_rad_s.allFinite()) return out;
+  const Pinhole pinhole = Pinhole::fromIntrinsics(camera);
+  const int rows = depth_m.rows > 0 ? depth_m.rows : camera.height;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const cv::Point2f& pt = out.keypoints[i].pt;
+    const double dt_s = rowTimeOffsetS(pt.y, rows, readout_s);
+    const Eigen::Vector3d rotation = omega_camera_rad_s * dt_s;
+    const double angle = rotation.norm();
+    if (angle < 1e-12) continue;
+    // Seen at the row's time, in the camera of that time; the camera at the stamp sees the same
+    // direction rotated by the turn in between: b_stamp = R(omega dt) b_row.
+    const Eigen::Vector2d& uv = out.uv_undistorted_px[i];
+    const Eigen::Vector3d bearing = Eigen::AngleAxisd(angle, rotation / angle) * pinhole.backProject(uv, 1.0);
+    if (bearing.z() < 1e-6) continue;
+    const Eigen::Vector2d uv_stamp = pinhole.project(bearing);
+    // The depth image holds the scene at the stamp: read it where the keypoint moved to (the
+    // same shift in the input image, to first order in the distortion).
+    const int u = static_cast<int>(std::lround(pt.x + uv_stamp.x() - uv.x()));
+    const int v = static_cast<int>(std::lround(pt.y + uv_stamp.y() - uv.y()));
+    if (u >= 0 && v >= 0 && u < depth_m.cols && v < depth_m.rows) {
+      const float z = depth_m.at<float>(v, u);
+      if (std::isfinite(z) && z > 0.f) out.depth_m[i] = z;
+    }
+    out.uv_undistorted_px[i] = uv_stamp;
+    out.p_camera_m[i] = pinhole.backProject(uv_stamp, out.depth_m[i]);
+  }
+  return out;
+}
+
+}  // namespace tracking
+}  // namespace dypho
