@@ -30,8 +30,8 @@ double medianOffsetPx(const FrameFeatures& a, const FrameFeatures& b) {
     for (std::size_t j = 0; j < b.size(); ++j) {
       const double px = (a.uv_undistorted_px[i] - b.uv_undistorted_px[j]).norm();
       if (px > 30.0) continue;
-      const int d = static_cast<int>(cv::norm(a.descriptors.row(static_cast<int>(i)),
-                                              b.descriptors.row(static_cast<int>(j)), cv::NORM_HAMMING));
+      const int d = static_cast<int>(
+          cv::norm(a.descriptors.row(static_cast<int>(i)), b.descriptors.row(static_cast<int>(j)), cv::NORM_HAMMING));
       if (d < best) {
         best = d;
         best_px = px;

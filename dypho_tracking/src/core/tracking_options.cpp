@@ -22,6 +22,18 @@ void requireRange(const char* name, T value, T lo, T hi, bool lo_open = false) {
   }
 }
 
+/// The dense refinement's ranges (TrackingOptions::dense_*).
+void validateDense(const TrackingOptions& o) {
+  requireRange("dense_scale", o.dense_scale, 0.1, 1.0);
+  requireRange("dense_levels", o.dense_levels, 1, 5);
+  requireRange("dense_iterations", o.dense_iterations, 1, 50);
+  requireRange("dense_feature_prior_weight", o.dense_feature_prior_weight, 0.0, 1e6);
+  requireRange("dense_depth_sigma_per_m2", o.dense_depth_sigma_per_m2, 0.0, 0.1, true);
+  requireRange("dense_max_correction_m", o.dense_max_correction_m, 0.0, 1.0, true);
+  requireRange("dense_max_correction_deg", o.dense_max_correction_deg, 0.0, 180.0, true);
+  requireRange("dense_max_frame_rotation_deg", o.dense_max_frame_rotation_deg, 0.0, 180.0, true);
+}
+
 }  // namespace
 
 void TrackingOptions::validate() const {
@@ -74,14 +86,7 @@ void TrackingOptions::validate() const {
   requireRange("static_check_min_gain", static_check_min_gain, 0.0, 1.0, true);
   requireRange("static_check_scale", static_check_scale, 0.1, 1.0);
   requireRange("static_check_max_frame_rotation_deg", static_check_max_frame_rotation_deg, 0.0, 180.0, true);
-  requireRange("dense_scale", dense_scale, 0.1, 1.0);
-  requireRange("dense_levels", dense_levels, 1, 5);
-  requireRange("dense_iterations", dense_iterations, 1, 50);
-  requireRange("dense_feature_prior_weight", dense_feature_prior_weight, 0.0, 1e6);
-  requireRange("dense_depth_sigma_per_m2", dense_depth_sigma_per_m2, 0.0, 0.1, true);
-  requireRange("dense_max_correction_m", dense_max_correction_m, 0.0, 1.0, true);
-  requireRange("dense_max_correction_deg", dense_max_correction_deg, 0.0, 180.0, true);
-  requireRange("dense_max_frame_rotation_deg", dense_max_frame_rotation_deg, 0.0, 180.0, true);
+  validateDense(*this);
   requireRange("keyframe_cull_redundant_ratio", keyframe_cull_redundant_ratio, 0.0, 1.0);
   requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
   requireRange("local_ba_iterations", local_ba_iterations, 1, 100);

@@ -17,9 +17,7 @@ namespace tracking {
 
 /// Time of image row `row` (0 = top) relative to the frame's stamp [s]: rows are read out over
 /// `readout_s`, the middle row at the stamp.
-inline double rowTimeOffsetS(double row, int rows, double readout_s) {
-  return ((row + 0.5) / rows - 0.5) * readout_s;
-}
+inline double rowTimeOffsetS(double row, int rows, double readout_s) { return ((row + 0.5) / rows - 0.5) * readout_s; }
 
 /// `features` as a global shutter at the frame's stamp would have seen them: each keypoint's
 /// undistorted position is rotated by exp(omega * dt(row)) (omega_camera_rad_s: the camera's
