@@ -24,11 +24,11 @@ mkdir -p "$OUT"
 
 # name -> tracking options (YAML lines under tracking:)
 declare -A CONFIG=(
-  [features]=$'  dense_refinement: false'
-  [wide]=$'  dense_refinement: false\n  wide_search_radius_px: 45'
-  [dense_only]=$'  dense_feature_prior_weight: 0'
-  [dense_all]=$'  dense_max_frame_rotation_deg: 180'
-  [dense]=''
+  [features]=''
+  [wide]=$'  wide_search_radius_px: 45'
+  [dense_only]=$'  dense_refinement: true\n  dense_feature_prior_weight: 0'
+  [dense_all]=$'  dense_refinement: true\n  dense_max_frame_rotation_deg: 180'
+  [dense]=$'  dense_refinement: true'
 )
 CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense_all dense})
 DROPS=(${DYPHO_ABLATION_DROPS:-whole every15 random10})

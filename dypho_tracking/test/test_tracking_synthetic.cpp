@@ -309,7 +309,7 @@ TEST_F(SyntheticTracking, RelocalizesAfterForcedLoss) {
   }
   // Forced loss: a black frame (textureless) -> LOST with a reason, pose still finite.
   RgbdFrame black = frames_[40].frame;
-  black.bgr = cv::Mat::zeros(black.bgr.size(), CV_8UC3);
+  black.bgr = cv::Mat(black.bgr.size(), CV_8UC3, cv::Scalar::all(0));  // new pixels: the shared frame stays
   const TrackingResult lost = odometry.track(black, cv::Mat());
   EXPECT_EQ(lost.state, TrackingState::kLost);
   EXPECT_FALSE(lost.message.empty());
@@ -408,6 +408,51 @@ TEST_F(SyntheticTracking, MovingPointsStillOnlyCullsBeforeAStillCameraOnly) {
   EXPECT_EQ(run(/*still_camera=*/false, /*still_only=*/true), 0);
   EXPECT_GT(run(/*still_camera=*/false, /*still_only=*/false), 20);  // the gate is what kept them
   EXPECT_GT(run(/*still_camera=*/true, /*still_only=*/true), 20);
+}
+
+}  // namespace
+}  // namespace tracking
+}  // namespace dypho
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+/// RMS [m] of the frame-to-frame motion error: the tracked step between consecutive frames
+/// against the true one (the per-frame precision, free of drift).
+double stepErrorRmsM(const std::vector<Eigen::Isometry3d>& tracked, const std::vector<Eigen::Isometry3d>& truth) {
+  double sum_sq = 0.0;
+  for (std::size_t i = 1; i < tracked.size(); ++i) {
+    const Eigen::Isometry3d step = tracked[i - 1].inverse() * tracked[i];
+    const Eigen::Isometry3d true_step = truth[i - 1].inverse() * truth[i];
+    sum_sq += (step.translation() - true_step.translation()).squaredNorm();
+  }
+  return std::sqrt(sum_sq / static_cast<double>(tracked.size() - 1));
+}
+
+TEST_F(SyntheticTracking, DenseRefinementMakesEachFrameMorePrecise) {
+  std::vector<Eigen::Isometry3d> truth;
+  for (std::size_t i = 0; i < frames_.size(); ++i) truth.push_back(gt(static_cast<int>(i)));
+  double step_error_m[2];
+  int refined = 0;
+  for (const bool dense : {false, true}) {
+    TrackingOptions options;
+    options.dense_refinement = dense;
+    RgbdOdometry odometry(options);
+    std::vector<Eigen::Isometry3d> tracked;
+    for (const tools::SynthFrame& f : frames_) {
+      const TrackingResult r = odometry.track(f.frame, cv::Mat());
+      ASSERT_EQ(r.state, TrackingState::kOk) << r.message;
+      tracked.push_back(r.T_world_camera);
+      refined += dense && r.dense_correction_m >= 0.0;
+    }
+    step_error_m[dense] = stepErrorRmsM(tracked, truth);
+  }
+  // The half-sphere turns slowly (under the 1 deg/frame gate): most frames are refined.
+  EXPECT_GT(refined, static_cast<int>(frames_.size()) / 2);
+  // The pixels pin what the features leave loose: measured 3.8 -> 1.9 mm here (59 of 60 frames
+  // refined; 0.44 -> 0.24 cm on the 300-frame seed-1 room with people); bound: a quarter less.
+  EXPECT_LT(step_error_m[1], 0.75 * step_error_m[0]) << "features " << step_error_m[0] << " m";
 }
 
 }  // namespace

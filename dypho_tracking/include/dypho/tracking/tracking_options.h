@@ -228,8 +228,12 @@ struct TrackingOptions {
   /// residuals over the static pixels, coarse to fine, with t-distribution weights and depth
   /// residuals weighted by the depth noise (dense_depth_sigma_per_m2). The feature pose enters as
   /// a prior with its information (dense_feature_prior_weight), so features and pixels form one
-  /// cost. Skipped in catch-up mode. Default true.
-  bool dense_refinement = true;
+  /// cost. Skipped in catch-up mode. Default false: over the shared sequences whole, with every
+  /// 15th frame removed and with 10 % removed at random (bench/precision_ablation.sh), the mean
+  /// ATE went 1.90 -> 1.41 cm on Bonn with the detector and 4.45 -> 4.02 cm on fr1/rpy without a
+  /// mask, but 4.29 -> 6.36 cm on fr1/rpy and 1.85 -> 1.95 cm on Bonn with the flow mask (the
+  /// product's default).
+  bool dense_refinement = false;
   /// Finest working resolution of the dense refinement [-]; default 0.5, range [0.1, 1].
   double dense_scale = 0.5;
   /// Pyramid levels of the dense refinement, each half the previous [count]; default 3, range [1, 5].
