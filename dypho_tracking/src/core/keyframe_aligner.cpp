@@ -67,6 +67,16 @@ std::vector<bool> verifiedMatches(const KeyframePoints& reference, const std::ve
 
 }  // namespace
 
+PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame) {
+  const auto f = static_cast<std::size_t>(match.frame_index);
+  PoseObservation o;
+  o.p_world_m = reference.p_world_m[static_cast<std::size_t>(match.reference_index)];
+  o.uv_px = frame.uv_undistorted_px[f];
+  o.level = frame.keypoints[f].octave;
+  o.depth_m = frame.depth_m[f];
+  return o;
+}
+
 KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
     : options_(options), matcher_(options), optimizer_(options) {}
 
@@ -75,14 +85,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
                              bool use_verified_first, AlignmentResult* result) const {
   std::vector<PoseObservation> observations;
   observations.reserve(matches.size());
-  for (const FeatureMatch& m : matches) {
-    PoseObservation o;
-    o.p_world_m = reference.p_world_m[static_cast<size_t>(m.reference_index)];
-    o.uv_px = frame.uv_undistorted_px[static_cast<size_t>(m.frame_index)];
-    o.level = frame.keypoints[static_cast<size_t>(m.frame_index)].octave;
-    o.depth_m = frame.depth_m[static_cast<size_t>(m.frame_index)];
-    observations.push_back(o);
-  }
+  for (const FeatureMatch& m : matches) observations.push_back(observationOf(m, reference, frame));
   // Probation: the verified points estimate the pose first; an unverified match that disagrees
   // with it takes no part (a verdict against its point), the others join the final estimate.
   const std::vector<bool> is_verified = verifiedMatches(reference, matches);

@@ -37,13 +37,7 @@ ExplainedMatches explainedMatches(const AlignmentResult& aligned, const Keyframe
                                   const Eigen::Isometry3d& T_dense, const TrackingOptions& options) {
   ExplainedMatches explained;
   for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
-    const FeatureMatch& match = aligned.matches[m];
-    const auto f = static_cast<std::size_t>(match.frame_index);
-    PoseObservation o;
-    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(match.reference_index)];
-    o.uv_px = features.uv_undistorted_px[f];
-    o.level = features.keypoints[f].octave;
-    o.depth_m = features.depth_m[f];
+    const PoseObservation o = observationOf(aligned.matches[m], ref, features);
     const Eigen::Vector3d p_c = T_dense * o.p_world_m;
     if (p_c.z() < 1e-3) continue;
     const double radius_px = options.refine_search_radius_px * std::pow(options.scale_factor, std::max(0, o.level));

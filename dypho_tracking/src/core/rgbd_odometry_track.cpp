@@ -53,14 +53,7 @@ std::vector<PoseObservation> inlierObservations(const AlignmentResult& aligned, 
                                                 const FrameFeatures& features) {
   std::vector<PoseObservation> observations;
   for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
-    if (!aligned.inliers[m]) continue;
-    const auto f = static_cast<std::size_t>(aligned.matches[m].frame_index);
-    PoseObservation o;
-    o.p_world_m = ref.p_world_m[static_cast<std::size_t>(aligned.matches[m].reference_index)];
-    o.uv_px = features.uv_undistorted_px[f];
-    o.level = features.keypoints[f].octave;
-    o.depth_m = features.depth_m[f];
-    observations.push_back(o);
+    if (aligned.inliers[m]) observations.push_back(observationOf(aligned.matches[m], ref, features));
   }
   return observations;
 }

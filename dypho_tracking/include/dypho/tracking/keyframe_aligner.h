@@ -38,6 +38,10 @@ struct AlignmentResult {
   std::string message;  ///< why it failed; empty on success
 };
 
+/// The pose observation of `match`: its reference point in the world, the frame keypoint's
+/// undistorted pixel, pyramid level and measured depth.
+PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame);
+
 /// Frame-to-keyframe pose estimation in three steps:
 ///  1. projection-guided matching around the predicted pose (search_radius_px) and Ceres
 ///     refinement from the prediction; accepted when >= min_inliers inliers remain; otherwise
