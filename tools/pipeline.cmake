@@ -16,15 +16,24 @@ if(TARGET dypho_tools AND TARGET dypho_mask_core AND TARGET dypho_tracking_core 
   endif()
   dypho_set_warnings(dypho_frame_source)
 
+  # dypho_map_views: a saved map scored at every Nth frame of a sequence (the runner and
+  # dypho_evaluate_map).
+  add_library(dypho_map_views src/map_views.cpp)
+  target_link_libraries(dypho_map_views PUBLIC dypho_frame_source dypho_mapping_core)
+  dypho_set_warnings(dypho_map_views)
+
   add_executable(dypho_run_dataset apps/run_dataset_main.cpp)
-  target_link_libraries(dypho_run_dataset dypho_pipeline dypho_frame_source)
+  target_link_libraries(dypho_run_dataset dypho_pipeline dypho_frame_source dypho_map_views)
   dypho_set_warnings(dypho_run_dataset)
+  add_executable(dypho_evaluate_map apps/evaluate_map_main.cpp)
+  target_link_libraries(dypho_evaluate_map dypho_pipeline dypho_map_views)
+  dypho_set_warnings(dypho_evaluate_map)
 
   if(DYPHO_WITH_ROS)
-    install(TARGETS dypho_frame_source LIBRARY DESTINATION ${DYPHO_LIB_DEST} ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
-    install(TARGETS dypho_run_dataset RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+    install(TARGETS dypho_frame_source dypho_map_views LIBRARY DESTINATION ${DYPHO_LIB_DEST} ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
+    install(TARGETS dypho_run_dataset dypho_evaluate_map RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
   else()
-    install(TARGETS dypho_frame_source dypho_run_dataset
+    install(TARGETS dypho_frame_source dypho_map_views dypho_run_dataset dypho_evaluate_map
             RUNTIME DESTINATION ${DYPHO_BIN_DEST} LIBRARY DESTINATION ${DYPHO_LIB_DEST}
             ARCHIVE DESTINATION ${DYPHO_LIB_DEST})
   endif()

@@ -126,6 +126,8 @@ class RealtimeRun {
     f.index = t.ready.frame.index;
     f.mask_source = t.ready.source;
     f.mask_wait_ms = t.live.mask_wait_ms;
+    const int keep = options_.keep_masks_every_nth;
+    if (keep > 0 && t.ready.mask && f.index % static_cast<std::size_t>(keep) == 0) f.mask = t.ready.mask->mask;
     f.report = pipeline_.handOnTracked(std::move(t.output), maskReportOf(t.ready));
     f.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t.ready.frame.released).count();
     std::lock_guard<std::mutex> lock(result_mutex_);
@@ -234,6 +236,10 @@ void RealtimeOptions::validate() const {
   }
   if (prefetch_frames < 1) {
     throw std::invalid_argument("realtime prefetch_frames must be >= 1 (got " + std::to_string(prefetch_frames) + ")");
+  }
+  if (keep_masks_every_nth < 0) {
+    throw std::invalid_argument("realtime keep_masks_every_nth must be >= 0 (got " +
+                                std::to_string(keep_masks_every_nth) + ")");
   }
   if (queue_capacity_frames < 1) {
     throw std::invalid_argument("realtime queue_capacity_frames must be >= 1 (got " +

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -35,10 +36,13 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/tools/frame_source.h"
+#include "dypho/tools/map_views.h"
+#include "dypho/mapping/gaussian_map_io.h"
 #include "dypho/common/trajectory_io.h"
 #include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
+#include "realtime_report.h"
 #include "timing_csv.h"
 
 namespace {
@@ -50,7 +54,9 @@ std::atomic<bool> g_stop{false};
 void onStopSignal(int) { g_stop = true; }
 using namespace dypho::tools;
 using namespace dypho::pipeline;
+using dypho::run_dataset::realtimeSummary;
 using dypho::run_dataset::TimingRow;
+using dypho::run_dataset::writeRealtimeCsv;
 using dypho::run_dataset::writeTiming;
 
 struct Args {
@@ -68,12 +74,13 @@ struct Args {
   bool realtime = false;                       ///< --realtime: frames at their stamps, live policy
   pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue
   bool realtime_option_given = false;          ///< one of those was given (needs --realtime)
+  int eval_every = 10;                         ///< --eval-every: map views scored (0: none)
 };
 
 void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
         "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
-        "                         [--no-eval] [--no-map] [--quiet]\n"
+        "                         [--no-eval] [--no-map] [--eval-every N] [--quiet]\n"
         "                         [--realtime [--realtime-speed S] [--realtime-queue N]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
@@ -82,6 +89,7 @@ void usage(std::ostream& os) {
         "              corrections of their keyframe), trajectory_online.txt (poses at frame time),\n"
         "              keyframes.txt, timing.csv, map.pcd,\n"
         "              map.ply (3D Gaussian map), map_render/kf_<id>.png (input | rendered),\n"
+        "              view_evaluation.txt (the map at every Nth frame, see --eval-every),\n"
         "              and with ground truth: evaluation.txt, trajectory.png\n"
         "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
         "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
@@ -89,6 +97,9 @@ void usage(std::ostream& os) {
         "  --no-map    mask and tracking only: no map is built, trained or written (no map.pcd,\n"
         "              map.ply, map_render/, map PSNR; R_d has no map to render), for trajectory\n"
         "              benchmarks; the trajectory is the same as with the map unless R_d is on\n"
+        "  --eval-every N  the saved map is rendered at the final pose of every Nth frame and scored on\n"
+        "              its static pixels (the mask tracking used, dilated): PSNR, SSIM, depth L1 and\n"
+        "              coverage (opacity >= 0.5), keyframes and novel views apart; default 10, 0 = off\n"
         "  --save-masks  writes the mask tracking used for each frame to OUT/mask/<stamp>.png (8-bit,\n"
         "              255 = dynamic) and OUT/mask.txt (the dypho_synth layout: --mask gt reads it back)\n"
         "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
@@ -149,7 +160,11 @@ Args parseArgs(int argc, char** argv) {
       a.quiet = true;
     else if (k == "--print-config")
       a.print_config = true;
-    else if (k == "--save-masks")
+    else if (k == "--eval-every") {
+      const double n = parseNumber(k, value());
+      if (n != std::floor(n) || n < 0 || n > 1e6) throw std::runtime_error("--eval-every needs a whole number >= 0");
+      a.eval_every = static_cast<int>(n);
+    } else if (k == "--save-masks")
       a.save_masks = true;
     else if (k == "--realtime")
       a.realtime = true;
@@ -177,6 +192,7 @@ Args parseArgs(int argc, char** argv) {
   if (a.realtime_option_given && !a.realtime) {
     throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
   }
+  a.realtime_options.keep_masks_every_nth = a.build_map ? a.eval_every : 0;
   try {
     a.realtime_options.validate();
   } catch (const std::invalid_argument& e) {
@@ -239,57 +255,19 @@ class MaskWriter {
   std::string lines_;
 };
 
-/// realtime.csv: one row per frame of the sequence: what happened to it in the realtime run.
-void writeRealtimeCsv(const std::string& path, const RealtimeResult& r, std::size_t num_frames) {
-  std::vector<std::string> fate(num_frames, "unreadable");  // never released: the loader failed
-  std::vector<double> latency_ms(num_frames, -1.0);
-  for (const RealtimeProcessedFrame& f : r.processed) {
-    fate[f.index] = f.report.dropped ? "rejected_stamp" : "posed";
-    if (!f.report.dropped) latency_ms[f.index] = f.latency_ms;
-  }
-  for (std::size_t i : r.dropped_before_tracking) fate[i] = "dropped_before_tracking";
-  if (r.stopped) {
-    // Frames after a stop were never released.
-    std::vector<bool> released(num_frames, false);
-    for (const RealtimeProcessedFrame& f : r.processed) released[f.index] = true;
-    for (std::size_t i : r.dropped_before_tracking) released[i] = true;
-    for (std::size_t i = 0; i < num_frames; ++i) {
-      if (!released[i] && fate[i] == "unreadable") fate[i] = "not_released";
-    }
-  }
-  writeFileAtomically(path, [&](std::ostream& os) {
-    os << "frame,fate,latency_ms\n" << std::fixed << std::setprecision(3);
-    for (std::size_t i = 0; i < num_frames; ++i) os << i << ',' << fate[i] << ',' << latency_ms[i] << '\n';
-  });
-}
-
-/// The realtime run in two lines for the summary.
-std::string realtimeSummary(const RealtimeResult& r, std::size_t num_frames, const RealtimeOptions& o) {
-  std::ostringstream os;
-  os << std::fixed << "realtime:     " << r.frames_in << " frames in, " << r.processed.size() << " processed ("
-     << r.framesPosed() << " posed, " << std::setprecision(3)
-     << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
-     << " of the sequence), " << r.framesDropped() << " dropped, no pose; "
-     << r.framesWithMask(tracking::MaskSource::kCarried) << " with a carried mask, " << r.masks_skipped.size()
-     << " skipped by the mask; " << r.late_releases << " released late (reading fell behind)\n"
-     << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
-     << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
-     << ", mask queue " << o.queue_capacity_frames << ", " << std::setprecision(1) << r.wall_s
-     << " s wall; per frame: realtime.csv";
-  return os.str();
-}
-
 /// Every frame's outcome, gathered by either frame loop (deterministic or realtime).
 struct RunTally {
   std::size_t num_frames = 0;  ///< frames asked for: the sequence, cut to --max-frames
   std::size_t processed = 0;   ///< frames read and handed to the pipeline
   std::size_t lost = 0;        ///< posed frames whose tracking state was not kOk
   std::size_t num_keyframes = 0;
-  std::vector<TimingRow> rows;             ///< one per posed frame (timing.csv)
-  std::vector<double> totals;              ///< work per posed frame [ms], for the median
-  std::vector<std::string> unreadable;     ///< frames skipped because their files could not be read
-  std::vector<std::string> out_of_order;   ///< frames dropped for a repeated or late stamp (stamp_gate.h)
-  std::optional<RealtimeResult> realtime;  ///< --realtime only
+  std::vector<TimingRow> rows;                ///< one per posed frame (timing.csv)
+  std::vector<double> totals;                 ///< work per posed frame [ms], for the median
+  std::vector<std::string> unreadable;        ///< frames skipped because their files could not be read
+  std::vector<std::string> out_of_order;      ///< frames dropped for a repeated or late stamp (stamp_gate.h)
+  std::optional<RealtimeResult> realtime;     ///< --realtime only
+  std::map<std::size_t, cv::Mat> view_masks;  ///< the mask of every --eval-every'th frame, by index
+  std::vector<double> keyframe_stamps_s;      ///< frames that became keyframes
 };
 
 /// What the outputs step hands to the summary and the evaluation.
@@ -298,6 +276,7 @@ struct RunOutputs {
   std::vector<StampedPose> trajectory;        ///< trajectory_online.txt
   std::size_t num_final_keyframes = 0;
   mapping::KeyframeEvaluation map_eval;  ///< default (zeros) with --no-map
+  std::optional<MapViewRun> views;       ///< the map at every --eval-every'th frame (map built)
   /// trajectory.txt as it was before the tracker's end of run (final global BA), for the gain
   std::vector<StampedPose> final_trajectory_before_end;
   tracking::RunEnd run_end;  ///< the tracker's end of run (final global BA)
@@ -346,7 +325,10 @@ void tallyPosedFrame(RunTally& tally, std::size_t index, double stamp_s, double 
                      double total_ms) {
   const auto& tr = report.tracking;
   if (tr.state != tracking::TrackingState::kOk) ++tally.lost;
-  if (tr.keyframe) ++tally.num_keyframes;
+  if (tr.keyframe) {
+    ++tally.num_keyframes;
+    tally.keyframe_stamps_s.push_back(stamp_s);
+  }
   tally.rows.push_back({index, stamp_s, load_ms, report, total_ms});
   tally.totals.push_back(total_ms);
 }
@@ -377,6 +359,7 @@ void runRealtimeFrames(const Args& args, const FrameSource& source, SlamPipeline
     // Work on this frame, not the waits between the stages: render + mask + tracking + mapping.
     const double work_ms = f.report.render_ms + f.report.mask_ms + tr.times.total + f.report.mapping_ms;
     tallyPosedFrame(tally, f.index, timestampToSeconds(tr.stamp_ns), load_ms[f.index], f.report, work_ms);
+    if (!f.mask.empty()) tally.view_masks[f.index] = f.mask;
   }
   writeRealtimeCsv(args.out + "/realtime.csv", *tally.realtime, n);
 }
@@ -402,6 +385,8 @@ void runDeterministicFrames(const Args& args, const FrameSource& source, SlamPip
     MaskedFrame masked = pipeline.maskFrame(sf.frame, sf.mask);
     if (args.save_masks && !masked.report.dropped)
       mask_writer.write(sf.frame.stamp_ns, masked.mask, sf.frame.bgr.size());
+    if (args.build_map && args.eval_every > 0 && i % static_cast<std::size_t>(args.eval_every) == 0)
+      tally.view_masks[i] = masked.mask.clone();
     FrameReport report = pipeline.trackFrame(std::move(masked));
     const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
     if (report.dropped) {  // repeated or late stamp in the list: counted and named, no pose
@@ -459,6 +444,25 @@ RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally
   return outputs;
 }
 
+/// --eval-every: the saved map.ply rendered at the final pose of every Nth frame and scored on its
+/// static pixels; writes view_evaluation.txt. Frames whose mask was not kept are not scored.
+MapViewRun scoreMapViews(const Args& args, const FrameSource& source, SlamPipeline& pipeline, const RunTally& tally,
+                         const RunOutputs& outputs) {
+  if (!args.quiet) std::cerr << "scoring the map at every " << args.eval_every << "th frame...\n";
+  const mapping::GaussianMapperOptions& o = pipeline.mapping().gaussians().options();
+  const mapping::GaussianMap map = mapping::loadGaussianPly(args.out + "/map.ply", o.sh_degree, o.max_gaussians);
+  mapping::ViewEvaluationOptions view_options;
+  view_options.every_nth_frame = args.eval_every;
+  const ViewMaskLookup mask_of = [&](std::size_t index, Timestamp) {
+    const auto it = tally.view_masks.find(index);
+    return it == tally.view_masks.end() ? cv::Mat() : it->second;
+  };
+  MapViewRun views = evaluateMapViews(map, source, tally.num_frames, outputs.final_trajectory, tally.keyframe_stamps_s,
+                                      mask_of, view_options, o.resolvedNumThreads());
+  mapping::writeViewEvaluation(args.out + "/view_evaluation.txt", views.evaluation);
+  return views;
+}
+
 /// The summary on stdout: frames, skips and drops, the realtime run, the mask prior, the time per
 /// frame, the files written and the map.
 void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& tally, const RunOutputs& outputs) {
@@ -493,7 +497,12 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
               << map_stats.gaussians.iterations << " iterations, " << map_stats.gaussians.corrected_keyframes
               << " keyframe re-anchorings)\n"
               << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
-              << map_eval.num_keyframes << " keyframes), depth L1 " << map_eval.depth_l1_m * 100.0 << " cm\n";
+              << map_eval.num_keyframes << " keyframes, training resolution), depth L1 " << map_eval.depth_l1_m * 100.0
+              << " cm\n";
+    if (outputs.views) {
+      std::cout << outputs.views->evaluation.report() << "              " << outputs.views->notes() << "; " << args.out
+                << "/view_evaluation.txt\n";
+    }
   }
 }
 
@@ -568,7 +577,8 @@ int run(const Args& args) {
   MaskWriter mask_writer(args.out);
   const RunTally tally = runFrames(args, *source, pipeline, mask_writer, n);
 
-  const RunOutputs outputs = writeOutputs(args, pipeline, tally, mask_writer);
+  RunOutputs outputs = writeOutputs(args, pipeline, tally, mask_writer);
+  if (args.build_map && args.eval_every > 0) outputs.views = scoreMapViews(args, *source, pipeline, tally, outputs);
   printRunSummary(args, pipeline, tally, outputs);
   evaluateRun(args, *source, tally, outputs);
   return g_stop ? 130 : 0;  // 130: stopped by SIGINT, outputs written

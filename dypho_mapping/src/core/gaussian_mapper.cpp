@@ -133,10 +133,12 @@ double GaussianMapper::liveIteration() {
 
 void GaussianMapper::runJob(const MappingJob& job) {
   try {
+    // Every keyframe is seeded (cheap); a merged job (live, mapping behind) trains as one.
+    for (const KeyframeConstPtr& keyframe : job.keyframes) report(addKeyframe(*keyframe).message);
     if (!job.corrections.empty()) applyCorrections(job.corrections);
-    if (!job.keyframe) return;
-    report(addKeyframe(*job.keyframe).message);
-    for (int i = 0; i < options_.iterations_per_keyframe && !worker_->stopping() && !hurry_; ++i) {
+    if (job.keyframes.empty()) return;
+    const int iterations = options_.iterations_per_keyframe * static_cast<int>(job.keyframes.size());
+    for (int i = 0; i < iterations && !worker_->stopping() && !hurry_; ++i) {
       // Live: the next job waits, so this keyframe gets fewer iterations (idle time adds more).
       if (live_ && i >= options_.live_min_iterations_per_keyframe && worker_->queued() > 0) break;
       if (live_) {
@@ -148,7 +150,7 @@ void GaussianMapper::runJob(const MappingJob& job) {
   } catch (const std::exception& e) {
     report(std::string("mapping worker: ") + e.what());
   }
-  if (job.keyframe) publishSnapshot(job.keyframe->id);
+  if (!job.keyframes.empty()) publishSnapshot(job.keyframes.back()->id);
 }
 
 void GaussianMapper::publishSnapshot(std::int64_t keyframe_id) {
@@ -182,7 +184,7 @@ MapSnapshot GaussianMapper::waitForSnapshot(std::int64_t keyframe_id) const {
 
 bool GaussianMapper::enqueueKeyframe(KeyframeConstPtr keyframe, bool block_when_full) {
   if (!keyframe) return false;
-  if (worker_) return worker_->push(MappingJob{std::move(keyframe), {}}, block_when_full);
+  if (worker_) return worker_->push(MappingJob{{std::move(keyframe)}, {}}, block_when_full);
   report(addKeyframe(*keyframe).message);
   optimize(options_.iterations_per_keyframe);
   publishSnapshot(keyframe->id);
@@ -192,7 +194,7 @@ bool GaussianMapper::enqueueKeyframe(KeyframeConstPtr keyframe, bool block_when_
 void GaussianMapper::enqueueCorrections(KeyframePoseCorrections corrections, bool block_when_full) {
   if (corrections.empty()) return;
   if (worker_) {
-    worker_->push(MappingJob{nullptr, std::move(corrections)}, block_when_full);
+    worker_->push(MappingJob{{}, std::move(corrections)}, block_when_full);
   } else {
     applyCorrections(corrections);
   }
@@ -309,7 +311,7 @@ GaussianMapperStats GaussianMapper::stats() const {
   }
   if (worker_) {
     s.queued = worker_->queued();
-    s.dropped_keyframes = worker_->dropped();
+    s.merged_jobs = worker_->merged();
   }
   return s;
 }

@@ -37,14 +37,14 @@ bool MappingStage::addKeyframe(KeyframeConstPtr keyframe) {
     ++counters_.keyframes_received;
   }
   const bool deterministic = mode_ == MappingMode::kDeterministic;
-  const bool kept_all = gaussians_.enqueueKeyframe(std::move(keyframe), /*block_when_full=*/deterministic);
+  const bool own_job = gaussians_.enqueueKeyframe(std::move(keyframe), /*block_when_full=*/deterministic);
   if (deterministic && previous >= 0) {
     // R_d from the map after the previous keyframe's job: the worker trains this one meanwhile.
     MapSnapshot snapshot = gaussians_.waitForSnapshot(previous);
     std::lock_guard<std::mutex> lock(mutex_);
     render_snapshot_ = std::move(snapshot);
   }
-  return kept_all;
+  return own_job;
 }
 
 void MappingStage::correctKeyframes(const KeyframePoseCorrections& corrections) {

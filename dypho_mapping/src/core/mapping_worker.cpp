@@ -2,6 +2,7 @@
 #include "dypho/mapping/mapping_worker.h"
 
 #include <algorithm>
+#include <iterator>
 
 #include "dypho/common/thread_budget.h"
 
@@ -18,33 +19,32 @@ MappingWorker::MappingWorker(std::size_t capacity, std::function<void(const Mapp
 
 MappingWorker::~MappingWorker() { stop(); }
 
+void MappingJob::merge(MappingJob&& later) {
+  keyframes.insert(keyframes.end(), std::make_move_iterator(later.keyframes.begin()),
+                   std::make_move_iterator(later.keyframes.end()));
+  corrections.insert(corrections.end(), later.corrections.begin(), later.corrections.end());
+}
+
 bool MappingWorker::push(MappingJob job, bool block_when_full) {
-  bool kept_all = true;
+  bool own_job = true;
   {
     std::unique_lock<std::mutex> lock(mutex_);
     if (stop_) return false;
     if (block_when_full) {
       cv_.wait(lock, [&] { return stop_ || queue_.size() < capacity_; });
       if (stop_) return false;
-    } else if (queue_.size() >= capacity_ && job.keyframe) {
-      const auto oldest =
-          std::find_if(queue_.begin(), queue_.end(), [](const MappingJob& j) { return j.keyframe != nullptr; });
-      if (oldest != queue_.end()) {
-        if (oldest->corrections.empty()) {
-          queue_.erase(oldest);
-          queued_ = queue_.size();
-        } else {
-          oldest->keyframe.reset();  // keep its corrections
-        }
-        ++dropped_;
-        kept_all = false;
-      }
     }
-    queue_.push_back(std::move(job));
+    if (!block_when_full && queue_.size() >= capacity_) {
+      queue_.back().merge(std::move(job));  // in order: it would have run right after that one
+      ++merged_;
+      own_job = false;
+    } else {
+      queue_.push_back(std::move(job));
+    }
     queued_ = queue_.size();
   }
   cv_.notify_all();
-  return kept_all;
+  return own_job;
 }
 
 void MappingWorker::loop() {
@@ -107,6 +107,6 @@ void MappingWorker::stop() {
 
 std::size_t MappingWorker::queued() const { return queued_; }
 
-std::size_t MappingWorker::dropped() const { return dropped_; }
+std::size_t MappingWorker::merged() const { return merged_; }
 
 }  // namespace dypho::mapping

@@ -57,7 +57,7 @@ struct MappingRosParams {
   /// rendered/color and rendered/depth at this fraction of the input resolution, (0, 1]; below 1
   /// for a viewer on another host (0.5 = a quarter of the bytes)
   double rendered_scale = 1.0;
-  int keyframe_queue_size = 8;  ///< jobs waiting for the worker before the oldest keyframe is dropped
+  int keyframe_queue_size = 8;  ///< jobs waiting for the worker; beyond it a new job joins the newest waiting one
   /// R_d is rendered at this fraction of the input resolution: the mask's background_scale
   double predicted_depth_scale = 0.5;
   /// where save_map writes (requests name folders inside it) and the map is saved on shutdown
@@ -202,9 +202,9 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         frame_id_ = msg->header.frame_id;
       }
       if (!stage_->addKeyframe(std::move(keyframe))) {
-        NODELET_WARN_STREAM_THROTTLE(5.0, "Gaussian mapping is behind: dropped the oldest queued keyframe ("
-                                              << stage_->stats().gaussians.dropped_keyframes << " so far); raise "
-                                              << "~keyframe_queue_size or lower ~iterations_per_keyframe");
+        NODELET_WARN_STREAM_THROTTLE(10.0, "Gaussian mapping is behind: the keyframe joined a waiting job ("
+                                               << stage_->stats().gaussians.merged_jobs << " merges so far); "
+                                               << "every keyframe is seeded, training is shared out");
       }
       changed_ = true;
     } catch (const std::exception& e) {
@@ -399,13 +399,14 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       const double dt = (now - last_diagnosis_).toSec();
       if (dt > 0) iterations_per_s = static_cast<double>(s.gaussians.iterations - iterations_at_last_diagnosis_) / dt;
     }
-    const std::size_t dropped_now = s.gaussians.dropped_keyframes - dropped_at_last_diagnosis_;
+    const std::size_t merged_now = s.gaussians.merged_jobs - merged_at_last_diagnosis_;
     last_diagnosis_ = now;
     iterations_at_last_diagnosis_ = s.gaussians.iterations;
-    dropped_at_last_diagnosis_ = s.gaussians.dropped_keyframes;
-    if (dropped_now > 0) {
+    merged_at_last_diagnosis_ = s.gaussians.merged_jobs;
+    if (merged_now > 0) {
       stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
-                    "%zu keyframes dropped since the last report: mapping is behind (queue full)", dropped_now);
+                    "%zu jobs merged since the last report: mapping is behind (keyframes seeded, training shared)",
+                    merged_now);
     } else if (s.keyframes_received == 0) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "waiting for the first keyframe");
     } else {
@@ -418,7 +419,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     stat.add("keyframes in the map", s.gaussians.num_keyframes);
     stat.add("keyframes with images", s.gaussians.num_stored_images);
     stat.add("jobs queued", s.gaussians.queued);
-    stat.add("keyframes dropped", s.gaussians.dropped_keyframes);
+    stat.add("jobs merged (mapping behind)", s.gaussians.merged_jobs);
     stat.add("keyframes skipped", s.gaussians.skipped_keyframes);
     stat.add("last loss", s.gaussians.last_loss);
   }
@@ -451,7 +452,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< last: destroyed first (its task reads the stage)
   ros::WallTime last_diagnosis_{0.0};                    ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;
-  std::size_t dropped_at_last_diagnosis_ = 0;
+  std::size_t merged_at_last_diagnosis_ = 0;
 };
 
 }  // namespace dypho::mapping_ros

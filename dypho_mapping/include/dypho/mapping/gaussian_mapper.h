@@ -59,12 +59,14 @@ struct AddKeyframeResult {
 
 /// Counters of the mapper.
 struct GaussianMapperStats {
-  std::size_t num_gaussians = 0;        ///< Gaussians in the map
-  std::size_t num_keyframes = 0;        ///< keyframes integrated (poses kept)
-  std::size_t num_stored_images = 0;    ///< keyframes whose images are kept
-  std::int64_t iterations = 0;          ///< optimisation iterations run
-  std::size_t queued = 0;               ///< jobs waiting for the worker
-  std::size_t dropped_keyframes = 0;    ///< dropped because the queue was full (live policy)
+  std::size_t num_gaussians = 0;      ///< Gaussians in the map
+  std::size_t num_keyframes = 0;      ///< keyframes integrated (poses kept)
+  std::size_t num_stored_images = 0;  ///< keyframes whose images are kept
+  std::int64_t iterations = 0;        ///< optimisation iterations run
+  std::size_t queued = 0;             ///< jobs waiting for the worker
+  /// Jobs merged into a waiting one because the queue was full (live policy: mapping is behind;
+  /// every keyframe is still seeded, only training is shared out).
+  std::size_t merged_jobs = 0;
   std::size_t skipped_keyframes = 0;    ///< rejected (bad pose, no depth, ...)
   std::size_t capacity_hits = 0;        ///< times seeding or densification stopped at the cap
   std::size_t corrected_keyframes = 0;  ///< keyframe re-anchorings applied (local BA, loop closure)
@@ -102,8 +104,8 @@ class GaussianMapper {
   /// no job waits (fewer iterations when busy, more when idle; the queue never grows).
   void start(std::size_t queue_capacity, bool live = false);
   /// Hands a keyframe to the worker (MappingWorker's policy: with `block_when_full` waits for
-  /// room, otherwise drops the oldest waiting keyframe and returns false). Without a running
-  /// worker, integrates and optimises synchronously.
+  /// room, otherwise merges it into the newest waiting job and returns false; it is never
+  /// dropped). Without a running worker, integrates and optimises synchronously.
   bool enqueueKeyframe(KeyframeConstPtr keyframe, bool block_when_full);
   /// Hands a batch of keyframe pose corrections to the worker, after the jobs already queued
   /// (never dropped). Without a running worker, applies it at once.

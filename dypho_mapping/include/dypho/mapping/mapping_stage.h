@@ -6,8 +6,8 @@
 ///
 /// Policy, in one place:
 ///  - Keyframes and correction batches go to the mapper's worker in arrival order (MappingWorker).
-///    kDeterministic (offline runner): a full queue blocks the producer; kLive (ROS graph): the
-///    oldest waiting keyframe is dropped and counted, corrections are never dropped.
+///    kDeterministic (offline runner): a full queue blocks the producer; kLive (ROS graph): a
+///    full queue merges the new job into the newest waiting one (counted); nothing is dropped.
 ///  - R_d, the depth the mask's background model B_i blends in: rendered from a snapshot of the
 ///    map (never under the map's lock, so training is not held up) at the constant-velocity
 ///    prediction of the frame's pose (motion_prior.h, fed with tracked poses), through the mask's
@@ -65,7 +65,7 @@ class MappingStage {
   ~MappingStage();  ///< stops the worker
 
   /// A new keyframe: into the point cloud and onto the worker's queue. Returns false when the
-  /// live policy dropped an older keyframe to make room.
+  /// live policy merged it into a waiting job (mapping is behind; the keyframe is still seeded).
   bool addKeyframe(KeyframeConstPtr keyframe);
   /// Keyframe poses changed by local BA or loop closure: point cloud now, Gaussians in order on
   /// the worker.

@@ -6,9 +6,9 @@
 ///
 /// Queue policy when `capacity` jobs wait (one place, chosen per push):
 ///  - block_when_full: the producer waits for room (deterministic offline runs);
-///  - otherwise the oldest waiting *keyframe* job is dropped and counted (live input must not
-///    pile up); correction batches are never dropped (they are small, and a lost correction
-///    would leave a keyframe's Gaussians at a stale pose for good).
+///  - otherwise the new job is merged into the newest waiting one (live input must not pile up
+///    as jobs): nothing is ever dropped. A merged job holds several keyframes; the handler seeds
+///    them all and shares the training out, so when mapping is behind only training waits.
 
 #include <atomic>
 #include <condition_variable>
@@ -17,16 +17,21 @@
 #include <functional>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 #include "dypho/common/thread_budget.h"
 #include "dypho/common/types.h"
 
 namespace dypho::mapping {
 
-/// One unit of mapping work.
+/// One unit of mapping work: first the keyframes are integrated (in order), then the corrections
+/// are applied (in order). Corrections carry absolute poses and name only keyframes sent before
+/// them, so this order gives every keyframe its latest pose also when jobs were merged.
 struct MappingJob {
-  KeyframeConstPtr keyframe;            ///< integrate this keyframe, then train (may be null)
-  KeyframePoseCorrections corrections;  ///< re-anchor these keyframes (may be empty)
+  std::vector<KeyframeConstPtr> keyframes;  ///< integrate these keyframes, then train (may be empty)
+  KeyframePoseCorrections corrections;      ///< re-anchor these keyframes (may be empty)
+  /// Appends `later`'s keyframes and corrections (the merge of the live policy).
+  void merge(MappingJob&& later);
 };
 
 class MappingWorker {
@@ -41,7 +46,8 @@ class MappingWorker {
   MappingWorker(const MappingWorker&) = delete;
   MappingWorker& operator=(const MappingWorker&) = delete;
 
-  /// Queues a job (policy in the file comment). Returns false when a keyframe had to be dropped.
+  /// Queues a job (policy in the file comment). Returns false when it was merged into a waiting
+  /// job because the queue was full (nothing is lost).
   bool push(MappingJob job, bool block_when_full);
   /// Waits until no job waits or runs.
   void waitUntilIdle();
@@ -51,8 +57,8 @@ class MappingWorker {
   void clear();
   /// Stops and joins the thread; waiting jobs are discarded.
   void stop();
-  std::size_t queued() const;   ///< jobs waiting
-  std::size_t dropped() const;  ///< keyframe jobs dropped by the live policy so far
+  std::size_t queued() const;  ///< jobs waiting
+  std::size_t merged() const;  ///< jobs merged into a waiting one by the live policy so far
 
  private:
   void loop();
@@ -66,11 +72,11 @@ class MappingWorker {
   std::deque<MappingJob> queue_;
   bool busy_ = false;
   bool stop_ = false;
-  // Mirrors written under mutex_ and read without it: queued() and dropped() are read by ROS
+  // Mirrors written under mutex_ and read without it: queued() and merged() are read by ROS
   // timer threads (stats, diagnostics) and must not wait for a worker thread of the idle class
   // that was preempted inside its lock.
   std::atomic<std::size_t> queued_{0};
-  std::atomic<std::size_t> dropped_{0};
+  std::atomic<std::size_t> merged_{0};
   std::thread thread_;
 };
 

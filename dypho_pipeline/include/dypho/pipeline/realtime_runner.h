@@ -51,6 +51,9 @@ struct RealtimeOptions {
   /// Frames read ahead of their release, so that a slow read does not delay one [count];
   /// default 8, >= 1.
   int prefetch_frames = 8;
+  /// The mask a frame was tracked with is kept in its RealtimeProcessedFrame when its index is a
+  /// multiple of this (the runner's map evaluation at every Nth frame) [count]; default 0: none.
+  int keep_masks_every_nth = 0;
 
   /// Throws std::invalid_argument naming the bad field and its accepted range.
   void validate() const;
@@ -75,6 +78,9 @@ struct RealtimeProcessedFrame {
   double latency_ms = 0.0;                                         ///< release to pose (end of tracking) [ms]
   tracking::MaskSource mask_source = tracking::MaskSource::kNone;  ///< the mask it was tracked with
   double mask_wait_ms = 0.0;                                       ///< its wait for that mask [ms]
+  /// That mask (CV_8UC1, 255 = dynamic; shared, not copied) when RealtimeOptions::keep_masks_every_nth
+  /// selects this frame; else empty.
+  cv::Mat mask;
 };
 
 /// Outcome of RealtimeRunner::run().
