@@ -8,7 +8,9 @@
 #   anchored), not answered (frames in - statuses), keyframes, status latency p50/p95 (arrival
 #   minus frame stamp, bag clock), CPU use of the nodelet manager, rendered-view rate, and the ATE
 #   of trajectory.txt against the ground truth (FILE, or groundtruth.txt beside the bag;
-#   the map PSNR comes from map_evaluation.txt, written by the mapping nodelet at shutdown;
+#   the keyframe PSNR and the keyframes in the map come from map_evaluation.txt, written by the
+#   mapping nodelet at shutdown; the map at every 10th frame from dypho_evaluate_map on the saved
+#   map.ply and trajectory.txt, with the offline mask of the same frames;
 #   --bonn-correction for Bonn RGB-D Dynamic ground truth).
 # --detector: the mask runs the network at MODEL (launch arg yolo_model), else the shipped
 # config/mask.yaml (flow and background model only). --config-dir: parameter folder other than
@@ -84,8 +86,23 @@ statuses="$(value statuses | cut -d' ' -f1)"
     echo "trajectory.txt: not written (see $out/roslaunch.log)"
   fi
   if [[ -f "$out/run/map_evaluation.txt" ]]; then
-    echo "map PSNR:       $(grep '^psnr_db:' "$out/run/map_evaluation.txt" | cut -d: -f2 | xargs) dB on static pixels of $(grep '^keyframes:' "$out/run/map_evaluation.txt" | cut -d: -f2 | xargs) stored keyframes (map_evaluation.txt, after the shutdown refinement)"
+    evaluation() { grep "^$1:" "$out/run/map_evaluation.txt" | cut -d: -f2 | xargs; }
+    echo "map PSNR:       $(evaluation psnr_db) dB on static pixels of $(evaluation keyframes) stored keyframes (map_evaluation.txt, after the shutdown refinement)"
+    echo "map keyframes:  $(evaluation keyframes_in_map) of $(evaluation keyframes_received) in the map ($(evaluation merged_jobs) jobs merged while mapping was behind)"
   else
     echo "map PSNR:       map_evaluation.txt not written (see $out/roslaunch.log)"
+  fi
+  if [[ -f "$out/run/map.ply" && -f "$out/run/trajectory.txt" ]]; then
+    # The map at every 10th frame. The graph keeps no masks: the offline mask of the same frames
+    # (the runner, same parameters and model), run after the graph so it measures nothing live.
+    mask_cfg=()
+    if [[ -n "$detector" ]]; then
+      printf 'mask:\n  yolo_model_path: "%s"\n' "$detector" > "$out/detector.yaml"
+      mask_cfg=(--config "$out/detector.yaml")
+    fi
+    "$BIN/dypho_run_dataset" --dataset "$bag" --out "$out/masks" --no-map --no-eval --save-masks --quiet \
+      "${mask_cfg[@]}" > "$out/masks.log" 2>&1 || true
+    "$BIN/dypho_evaluate_map" --map "$out/run/map.ply" --dataset "$bag" --estimate "$out/run/trajectory.txt" \
+      --masks "$out/masks" --out "$out/view_evaluation.txt" 2> "$out/evaluate_map.log" | grep -A2 '^map views:' || true
   fi
 } | tee "$out/summary.txt"

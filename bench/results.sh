@@ -61,10 +61,11 @@ if ! git -C "$ROOT" diff --quiet HEAD -- CMakeLists.txt package.xml cmake config
   commit="$commit+changes"
 fi
 mkdir -p "$OUT" "$(dirname "$ROWS")"
-[ -f "$ROWS" ] || printf 'date\tdataset\tframes\tmode\tmask\truns\tate_cm\tate_range_cm\tpsnr_db\tms_per_frame\tposed\tmachine\tcommit\tcommand\n' > "$ROWS"
+[ -f "$ROWS" ] || printf 'date\tdataset\tframes\tmode\tmask\truns\tate_cm\tate_range_cm\tpsnr_db\tview_psnr_db\tcoverage_pct\tms_per_frame\tposed\tmachine\tcommit\tcommand\n' > "$ROWS"
 
 # record NAME DATASET MODE MASK COMMAND RUNS_FILE: one row from the runs in RUNS_FILE (one line per
-# run: frames, ATE cm, PSNR dB, ms/frame, frames posed; '-' where a run has none), replacing the
+# run: frames, ATE cm, keyframe PSNR dB, ms/frame, frames posed, PSNR dB and coverage % at every
+# 10th frame; '-' where a run has none), replacing the
 # row of the same dataset, mode and mask measured on the same machine. Several runs (the live
 # modes are not repeatable) give the median and the ATE's range.
 record() {
@@ -80,18 +81,19 @@ def median(i, fmt):
 ate = column(1)
 frames = runs[0][0]
 row = [date, dataset, frames, mode, mask, str(len(runs)), median(1, "%.2f"),
-       "%.2f-%.2f" % (min(ate), max(ate)) if len(ate) > 1 else "-", median(2, "%.2f"), median(3, "%.1f"),
-       median(4, "%.0f") + " of " + frames, machine, commit, command]
+       "%.2f-%.2f" % (min(ate), max(ate)) if len(ate) > 1 else "-", median(2, "%.2f"), median(5, "%.2f"),
+       median(6, "%.1f"), median(3, "%.1f"), median(4, "%.0f") + " of " + frames, machine, commit, command]
 with open(path) as f:
     lines = f.read().splitlines()
 header, body = lines[0], [l.split("\t") for l in lines[1:] if l.strip()]
-key = lambda r: (r[1], r[3], r[4], r[11])  # dataset, mode, mask, machine
+key = lambda r: (r[1], r[3], r[4], r[13])  # dataset, mode, mask, machine
 body = [r for r in body if key(r) != key(row)] + [row]
 with open(path + ".tmp", "w") as f:
     f.write(header + "\n" + "".join("\t".join(r) + "\n" for r in body))
 os.replace(path + ".tmp", path)
-print("results.sh: recorded %s, %s, %s: %s run(s), ATE %s cm (%s), PSNR %s dB, posed %s" %
-      (dataset, mode, mask, row[5], row[6], row[7], row[8], row[10]))
+print("results.sh: recorded %s, %s, %s: %s run(s), ATE %s cm (%s), PSNR %s dB at every 10th frame "
+      "(coverage %s %%; keyframes %s dB), posed %s" % (dataset, mode, mask, row[5], row[6], row[7], row[9], row[10],
+                                                       row[8], row[12]))
 PY
 }
 
@@ -115,7 +117,8 @@ offline() {  # name label data mask: dypho_run_dataset, deterministic (LIVE=0) o
     printf '%s\n' "$text" > "$OUT/$name.$k.txt"
     frames="$(printf '%s\n' "$text" | grep -m1 -oP '^frames:\s*[0-9]+ of \K[0-9]+')"
     posed="$(field "$text" '^posed:')"; [ "$posed" != "-" ] || posed="$(field "$text" '^frames:')"
-    echo "$frames $(field "$text" '^ATE RMSE:') $(field "$text" '^map PSNR:') $(field "$text" '^time:') $posed" >> "$OUT/$name.runs"
+    echo "$frames $(field "$text" '^ATE RMSE:') $(field "$text" '^map PSNR:') $(field "$text" '^time:') $posed" \
+      "$(field "$text" '^map views:\s*all\s*[0-9]+ views: PSNR') $(field "$text" '^map views:.*coverage')" >> "$OUT/$name.runs"
   done
   local shown_mask="${mask_args[*]}"
   record "$name" "$label" "$mode" "$mask" \
@@ -137,7 +140,8 @@ graph() {  # name label data mask: the bag through tum_bag.launch at rate 1.0
     DYPHO_BIN="$BIN" bash "$ROOT/bench/realtime_graph.sh" "$bag" --out "$OUT/$name.$k" "${det[@]}" \
       --groundtruth "$data/groundtruth.txt" "${extra[@]}" > "$OUT/$name.$k.log" 2>&1 || true
     local s; s="$(cat "$OUT/$name.$k/summary.txt" 2>/dev/null || true)"
-    echo "$(field "$s" '^frames in:') $(field "$s" '^ATE:\s*rmse') $(field "$s" '^map PSNR:') - $(field "$s" '^statuses:')" >> "$OUT/$name.runs"
+    echo "$(field "$s" '^frames in:') $(field "$s" '^ATE:\s*rmse') $(field "$s" '^map PSNR:') - $(field "$s" '^statuses:')" \
+      "$(field "$s" '^map views:\s*all\s*[0-9]+ views: PSNR') $(field "$s" '^map views:.*coverage')" >> "$OUT/$name.runs"
   done
   record "$name" "$label" "graph 1x" "$mask" \
     "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx}" "$OUT/$name.runs"

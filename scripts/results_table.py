@@ -2,7 +2,8 @@
 """Writes docs/results.md and the README's results table from docs/results/rows.tsv.
 
 rows.tsv is written by bench/results.sh, one row per measured run (date, dataset, frames, mode,
-mask, ate_cm, psnr_db, ms_per_frame, posed, machine, commit, command). Nothing here is typed by
+mask, ate_cm, psnr_db (keyframes), view_psnr_db and coverage_pct (every 10th frame), ms_per_frame,
+posed, machine, commit, command). Nothing here is typed by
 hand: edit the runs, not the tables.
 
 Usage: scripts/results_table.py [--check]
@@ -85,8 +86,12 @@ def results_md(rows):
         "",
         "Metrics: ATE is the RMSE of the final trajectory after a rigid alignment to the ground truth",
         "(Bonn: with the dataset's marker-to-camera correction). The live modes are not repeatable:",
-        "their rows are the median of several runs, with the ATE's range. Map PSNR is measured on the",
-        "static pixels of the keyframes the map holds. ms/frame is the median work per frame",
+        "their rows are the median of several runs, with the ATE's range. Map PSNR and coverage: the",
+        "saved map rendered at the final pose of every 10th frame and scored on that frame's static",
+        "pixels (the system's mask, dilated 5 px; for the graph, the offline mask of the same frames);",
+        "coverage is the share of those pixels where the map's opacity is >= 0.5, so holes count",
+        "(`dypho_run_dataset --eval-every`, `dypho_evaluate_map`). Keyframe PSNR: the older figure, at",
+        "the keyframes the map was trained on, at training resolution. ms/frame is the median work per frame",
         "(mask + tracking + mapping; at 1x it includes waiting for a core); frames/s offline is the",
         "inverse. Posed: frames that got a pose (the graph: a tracking status).",
         "`+changes` after a commit: the run had uncommitted changes to code, parameters or scripts.",
@@ -103,9 +108,11 @@ def results_md(rows):
         out += [f"| {r['mode']} | {r['mask']} | {ate(r)} | {r['posed']} | {r['machine']} | {r['commit']} | "
                 f"{r['date']} | `{command(r)}` |" for r in drows]
         out += ["", "### Map and speed", "",
-                "| mode | mask | map PSNR (dB) | ms/frame | frames/s offline | machine | commit | command |",
-                "|---|---|---|---|---|---|---|---|"]
-        out += [f"| {r['mode']} | {r['mask']} | {num(r['psnr_db'])} | {num(r['ms_per_frame'], 1)} | "
+                "| mode | mask | map PSNR (dB) | coverage (%) | keyframe PSNR (dB) | ms/frame | frames/s offline | "
+                "machine | commit | command |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        out += [f"| {r['mode']} | {r['mask']} | {num(r['view_psnr_db'])} | {num(r['coverage_pct'], 1)} | "
+                f"{num(r['psnr_db'])} | {num(r['ms_per_frame'], 1)} | "
                 f"{fps(r['ms_per_frame']) if r['mode'] == 'offline' else '-'} | {r['machine']} | "
                 f"{r['commit']} | `{command(r)}` |" for r in drows]
     return "\n".join(out) + "\n"
@@ -120,7 +127,8 @@ def readme_table(rows):
     by_dataset = collections.OrderedDict()
     for row in rows:
         by_dataset.setdefault(row["dataset"], {})[(row["mode"], row["mask"])] = row
-    out = ["| dataset | ATE offline / live 1x (cm) | map PSNR offline (dB) | frames/s offline | posed live 1x | machine |",
+    out = ["| dataset | ATE offline / live 1x (cm) | map PSNR / coverage offline | frames/s offline | posed live 1x "
+           "| machine |",
            "|---|---|---|---|---|---|"]
     for dataset, runs in by_dataset.items():
         off = runs.get(("offline", "flow"))
@@ -131,7 +139,8 @@ def readme_table(rows):
         if live:
             live_ate = num(live["ate_cm"]) + (f" (median of {live['runs']})" if live.get("runs", "1") != "1" else "")
         posed = f"{live['posed']} ({'graph' if live['mode'] == 'graph 1x' else 'runner'})" if live else "-"
-        out.append(f"| {dataset} | {num(off['ate_cm'])} / {live_ate} | {num(off['psnr_db'])} | {fps(off['ms_per_frame'])} | "
+        view = f"{num(off['view_psnr_db'])} dB / {num(off['coverage_pct'], 1)} %" if off["view_psnr_db"] != "-" else "-"
+        out.append(f"| {dataset} | {num(off['ate_cm'])} / {live_ate} | {view} | {fps(off['ms_per_frame'])} | "
                    f"{posed} | {off['machine']} |")
     return "\n".join(out) + "\n"
 

@@ -12,6 +12,7 @@
 #include "dypho/mapping/training_math.h"
 #include "gaussian_trainer.h"
 #include "gpu_emulator.h"
+#include "plane_keyframe.h"
 
 namespace dypho::mapping {
 namespace {
@@ -191,6 +192,41 @@ TEST(TrainingMath, ExposureStepIsAdam) {
   }
   EXPECT_EQ(kf.exposure[5], 0.f);  // no gradient, no step
   EXPECT_EQ(kf.exposure_steps, 1);
+}
+
+// least_trained_first: training shares the iterations out evenly over the keyframes it may pick,
+// the newest first on a tie, so a keyframe seeded late (mapping was behind) is trained next.
+TEST(TrainingSchedule, LeastTrainedFirstSharesIterationsEvenly) {
+  GaussianMapperOptions o;
+  o.train_downsample = 1;
+  o.feature_samples = 0;
+  o.num_threads = 1;
+  o.densify_interval = 0;
+  o.window_size = 2;
+  o.global_sample_ratio = 0.5;  // half the picks among all three
+  o.least_trained_first = true;
+  GaussianTrainer trainer(o, ComputeDevice::kCpu);
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 0.05 * i;
+    ASSERT_TRUE(trainer.integrate(test::texturedPlaneKeyframe(i, T, 160, 120, 130.0, 10)).added);
+  }
+  // Every pick takes the least trained of its candidates: keyframes 1 and 2 (in every pick's
+  // candidates) never differ by more than one, keyframe 0 (picked only globally, and only when it
+  // is strictly behind) never leads them, and the global share keeps it from starving.
+  for (int k = 0; k < 30; ++k) ASSERT_GE(trainer.iterate(), 0.0);
+  const std::int64_t c0 = trainer.keyframes[0].trained_iterations, c1 = trainer.keyframes[1].trained_iterations,
+                     c2 = trainer.keyframes[2].trained_iterations;
+  EXPECT_EQ(c0 + c1 + c2, 30);
+  EXPECT_LE(std::abs(c1 - c2), 1);
+  EXPECT_LE(c0, std::min(c1, c2));
+  EXPECT_GE(c0, 5) << "about 15 global picks, most of them keyframe 0's";
+  // A keyframe seeded now has no iterations: it is picked next, in the window and globally.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = 0.2;
+  ASSERT_TRUE(trainer.integrate(test::texturedPlaneKeyframe(3, T, 160, 120, 130.0, 10)).added);
+  ASSERT_GE(trainer.iterate(), 0.0);
+  EXPECT_EQ(trainer.keyframes[3].trained_iterations, 1);
 }
 
 }  // namespace

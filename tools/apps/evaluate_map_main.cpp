@@ -71,23 +71,35 @@ Args parseArgs(int argc, char** argv) {
     if (i + 1 >= argc) throw std::invalid_argument("missing value after " + flag);
     if (!given.insert(flag).second) throw std::invalid_argument(flag + " given twice");
     const std::string value = argv[++i];
-    if (flag == "--map") a.map = value;
-    else if (flag == "--dataset") a.dataset = value;
-    else if (flag == "--estimate") a.estimate = value;
-    else if (flag == "--keyframes") a.keyframes = value;
-    else if (flag == "--masks") a.masks = value;
-    else if (flag == "--camera") a.camera = value;
-    else if (flag == "--config") a.config = value;
-    else if (flag == "--out") a.out = value;
-    else if (flag == "--every") a.view.every_nth_frame = wholeNumber(flag, value, 1);
-    else if (flag == "--dilation") a.view.mask_dilation_px = wholeNumber(flag, value, 0);
-    else throw std::invalid_argument("unknown argument '" + flag + "'");
+    if (flag == "--map")
+      a.map = value;
+    else if (flag == "--dataset")
+      a.dataset = value;
+    else if (flag == "--estimate")
+      a.estimate = value;
+    else if (flag == "--keyframes")
+      a.keyframes = value;
+    else if (flag == "--masks")
+      a.masks = value;
+    else if (flag == "--camera")
+      a.camera = value;
+    else if (flag == "--config")
+      a.config = value;
+    else if (flag == "--out")
+      a.out = value;
+    else if (flag == "--every")
+      a.view.every_nth_frame = wholeNumber(flag, value, 1);
+    else if (flag == "--dilation")
+      a.view.mask_dilation_px = wholeNumber(flag, value, 0);
+    else
+      throw std::invalid_argument("unknown argument '" + flag + "'");
   }
   if (a.map.empty() || a.dataset.empty() || a.estimate.empty())
     throw std::invalid_argument("--map, --dataset and --estimate are required");
   if (a.keyframes.empty()) {
     const std::size_t slash = a.estimate.find_last_of('/');
-    const std::string beside = (slash == std::string::npos ? std::string() : a.estimate.substr(0, slash + 1)) + "keyframes.txt";
+    const std::string beside =
+        (slash == std::string::npos ? std::string() : a.estimate.substr(0, slash + 1)) + "keyframes.txt";
     struct stat st {};
     if (::stat(beside.c_str(), &st) == 0) a.keyframes = beside;
   }

@@ -38,7 +38,8 @@ inline void writeRealtimeCsv(const std::string& path, const pipeline::RealtimeRe
 }
 
 /// The realtime run in two lines for the summary.
-inline std::string realtimeSummary(const pipeline::RealtimeResult& r, std::size_t num_frames, const pipeline::RealtimeOptions& o) {
+inline std::string realtimeSummary(const pipeline::RealtimeResult& r, std::size_t num_frames,
+                                   const pipeline::RealtimeOptions& o) {
   std::ostringstream os;
   os << std::fixed << "realtime:     " << r.frames_in << " frames in, " << r.processed.size() << " processed ("
      << r.framesPosed() << " posed, " << std::setprecision(3)

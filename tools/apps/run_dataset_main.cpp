@@ -495,7 +495,9 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
               << " points before voxel filter)\n"
               << "gaussians:    " << args.out << "/map.ply (" << map_stats.gaussians.num_gaussians << " Gaussians, "
               << map_stats.gaussians.iterations << " iterations, " << map_stats.gaussians.corrected_keyframes
-              << " keyframe re-anchorings)\n"
+              << " keyframe re-anchorings; " << map_stats.gaussians.num_keyframes << " of "
+              << map_stats.keyframes_received << " keyframes in the map, " << map_stats.gaussians.merged_jobs
+              << " jobs merged)\n"
               << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
               << map_eval.num_keyframes << " keyframes, training resolution), depth L1 " << map_eval.depth_l1_m * 100.0
               << " cm\n";

@@ -37,6 +37,7 @@ struct TrainingKeyframe {
   float exposure_m[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam first moments
   float exposure_v[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam second moments
   int exposure_steps = 0;
+  std::int64_t trained_iterations = 0;  ///< optimisation iterations run on this keyframe
   bool hasImages() const { return !bgr.empty(); }
 };
 

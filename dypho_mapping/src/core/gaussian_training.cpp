@@ -219,9 +219,17 @@ double GaussianTrainer::iterate(bool all_keyframes) {
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     const bool global = unit(rng) < options.global_sample_ratio;
     const std::size_t first = global ? 0 : all.size() - w;
-    chosen = all[std::uniform_int_distribution<std::size_t>(first, all.size() - 1)(rng)];
+    if (options.least_trained_first) {
+      chosen = all.back();  // ties: the newest
+      for (std::size_t k = all.size(); k-- > first;) {
+        if (keyframes[all[k]].trained_iterations < keyframes[chosen].trained_iterations) chosen = all[k];
+      }
+    } else {
+      chosen = all[std::uniform_int_distribution<std::size_t>(first, all.size() - 1)(rng)];
+    }
   }
   TrainingKeyframe& kf = keyframes[chosen];
+  ++kf.trained_iterations;
   const bool fixed_exposure = chosen == 0;  // keyframe 0 fixes the gauge
 
   double loss = 0.0;

@@ -135,8 +135,11 @@ std::vector<std::string> MappingStage::save(const std::string& dir, bool refine,
 
 KeyframeEvaluation MappingStage::writeEvaluation(const std::string& dir) {
   const KeyframeEvaluation eval = gaussians_.evaluateKeyframes();
+  const MappingStageStats counts = stats();
   writeFileAtomically(dir + "/" + kEvaluationFile, [&](std::ostream& os) {
     os << "psnr_db: " << eval.psnr_db << "\nkeyframes: " << eval.num_keyframes << "\ndepth_l1_m: " << eval.depth_l1_m
+       << "\nkeyframes_received: " << counts.keyframes_received
+       << "\nkeyframes_in_map: " << counts.gaussians.num_keyframes << "\nmerged_jobs: " << counts.gaussians.merged_jobs
        << "\n";
   });
   return eval;

@@ -58,7 +58,8 @@ void checkInputs(const RenderedView& rendered, const cv::Mat& bgr, const cv::Mat
       rendered.alpha.size() != size || rendered.depth_m.size() != size) {
     throw std::invalid_argument("scoreView: the rendered view is incomplete (colour, depth and alpha needed)");
   }
-  if (bgr.type() != CV_8UC3 || bgr.size() != size) throw std::invalid_argument("scoreView: bgr must be CV_8UC3 of the render's size");
+  if (bgr.type() != CV_8UC3 || bgr.size() != size)
+    throw std::invalid_argument("scoreView: bgr must be CV_8UC3 of the render's size");
   if (depth_m.type() != CV_32FC1 || depth_m.size() != size)
     throw std::invalid_argument("scoreView: depth_m must be CV_32FC1 of the render's size");
   if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != size))
@@ -173,8 +174,8 @@ void writeViewEvaluation(const std::string& path, const ViewEvaluation& evaluati
        << std::fixed;
     for (const ViewScore& v : evaluation.views) {
       os << std::setprecision(6) << static_cast<double>(v.stamp_ns) * 1e-9 << ' ' << (v.keyframe ? 1 : 0) << ' '
-         << v.static_pixels << ' ' << std::setprecision(3) << v.psnr_db << ' ' << std::setprecision(4) << v.ssim
-         << ' ' << v.depth_l1_m << ' ' << v.coverage << '\n';
+         << v.static_pixels << ' ' << std::setprecision(3) << v.psnr_db << ' ' << std::setprecision(4) << v.ssim << ' '
+         << v.depth_l1_m << ' ' << v.coverage << '\n';
     }
   });
 }

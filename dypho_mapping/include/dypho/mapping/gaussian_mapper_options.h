@@ -75,6 +75,10 @@ struct GaussianMapperOptions {
   /// Share of training iterations that sample any stored keyframe instead of the window
   /// (keeps older parts of the map from drifting), [0, 1]. Default 0.2.
   double global_sample_ratio = 0.2;
+  /// Training picks the keyframe trained least so far (ties: the newest) within the window, and
+  /// among all stored keyframes for the global share, instead of a uniform random one: keyframes
+  /// seeded while mapping was behind get their share first. Default false.
+  bool least_trained_first = false;
   /// Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. Default
   /// 0.1.
   double valid_min_depth_m = 0.1;

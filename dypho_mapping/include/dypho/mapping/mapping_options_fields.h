@@ -89,6 +89,10 @@ void visitLossAndSeedingOptions(GaussianMapperOptions& options, Visitor&& visito
   visitor("global_sample_ratio", options.global_sample_ratio,
           "Share of training iterations that sample any stored keyframe instead of the window (keeps older parts of "
           "the map from drifting), [0, 1]. Default 0.2.");
+  visitor("least_trained_first", options.least_trained_first,
+          "Training picks the keyframe trained least so far (ties: the newest) within the window, and among all "
+          "stored keyframes for the global share, instead of a uniform random one: keyframes seeded while mapping "
+          "was behind get their share first. Default false.");
   visitor("valid_min_depth_m", options.valid_min_depth_m,
           "Depths outside [valid_min_depth_m, valid_max_depth_m] are invalid for Gaussian seeding and the loss [m]. "
           "Default 0.1.");

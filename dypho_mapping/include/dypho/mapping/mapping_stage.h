@@ -97,7 +97,8 @@ class MappingStage {
   /// The evaluation file's name in an output folder.
   static constexpr const char* kEvaluationFile = "map_evaluation.txt";
   /// map_evaluation.txt in `dir`: the map's quality at the stored keyframes, as the offline
-  /// runner reports it (PSNR on static pixels, depth L1), written atomically; returns it.
+  /// runner reports it (PSNR on static pixels, depth L1), and the keyframes received, in the map
+  /// and merged jobs, written atomically; returns the quality.
   KeyframeEvaluation writeEvaluation(const std::string& dir);
   /// Replaces the Gaussian map with a 3DGS PLY (GaussianMapper::loadPly); returns the count.
   std::size_t loadMap(const std::string& path, std::string* note = nullptr);

@@ -24,7 +24,7 @@ using ViewMaskLookup = std::function<cv::Mat(std::size_t index, Timestamp stamp_
 /// What a map was scored on, beyond the scores.
 struct MapViewRun {
   mapping::ViewEvaluation evaluation;
-  std::size_t frames_chosen = 0;       ///< every Nth frame of the first `num_frames`
+  std::size_t frames_chosen = 0;        ///< every Nth frame of the first `num_frames`
   std::size_t frames_without_pose = 0;  ///< chosen but absent from the trajectory (not scored)
   std::size_t frames_unreadable = 0;    ///< chosen but their files could not be read
   std::size_t frames_without_mask = 0;  ///< scored on all their pixels (the lookup had no mask)
