@@ -574,12 +574,14 @@ int run(const Args& args) {
   applyRealtimePolicy(args, options);
   // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.
   SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
+  if (args.build_map) std::cerr << "dypho_run_dataset: " << pipeline.mapping().gaussians().deviceMessage() << "\n";
   std::size_t n = source->size();
   if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
   MaskWriter mask_writer(args.out);
   const RunTally tally = runFrames(args, *source, pipeline, mask_writer, n);
 
   RunOutputs outputs = writeOutputs(args, pipeline, tally, mask_writer);
+  if (args.build_map) std::cerr << "dypho_run_dataset: end: " << pipeline.mapping().gaussians().deviceMessage() << "\n";
   if (args.build_map && args.eval_every > 0) outputs.views = scoreMapViews(args, *source, pipeline, tally, outputs);
   printRunSummary(args, pipeline, tally, outputs);
   evaluateRun(args, *source, tally, outputs);
