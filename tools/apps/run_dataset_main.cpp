@@ -42,6 +42,7 @@
 #include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
+#include "output_files.h"
 #include "realtime_report.h"
 #include "timing_csv.h"
 
@@ -54,6 +55,8 @@ std::atomic<bool> g_stop{false};
 void onStopSignal(int) { g_stop = true; }
 using namespace dypho::tools;
 using namespace dypho::pipeline;
+using dypho::run_dataset::makeDirs;
+using dypho::run_dataset::MaskWriter;
 using dypho::run_dataset::realtimeSummary;
 using dypho::run_dataset::TimingRow;
 using dypho::run_dataset::writeRealtimeCsv;
@@ -201,59 +204,11 @@ Args parseArgs(int argc, char** argv) {
   return a;
 }
 
-void makeDirs(const std::string& path) {
-  std::string partial;
-  std::stringstream ss(path);
-  std::string part;
-  if (!path.empty() && path[0] == '/') partial = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    partial += part + "/";
-    ::mkdir(partial.c_str(), 0755);
-  }
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
-    throw std::runtime_error("cannot create output folder '" + path + "'");
-  }
-}
-
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
 }
-
-/// --save-masks: OUT/mask/<stamp>.png (8-bit, 255 = dynamic; an empty mask is written all static)
-/// and OUT/mask.txt ("stamp mask/<stamp>.png"), the layout dypho_synth writes for --mask gt.
-class MaskWriter {
- public:
-  explicit MaskWriter(std::string out_dir) : out_dir_(std::move(out_dir)) {}
-  void write(Timestamp stamp_ns, const cv::Mat& mask, const cv::Size& size) {
-    if (lines_.empty()) makeDirs(out_dir_ + "/mask");
-    char stamp[64];
-    std::snprintf(stamp, sizeof(stamp), "%lld.%06lld", static_cast<long long>(stamp_ns / 1000000000),
-                  static_cast<long long>((stamp_ns % 1000000000) / 1000));
-    const cv::Mat img = mask.empty() ? cv::Mat::zeros(size, CV_8UC1) : mask;
-    std::vector<std::uint8_t> png;
-    if (!cv::imencode(".png", img, png)) throw std::runtime_error(std::string("PNG encoding failed for mask ") + stamp);
-    writeFileAtomically(
-        out_dir_ + "/mask/" + stamp + ".png",
-        [&](std::ostream& os) {
-          os.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-        },
-        true);
-    lines_ += std::string(stamp) + " mask/" + stamp + ".png\n";
-  }
-  /// Writes mask.txt (after all images, so it never names a missing one).
-  void finish() const {
-    if (lines_.empty()) return;
-    writeFileAtomically(out_dir_ + "/mask.txt", [&](std::ostream& os) { os << "# timestamp filename\n" << lines_; });
-  }
-
- private:
-  std::string out_dir_;
-  std::string lines_;
-};
 
 /// Every frame's outcome, gathered by either frame loop (deterministic or realtime).
 struct RunTally {
@@ -498,6 +453,7 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
               << " keyframe re-anchorings; " << map_stats.gaussians.num_keyframes << " of "
               << map_stats.keyframes_received << " keyframes in the map, " << map_stats.gaussians.merged_jobs
               << " jobs merged)\n"
+              << "device:       " << pipeline.mapping().gaussians().deviceMessage() << "\n"
               << "map PSNR:     " << std::setprecision(2) << map_eval.psnr_db << " dB on static keyframe pixels ("
               << map_eval.num_keyframes << " keyframes, training resolution), depth L1 " << map_eval.depth_l1_m * 100.0
               << " cm\n";
@@ -581,7 +537,6 @@ int run(const Args& args) {
   const RunTally tally = runFrames(args, *source, pipeline, mask_writer, n);
 
   RunOutputs outputs = writeOutputs(args, pipeline, tally, mask_writer);
-  if (args.build_map) std::cerr << "dypho_run_dataset: end: " << pipeline.mapping().gaussians().deviceMessage() << "\n";
   if (args.build_map && args.eval_every > 0) outputs.views = scoreMapViews(args, *source, pipeline, tally, outputs);
   printRunSummary(args, pipeline, tally, outputs);
   evaluateRun(args, *source, tally, outputs);
