@@ -76,11 +76,12 @@ void visitLossAndSeedingOptions(GaussianMapperOptions& options, Visitor&& visito
           "Weight of the opacity term w |M (1 - A)|_1 added to the paper's loss (A: accumulated alpha, M: static "
           "pixels with valid depth); keeps measured surfaces opaque so that D_r is not biased by partial alpha (0 = "
           "the paper's loss only), >= 0. Default 0.1.");
-  visitor("ssim_weight", options.ssim_weight,
-          "Weight of the structural term w (1 - SSIM(Mc; Cr, C)) added to the loss: SSIM of the colour over static "
-          "pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0. Default 0: on TUM fr1/rpy "
-          "0.1-0.2 gained 0.13 dB PSNR but cost 0.1-0.25 cm depth L1 and about a quarter more mapping time "
-          "(docs/journal/benchmarks-2026.md section 4).");
+  visitor(
+      "ssim_weight", options.ssim_weight,
+      "Weight of the structural term w (1 - SSIM(Mc; Cr, C)) added to the loss: SSIM of the colour over static "
+      "pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0. Default 0: 0.2 gained "
+      "0.05-0.49 dB PSNR offline at every 10th frame (fr1, Bonn, generator) but none live at 1x, where depth L1 got "
+      "0.9 cm worse (docs/journal/benchmarks-2026.md sections 4 and 11).");
   visitor("exposure_compensation", options.exposure_compensation,
           "Per-keyframe affine exposure (gain exp(k_c), offset b_c per RGB channel) optimised with the map, as 3DGS "
           "SLAM systems do: the loss and the keyframe evaluation compare the keyframe's image with exp(k) * rendered + "
