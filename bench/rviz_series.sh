@@ -4,8 +4,9 @@
 # What a user watching rviz sees while the map builds: plays BAG through
 # `roslaunch dypho_slam tum_bag.launch rviz:=true` at 1x, with rviz on a virtual display (Xvfb,
 # 1200x750), takes a screenshot of it at about S seconds of playback for each S of --at (default
-# "2 5 9"), and writes them side by side, each at half size, into OUT.jpg; the full screenshots
-# are kept beside it (OUT_<S>s.png). rviz's panels: input colour, the map rendered at the tracked
+# "2 5 9"), and writes them side by side, each at half size, into OUT.jpg, and their image panels
+# at full size side by side into OUT_panels.jpg; the full screenshots are kept beside it
+# (OUT_<S>s.png). rviz's panels: input colour, the map rendered at the tracked
 # pose, the dynamic mask, the rendered depth, the path, tf and the map's clouds.
 # Needs the catkin build and its environment (source build/devel/setup.bash), Xvfb and
 # ImageMagick (scripts/install_deps.sh installs both).
@@ -50,4 +51,6 @@ wait "$launch_pid" || true
 trap - EXIT
 kill "$xvfb_pid" 2>/dev/null || true
 convert "${shots[@]}" -resize 50% +append -quality 85 "$target"
-echo "rviz_series.sh: $target"
+# The image panels (rendered depth and colour, mask, input) of each shot at full size, side by side.
+convert "${shots[@]}" -crop 342x523+0+62 +repage +append -quality 85 "${target%.*}_panels.jpg"
+echo "rviz_series.sh: $target, ${target%.*}_panels.jpg"
