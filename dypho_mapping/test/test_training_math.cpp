@@ -188,7 +188,9 @@ TEST(TrainingMath, ExposureStepIsAdam) {
     adamBiasCorrections(1, c1, c2);
     adamUpdate(g[k], 0.01f / c1, 1.f / c2, x, m, v, kExposureAdamEpsilon);
     EXPECT_EQ(kf.exposure[k], x) << k;
-    if (g[k] != 0.f) EXPECT_NEAR(kf.exposure[k], g[k] > 0.f ? -0.01f : 0.01f, 1e-4f) << k;
+    if (g[k] != 0.f) {
+      EXPECT_NEAR(kf.exposure[k], g[k] > 0.f ? -0.01f : 0.01f, 1e-4f) << k;
+    }
   }
   EXPECT_EQ(kf.exposure[5], 0.f);  // no gradient, no step
   EXPECT_EQ(kf.exposure_steps, 1);
@@ -227,6 +229,49 @@ TEST(TrainingSchedule, LeastTrainedFirstSharesIterationsEvenly) {
   ASSERT_TRUE(trainer.integrate(test::texturedPlaneKeyframe(3, T, 160, 120, 130.0, 10)).added);
   ASSERT_GE(trainer.iterate(), 0.0);
   EXPECT_EQ(trainer.keyframes[3].trained_iterations, 1);
+}
+
+}  // namespace
+}  // namespace dypho::mapping
+
+namespace dypho::mapping {
+namespace {
+
+// The isotropy regulariser's gradient against central differences of its value, and none for a
+// Gaussian that was not visible.
+TEST(TrainingMath, IsotropyGradientMatchesNumericalDifferences) {
+  auto value = [](const double* log_scale, double weight) {
+    double s[3], mean = 0.0, r = 0.0;
+    for (int k = 0; k < 3; ++k) mean += (s[k] = std::exp(log_scale[k])) / 3.0;
+    for (int k = 0; k < 3; ++k) r += std::abs(s[k] - mean);
+    return weight * r;
+  };
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> log_scale(-6.0, -2.0);
+  constexpr double kWeight = 0.7, kEps = 1e-5;
+  for (int trial = 0; trial < 50; ++trial) {
+    double ls[3] = {log_scale(rng), log_scale(rng), log_scale(rng)};
+    const float lsf[3] = {static_cast<float>(ls[0]), static_cast<float>(ls[1]), static_cast<float>(ls[2])};
+    float grad[3] = {0.f, 0.f, 0.f};
+    train::addIsotropyGradient(lsf, 1.f, static_cast<float>(kWeight), grad);
+    for (int k = 0; k < 3; ++k) {
+      const double keep = ls[k];
+      ls[k] = keep + kEps;
+      const double plus = value(ls, kWeight);
+      ls[k] = keep - kEps;
+      const double minus = value(ls, kWeight);
+      ls[k] = keep;
+      // float evaluation of values ~1e-2: 1e-6 absolute is 1e-4 relative of the typical gradient.
+      EXPECT_NEAR(grad[k], (plus - minus) / (2 * kEps), 1e-6) << "trial " << trial << " axis " << k;
+    }
+  }
+  float grad[3] = {0.f, 0.f, 0.f};
+  const float needle[3] = {-2.f, -6.f, -6.f};
+  train::addIsotropyGradient(needle, 0.f, 1.f, grad);  // not visible
+  EXPECT_EQ(grad[0], 0.f);
+  train::addIsotropyGradient(needle, 1.f, 1.f, grad);
+  EXPECT_GT(grad[0], 0.f);  // gradient descent shrinks the long axis
+  EXPECT_LT(grad[1], 0.f);  // and grows the short ones
 }
 
 }  // namespace

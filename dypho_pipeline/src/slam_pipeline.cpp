@@ -92,4 +92,10 @@ tracking::RunEnd SlamPipeline::finishTracking() {
   return end;
 }
 
+std::size_t SlamPipeline::adoptMapKeyframePoses() {
+  if (!options_.build_map || !mapping_.gaussians().options().pose_refinement) return 0;
+  mapping_.finish();
+  return tracking_.adoptKeyframePoses(mapping_.gaussians().keyframePoses());
+}
+
 }  // namespace dypho::pipeline

@@ -1,7 +1,9 @@
 /// The in-process pipeline on a short synthetic sequence: repeatable to the bit with R_d in use,
 /// corrections reach the map, stamps out of order are dropped or restart tracking.
 
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -143,6 +145,53 @@ TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
   next.stamp_ns = looped.stamp_ns + (frames[1].frame.stamp_ns - frames[0].frame.stamp_ns);
   EXPECT_EQ(slam.process(next).tracking.state, tracking::TrackingState::kOk);
   EXPECT_EQ(slam.tracking().numFrames(), 1u);
+}
+
+}  // namespace
+
+namespace {
+
+// pose_refinement: at the end the map's refined keyframe poses become the tracker's, and the
+// final trajectory follows them; with it off nothing is handed back.
+TEST(SlamPipeline, RefinedKeyframePosesGoBackToTracking) {
+  tools::SynthOptions so;
+  so.frames = 30;
+  so.people = 1;
+  so.seed = 4;
+  const tools::SyntheticScene scene(so);
+  auto run = [&](bool refine) {
+    pipeline::PipelineOptions options;
+    options.mapping.gaussian.iterations_per_keyframe = 10;
+    options.mapping.gaussian.final_refine_iterations = 30;
+    options.mapping.gaussian.pose_refinement = refine;
+    auto slam = std::make_unique<pipeline::SlamPipeline>(options);
+    for (int i = 0; i < so.frames; ++i) slam->process(scene.render(i).frame);
+    slam->finishTracking();
+    return slam;
+  };
+  const auto off = run(false);
+  EXPECT_EQ(off->adoptMapKeyframePoses(), 0u);
+
+  const auto on = run(true);
+  const tracking::PoseList before = on->tracking().finalTrajectory();
+  const std::size_t adopted = on->adoptMapKeyframePoses();
+  const KeyframePoseCorrections mapper = on->mapping().gaussians().keyframePoses();
+  ASSERT_GE(mapper.size(), 2u);
+  EXPECT_EQ(adopted, mapper.size()) << "every keyframe of the map is one of the tracker's here";
+  for (const auto& [id, T_map] : mapper) {
+    const tracking::MapKeyframe* kf = on->tracking().odometry().map().keyframe(id);
+    ASSERT_NE(kf, nullptr) << "keyframe " << id;
+    EXPECT_TRUE(kf->T_world_camera.isApprox(T_map, 1e-12)) << "keyframe " << id;
+  }
+  const tracking::PoseList after = on->tracking().finalTrajectory();
+  ASSERT_EQ(before.size(), after.size());
+  double moved_m = 0.0;
+  for (std::size_t i = 0; i < after.size(); ++i)
+    moved_m = std::max(moved_m, (after[i].second.translation() - before[i].second.translation()).norm());
+  EXPECT_GT(moved_m, 0.0) << "the trajectory follows the refined keyframes";
+  // The refinement's bound (5 cm, 2 deg) plus 2 deg over a frame's distance to its keyframe
+  // (under 0.3 m here: 1 cm).
+  EXPECT_LT(moved_m, 0.06);
 }
 
 }  // namespace

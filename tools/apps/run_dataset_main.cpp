@@ -234,7 +234,8 @@ struct RunOutputs {
   std::optional<MapViewRun> views;       ///< the map at every --eval-every'th frame (map built)
   /// trajectory.txt as it was before the tracker's end of run (final global BA), for the gain
   std::vector<StampedPose> final_trajectory_before_end;
-  tracking::RunEnd run_end;  ///< the tracker's end of run (final global BA)
+  tracking::RunEnd run_end;           ///< the tracker's end of run (final global BA)
+  std::size_t keyframes_adopted = 0;  ///< keyframe poses taken from the map (pose_refinement)
 };
 
 /// The pipeline options: config/*.yaml with --config on top, plus --mask and --no-map.
@@ -395,6 +396,13 @@ RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally
     pipeline.mapping().save(args.out);   // finish() (final refinement), map.ply, map.pcd, gaussian_centres.pcd
     makeDirs(args.out + "/map_render");  // side-by-side input | rendered (colour, depth) per keyframe
     outputs.map_eval = pipeline.mapping().gaussians().evaluateKeyframes(args.out + "/map_render");
+    // pose_refinement: the map's refined keyframe poses become the tracker's; the trajectories
+    // are saved again on them.
+    outputs.keyframes_adopted = pipeline.adoptMapKeyframePoses();
+    if (outputs.keyframes_adopted > 0) {
+      pipeline.tracking().saveTrajectories(args.out);
+      outputs.final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
+    }
   }
   return outputs;
 }
@@ -438,8 +446,11 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
                                  "waits between the stages not counted)\n"
                                : " ms/frame median (mask + tracking + mapping)\n")
             << "global BA:    at end " << tracking::describe(outputs.run_end.global_ba) << "; after loops "
-            << tracking::describeAfterLoop(pipeline.tracking().odometry().globalBaStats()) << "\n"
-            << "trajectory:   " << args.out << "/trajectory.txt\n"
+            << tracking::describeAfterLoop(pipeline.tracking().odometry().globalBaStats()) << "\n";
+  if (outputs.keyframes_adopted > 0)
+    std::cout << "pose refine:  " << outputs.keyframes_adopted
+              << " keyframe poses refined with the map, trajectory.txt follows them\n";
+  std::cout << "trajectory:   " << args.out << "/trajectory.txt\n"
             << "keyframes:    " << args.out << "/keyframes.txt\n"
             << "timing:       " << args.out << "/timing.csv\n";
   if (!args.build_map) {

@@ -51,7 +51,7 @@ DeviceImages CudaTrainer::render(const gs::PinholeView<float>&) { return {}; }
 void CudaTrainer::downloadRender(RenderResult<float>&) {}
 CudaLossResult CudaTrainer::loss(std::int64_t, double, double, double, const float*) { return {}; }
 void CudaTrainer::setPixelGrads(const float*, const float*, const float*) {}
-void CudaTrainer::backwardAndStep(const AdamStepSizes&) {}
+void CudaTrainer::backwardAndStep(const AdamStepSizes&, float*, float) {}
 DensifyOutcome CudaTrainer::densifyAndPrune(const DensifySettings&, std::size_t) { return {}; }
 CudaRasterizer& CudaTrainer::rasterizer() { throw std::logic_error("CudaTrainer: built without CUDA"); }
 

@@ -31,7 +31,12 @@ void GaussianMapperOptions::validate() const {
   require(lambda_depth >= 0 && lambda_depth <= 1, "lambda_depth", "in [0, 1]");
   require(alpha_weight >= 0, "alpha_weight", ">= 0");
   require(ssim_weight >= 0, "ssim_weight", ">= 0");
+  require(isotropy_weight >= 0, "isotropy_weight", ">= 0");
   require(lr_exposure >= 0, "lr_exposure", ">= 0");
+  require(lr_pose_translation_m >= 0, "lr_pose_translation_m", ">= 0");
+  require(lr_pose_rotation_rad >= 0, "lr_pose_rotation_rad", ">= 0");
+  require(pose_refinement_max_translation_m > 0, "pose_refinement_max_translation_m", "> 0");
+  require(pose_refinement_max_rotation_rad > 0, "pose_refinement_max_rotation_rad", "> 0");
   require(global_sample_ratio >= 0 && global_sample_ratio <= 1, "global_sample_ratio", "in [0, 1]");
   require(valid_min_depth_m >= 0 && valid_max_depth_m > valid_min_depth_m, "valid_min_depth_m/valid_max_depth_m",
           ">= 0 and max > min");

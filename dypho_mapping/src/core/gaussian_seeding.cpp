@@ -76,6 +76,7 @@ TrainingKeyframe trainingKeyframe(const Keyframe& kf, int ds, const cv::Mat& bgr
   TrainingKeyframe t;
   t.id = kf.id;
   t.T_world_camera = kf.T_world_camera;
+  t.T_world_camera_tracked = kf.T_world_camera;
   t.camera = downsampledPinhole(kf.frame.camera, ds);
   const cv::Size train_size(t.camera.width, t.camera.height);
   if (ds == 1) {

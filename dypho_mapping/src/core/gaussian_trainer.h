@@ -38,6 +38,13 @@ struct TrainingKeyframe {
   float exposure_v[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam second moments
   int exposure_steps = 0;
   std::int64_t trained_iterations = 0;  ///< optimisation iterations run on this keyframe
+  /// The pose tracking gave (with its corrections); T_world_camera is this pose refined with the
+  /// map (pose_refinement), or the same pose.
+  Eigen::Isometry3d T_world_camera_tracked = Eigen::Isometry3d::Identity();
+  float pose_m[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam first moments of the pose step
+  float pose_v[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< Adam second moments of the pose step
+  int pose_steps = 0;
+  std::size_t pose_steps_refused = 0;  ///< steps beyond the pose_refinement_max_* bounds
   bool hasImages() const { return !bgr.empty(); }
 };
 
@@ -85,6 +92,13 @@ struct GaussianTrainer {
   double iterate(bool all_keyframes = false);
   /// One Adam step on `kf`'s exposure from exposure_grad.
   void stepExposure(TrainingKeyframe& kf);
+  /// One Adam step on `kf`'s pose from the loss gradient `grad` (d/d(rho, phi) of a left
+  /// perturbation of T_camera_world, GaussianGrads::pose); a step beyond the pose_refinement_max_*
+  /// bounds from the tracked pose is not applied.
+  void stepPose(TrainingKeyframe& kf, const float grad[6]);
+  /// Adds the isotropy regulariser's gradient (options.isotropy_weight, train::addIsotropyGradient)
+  /// to grads.log_scale of the Gaussians visible in the last backward pass.
+  void addIsotropyGradients();
   void densifyAndPrune();
   /// densifyAndPrune() on the device (CudaTrainer), the host copy following in structure.
   void densifyAndPruneOnDevice();
@@ -138,6 +152,7 @@ struct GaussianTrainer {
   SsimLoss<float> ssim;                                     ///< structural term of the loss (options.ssim_weight > 0)
   std::vector<float> shown;                                 ///< [3, H, W] the colour the loss compares (SSIM term)
   float exposure_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  ///< dL/d exposure of the last loss
+  float pose_grad[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};      ///< dL/d pose of the last iteration (CUDA path)
 };
 
 /// PSNR on static pixels and depth L1 of `trainer`'s map at its stored keyframes; with

@@ -21,6 +21,17 @@ AdamLearningRates ratesFrom(const GaussianMapperOptions& o) {
   return r;
 }
 
+/// exp([rho, phi]) to first order in the coupling of rotation and translation (rotation exact,
+/// translation rho): the retraction of one pose step, whose gradient at 0 is the same.
+Eigen::Isometry3d poseStep(const float delta[6]) {
+  const Eigen::Vector3d rho(delta[0], delta[1], delta[2]), phi(delta[3], delta[4], delta[5]);
+  Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+  const double angle = phi.norm();
+  if (angle > 0.0) D.linear() = Eigen::AngleAxisd(angle, phi / angle).toRotationMatrix();
+  D.translation() = rho;
+  return D;
+}
+
 }  // namespace
 
 GaussianTrainer::GaussianTrainer(const GaussianMapperOptions& o, ComputeDevice d)
@@ -99,7 +110,10 @@ double GaussianTrainer::iterateCuda(TrainingKeyframe& kf, bool fixed_exposure) {
   const double loss = r.loss;
   std::copy(r.exposure_grad, r.exposure_grad + 6, exposure_grad);
   if (options.exposure_compensation && !fixed_exposure) stepExposure(kf);
-  cuda->backwardAndStep(adam.nextStep());
+  const bool refine_pose = options.pose_refinement && !fixed_exposure;
+  cuda->backwardAndStep(adam.nextStep(), refine_pose ? pose_grad : nullptr,
+                        static_cast<float>(options.isotropy_weight));
+  if (refine_pose) stepPose(kf, pose_grad);
   current = Current::kDevice;
   return loss;
 }
@@ -176,8 +190,14 @@ std::size_t GaussianTrainer::correctKeyframePoses(const KeyframePoseCorrections&
     if (!isRigidPose(T_world_camera)) continue;
     for (TrainingKeyframe& kf : keyframes) {
       if (kf.id != id) continue;
-      map.transformAnchored(id, T_world_camera * kf.T_world_camera.inverse());
-      kf.T_world_camera = T_world_camera;
+      // A refined pose keeps its offset from the tracked one (T_tracked^-1 T_refined) and moves
+      // with the tracker's correction; so do the keyframe's Gaussians.
+      const Eigen::Isometry3d T_world_camera_new =
+          options.pose_refinement ? T_world_camera * (kf.T_world_camera_tracked.inverse() * kf.T_world_camera)
+                                  : T_world_camera;
+      map.transformAnchored(id, T_world_camera_new * kf.T_world_camera.inverse());
+      kf.T_world_camera = T_world_camera_new;
+      kf.T_world_camera_tracked = T_world_camera;
       ++corrected;
       break;
     }
@@ -230,7 +250,7 @@ double GaussianTrainer::iterate(bool all_keyframes) {
   }
   TrainingKeyframe& kf = keyframes[chosen];
   ++kf.trained_iterations;
-  const bool fixed_exposure = chosen == 0;  // keyframe 0 fixes the gauge
+  const bool fixed_exposure = chosen == 0;  // keyframe 0 fixes the gauge (exposure and pose)
 
   double loss = 0.0;
   if (cuda) {
@@ -245,6 +265,8 @@ double GaussianTrainer::iterate(bool all_keyframes) {
     loss = lossAndGradient(kf, train_out);
     raster.backward(PixelGrads<float>{pix_gc.data(), pix_gd.data(), pix_ga.data()}, grads);
     if (options.exposure_compensation && !fixed_exposure) stepExposure(kf);
+    if (options.pose_refinement && !fixed_exposure) stepPose(kf, grads.pose);
+    addIsotropyGradients();
     adam.step(map, grads);
     grad_accum.resize(map.size(), 0.f);
     grad_count.resize(map.size(), 0);
@@ -284,6 +306,38 @@ void GaussianTrainer::stepExposure(TrainingKeyframe& kf) {
     adamUpdate(exposure_grad[k], step, inv_c2, kf.exposure[k], kf.exposure_m[k], kf.exposure_v[k],
                kExposureAdamEpsilon);
   }
+}
+
+void GaussianTrainer::addIsotropyGradients() {
+  if (!(options.isotropy_weight > 0.0) || map.size() == 0) return;
+  const float weight = static_cast<float>(options.isotropy_weight) / static_cast<float>(map.size());
+  const float* log_scale = map.data(kParamLogScale);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    train::addIsotropyGradient(log_scale + 3 * i, grads.mean2d_norm[i], weight, grads.log_scale.data() + 3 * i);
+  }
+}
+
+void GaussianTrainer::stepPose(TrainingKeyframe& kf, const float grad[6]) {
+  ++kf.pose_steps;
+  float c1 = 1.f, c2 = 1.f;
+  adamBiasCorrections(kf.pose_steps, c1, c2);
+  const float inv_c2 = 1.f / c2;
+  float delta[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};  // (rho [m], phi [rad]), Adam moves it from 0
+  for (int k = 0; k < 6; ++k) {
+    const double lr = k < 3 ? options.lr_pose_translation_m : options.lr_pose_rotation_rad;
+    adamUpdate(grad[k], static_cast<float>(lr) / c1, inv_c2, delta[k], kf.pose_m[k], kf.pose_v[k]);
+  }
+  const Eigen::Isometry3d T_camera_world_new = poseStep(delta) * kf.T_world_camera.inverse();
+  Eigen::Isometry3d T_world_camera_new = T_camera_world_new.inverse();
+  // Thousands of small steps: keep the rotation orthonormal (isRigidPose checks it).
+  T_world_camera_new.linear() = Eigen::Quaterniond(T_world_camera_new.linear()).normalized().toRotationMatrix();
+  const Eigen::Isometry3d offset = kf.T_world_camera_tracked.inverse() * T_world_camera_new;
+  if (offset.translation().norm() > options.pose_refinement_max_translation_m ||
+      Eigen::AngleAxisd(offset.linear()).angle() > options.pose_refinement_max_rotation_rad) {
+    ++kf.pose_steps_refused;
+    return;
+  }
+  kf.T_world_camera = T_world_camera_new;
 }
 
 DensifySettings GaussianTrainer::nextDensifySettings() {

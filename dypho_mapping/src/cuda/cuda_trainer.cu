@@ -142,6 +142,11 @@ __global__ void adamKernel(std::size_t total, int width, int block, AdamStepSize
   if (i < total) cuda_body::adam(i, width, block == 4, step, block, grad, x, m, v);
 }
 
+__global__ void isotropyKernel(std::size_t n, const float* log_scale, const float* norm, float weight, float* grad) {
+  const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) cuda_body::isotropy(i, log_scale, norm, weight, grad);
+}
+
 __global__ void statisticsKernel(std::size_t n, const float* norm, float* accum, int* count) {
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) cuda_body::statistics(i, norm, accum, count);
@@ -428,14 +433,21 @@ void CudaTrainer::setPixelGrads(const float* color, const float* depth, const fl
   DYPHO_CUDA_CHECK(cudaStreamSynchronize(st));
 }
 
-void CudaTrainer::backwardAndStep(const AdamStepSizes& step) {
+void CudaTrainer::backwardAndStep(const AdamStepSizes& step, float* pose_grad, float isotropy_weight) {
   Impl& d = *impl_;
   cudaStream_t st = d.stream();
   PixelGrads<float> pixel;
   pixel.color = d.g_color.get();
   pixel.depth = d.g_depth.get();
   pixel.alpha = d.g_alpha.get();
-  const DeviceGrads g = d.raster.backwardOnDevice(pixel);
+  const DeviceGrads g = d.raster.backwardOnDevice(pixel, pose_grad);
+  if (isotropy_weight > 0.f && d.count > 0) {
+    // The rasterizer's gradient buffer, owned by this trainer's rasterizer until the next backward.
+    isotropyKernel<<<blocksFor(d.count), kThreads, 0, st>>>(d.count, d.params[1].get(), g.mean2d_norm,
+                                                            isotropy_weight / static_cast<float>(d.count),
+                                                            const_cast<float*>(g.log_scale));
+    DYPHO_CUDA_CHECK_LAUNCH("isotropyKernel");
+  }
   const float* grads[kTrainingBlocks] = {g.position, g.log_scale, g.rotation, g.opacity_logit, g.sh};
   for (int p = 0; p < kTrainingBlocks; ++p) {
     const std::size_t total = d.count * static_cast<std::size_t>(d.widths[p]);

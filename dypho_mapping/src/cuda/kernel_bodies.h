@@ -301,6 +301,12 @@ DYPHO_HOST_DEVICE inline void adam(std::size_t i, int width, bool is_sh, const A
   adamUpdate(grad[i], step, s.inv_c2, x[i], m[i], v[i]);
 }
 
+/// The isotropy regulariser's gradient of Gaussian i added to its log-scale gradient.
+DYPHO_HOST_DEVICE inline void isotropy(std::size_t i, const float* log_scale, const float* norm, float weight,
+                                       float* grad_log_scale) {
+  train::addIsotropyGradient(log_scale + 3 * i, norm[i], weight, grad_log_scale + 3 * i);
+}
+
 /// Densification statistics of Gaussian i.
 DYPHO_HOST_DEVICE inline void statistics(std::size_t i, const float* norm, float* accum, int* count) {
   if (!(norm[i] > 0.f)) return;

@@ -73,5 +73,28 @@ RunEnd RgbdOdometry::finishRun() {
   return end;
 }
 
+std::size_t RgbdOdometry::adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe) {
+  std::map<std::int64_t, Eigen::Isometry3d> poses;
+  for (const auto& [id, T] : T_world_keyframe) {
+    if (map_.keyframe(id) != nullptr && T.matrix().allFinite()) poses.emplace(id, T);
+  }
+  if (poses.empty()) return 0;
+  const MapKeyframe* reference = map_.keyframe(reference_id_);
+  const std::optional<Eigen::Isometry3d> T_world_reference_before =
+      reference != nullptr ? std::optional<Eigen::Isometry3d>(reference->T_world_camera) : std::nullopt;
+  map_.applyKeyframePoses(poses);
+  for (const auto& [id, T] : poses) {
+    const auto it = reported_poses_.find(id);
+    if (it != reported_poses_.end()) it->second = T;
+  }
+  reference = map_.keyframe(reference_id_);
+  if (T_world_reference_before && reference != nullptr) {
+    T_world_last_ = reference->T_world_camera * T_world_reference_before->inverse() * T_world_last_;
+    motion_.correctLast(T_world_last_);
+    setReference(reference_id_);
+  }
+  return poses.size();
+}
+
 }  // namespace tracking
 }  // namespace dypho

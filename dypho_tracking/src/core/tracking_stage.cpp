@@ -46,6 +46,11 @@ RunEnd TrackingStage::finishRun() {
   return odometry_.finishRun();
 }
 
+std::size_t TrackingStage::adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return odometry_.adoptKeyframePoses(T_world_keyframe);
+}
+
 PoseList TrackingStage::finalTrajectory() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return recorder_.finalPoses(odometry_.map());

@@ -90,7 +90,10 @@ class CudaTrainer {
   void setPixelGrads(const float* color, const float* depth, const float* alpha);
   /// Backward of the last render with the current pixel gradients, one Adam step with `step`,
   /// and the densification statistics (grad_accum += |dL/dmean2d|, grad_count += 1 where > 0).
-  void backwardAndStep(const AdamStepSizes& step);
+  /// With `pose_grad` (6 floats), the loss gradient w.r.t. the camera pose is copied there
+  /// (GaussianGrads::pose). `isotropy_weight` > 0 adds the isotropy regulariser
+  /// (train::addIsotropyGradient, the weight divided by the Gaussians in the map).
+  void backwardAndStep(const AdamStepSizes& step, float* pose_grad = nullptr, float isotropy_weight = 0.f);
 
   /// Densify and prune on the device (GaussianTrainer::densifyAndPrune's rules and order: new
   /// Gaussians appended in parent order up to `capacity` Gaussians in all, split offsets from

@@ -82,11 +82,29 @@ void visitLossAndSeedingOptions(GaussianMapperOptions& options, Visitor&& visito
       "pixels, 11-tap Gaussian window (sigma 1.5 px), see ssim_loss.h (0 = off), >= 0. Default 0: 0.2 gained "
       "0.05-0.49 dB PSNR offline at every 10th frame (fr1, Bonn, generator) but none live at 1x, where depth L1 got "
       "0.9 cm worse (docs/journal/benchmarks-2026.md sections 4 and 11).");
+  visitor("isotropy_weight", options.isotropy_weight,
+          "Weight of the isotropy regulariser w / N sum_i sum_k |s_ik - mean_k s_ik| over the standard deviations of "
+          "the Gaussians visible in an iteration (N: Gaussians in the map), as MonoGS: keeps needle-like Gaussians "
+          "that look right only from the keyframes out of the map (0 = off), >= 0. Default 0.");
   visitor("exposure_compensation", options.exposure_compensation,
           "Per-keyframe affine exposure (gain exp(k_c), offset b_c per RGB channel) optimised with the map, as 3DGS "
           "SLAM systems do: the loss and the keyframe evaluation compare the keyframe's image with exp(k) * rendered + "
           "b (the first keyframe stays at identity). Default true.");
   visitor("lr_exposure", options.lr_exposure, "Adam step size of the exposure parameters, >= 0. Default 0.01.");
+  visitor("pose_refinement", options.pose_refinement,
+          "Joint refinement of the keyframe poses with the Gaussians (as MonoGS does): each training iteration also "
+          "takes an Adam step on the trained keyframe's pose from the rasterizer's pose gradient. The first keyframe "
+          "stays fixed (it holds the gauge). A tracking correction moves the refined pose with the tracker's, keeping "
+          "the refinement's offset; the refined poses go back to tracking at the end of a run. Default false.");
+  visitor("lr_pose_translation_m", options.lr_pose_translation_m,
+          "Adam step size of the keyframe translation (pose_refinement) [m], >= 0. Default 2e-4.");
+  visitor("lr_pose_rotation_rad", options.lr_pose_rotation_rad,
+          "Adam step size of the keyframe rotation (pose_refinement) [rad], >= 0. Default 5e-4.");
+  visitor("pose_refinement_max_translation_m", options.pose_refinement_max_translation_m,
+          "A refinement step that would take a keyframe further than this from the tracker's pose is not applied "
+          "[m], > 0. Default 0.05.");
+  visitor("pose_refinement_max_rotation_rad", options.pose_refinement_max_rotation_rad,
+          "The same bound on the rotation [rad], > 0. Default 0.035 (2 degrees).");
   visitor("global_sample_ratio", options.global_sample_ratio,
           "Share of training iterations that sample any stored keyframe instead of the window (keeps older parts of "
           "the map from drifting), [0, 1]. Default 0.2.");

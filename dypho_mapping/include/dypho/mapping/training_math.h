@@ -9,7 +9,8 @@
 ///    gradient, split a large one into two samples with 1/1.6 of its scale, prune transparent,
 ///    too large or non-finite ones; the split samples are a function of (seed, Gaussian, child,
 ///    axis) only, so the CPU loop and the GPU grid draw the same numbers;
-///  - the opacity reset value.
+///  - the opacity reset value;
+///  - the isotropy regulariser of the scales.
 /// The loops around them (CPU) and the grids (CUDA) belong to the callers. The Adam update of one
 /// value is adam_math.h's.
 
@@ -107,6 +108,27 @@ DYPHO_HOST_DEVICE inline bool isPruned(const float* log_scale, float opacity_log
   const float x = position_x;
   return opacity_logit < s.min_opacity_logit || maxLogScale(log_scale) > s.max_log_scale || !(x == x) ||
          !(x - x == 0.f);
+}
+
+/// The isotropy regulariser of one Gaussian (as MonoGS): weight_per_gaussian sum_k |s_k - mean s|
+/// over its standard deviations s_k = exp(log_scale_k), which keeps needles and flakes that look
+/// right only from the keyframes out of the map. Adds its gradient w.r.t. the log scales to
+/// `grad` when the Gaussian was visible in the iteration (`mean2d_norm` > 0).
+DYPHO_HOST_DEVICE inline void addIsotropyGradient(const float* log_scale, float mean2d_norm, float weight_per_gaussian,
+                                                  float* grad) {
+  if (!(mean2d_norm > 0.f)) return;
+  float s[3], sign[3];
+  float mean = 0.f, sign_sum = 0.f;
+  for (int k = 0; k < 3; ++k) {
+    s[k] = std::exp(log_scale[k]);
+    mean += s[k] * (1.f / 3.f);
+  }
+  for (int k = 0; k < 3; ++k) {
+    sign[k] = s[k] > mean ? 1.f : (s[k] < mean ? -1.f : 0.f);
+    sign_sum += sign[k];
+  }
+  // d/ds_k sum_j |s_j - m| = sign_k - sum_j sign_j / 3; d s_k / d log s_k = s_k.
+  for (int k = 0; k < 3; ++k) grad[k] += weight_per_gaussian * s[k] * (sign[k] - sign_sum * (1.f / 3.f));
 }
 
 // ---------------------------------------------------------------------------------------------

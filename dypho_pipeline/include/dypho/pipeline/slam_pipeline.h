@@ -95,6 +95,11 @@ class SlamPipeline {
   /// End of the sequence: the mapping stage finishes its queue and runs the final refinement.
   void finish() { mapping_.finish(); }
 
+  /// With mapping's pose_refinement: finish(), then the map's refined keyframe poses become the
+  /// tracker's (TrackingStage::adoptKeyframePoses), so a trajectory saved after it follows them.
+  /// Returns the keyframes moved (0 without a map or with pose_refinement off).
+  std::size_t adoptMapKeyframePoses();
+
   mask::MaskStage& mask() { return mask_; }
   tracking::TrackingStage& tracking() { return tracking_; }
   mapping::MappingStage& mapping() { return mapping_; }

@@ -101,6 +101,13 @@ class RgbdOdometry {
   /// a trajectory: trajectories re-expressed on their keyframes (TrajectoryRecorder) follow it.
   RunEnd finishRun();
 
+  /// Takes keyframe poses refined elsewhere (the Gaussian map's joint refinement) as the map's
+  /// own: the keyframes move there, their map points with them (TrackerMap::applyKeyframePoses),
+  /// the last pose keeps its place relative to the reference keyframe, and no correction goes
+  /// back for them (they are the poses mapping already has). Unknown ids and non-finite poses are
+  /// ignored; returns how many keyframes moved. Call it after finishRun, before saving.
+  std::size_t adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe);
+
   /// Global BA calls so far (after loops and at the end), for run summaries.
   const GlobalBaStats& globalBaStats() const { return global_ba_stats_; }
 

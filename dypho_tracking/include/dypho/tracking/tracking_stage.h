@@ -65,6 +65,10 @@ class TrackingStage {
   /// flight, then the final global BA with TrackingOptions::global_ba_at_end). The recorded
   /// frames follow their keyframes; the corrections are for mapping.
   RunEnd finishRun();
+  /// After finishRun: keyframe poses refined by the Gaussian map (pose_refinement) become the
+  /// tracker's (RgbdOdometry::adoptKeyframePoses); the final trajectory follows them. Returns how
+  /// many keyframes moved.
+  std::size_t adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe);
 
   /// Final trajectory: every recorded frame, following its keyframe's current pose.
   PoseList finalTrajectory() const;
