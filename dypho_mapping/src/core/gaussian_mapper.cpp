@@ -234,6 +234,10 @@ double GaussianMapper::finish(std::optional<double> budget_s) {
     sum += l;
     ++n;
   }
+  if (options_.exposure_mean_gauge) {
+    ChangeLock lock(*this);
+    trainer_->centreExposureGauge();
+  }
   return n > 0 ? sum / n : 0.0;
 }
 

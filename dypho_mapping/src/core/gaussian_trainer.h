@@ -96,6 +96,9 @@ struct GaussianTrainer {
   /// perturbation of T_camera_world, GaussianGrads::pose); a step beyond the pose_refinement_max_*
   /// bounds from the tracked pose is not applied.
   void stepPose(TrainingKeyframe& kf, const float grad[6]);
+  /// exposure_mean_gauge: the map's colours c -> exp(mean k) c + mean b (over the keyframes'
+  /// exposures), each keyframe's exposure re-expressed so that its render does not change.
+  void centreExposureGauge();
   /// Adds the isotropy regulariser's gradient (options.isotropy_weight, train::addIsotropyGradient)
   /// to grads.log_scale of the Gaussians visible in the last backward pass.
   void addIsotropyGradients();

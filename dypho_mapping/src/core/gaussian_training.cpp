@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "gaussian_trainer.h"
+#include "dypho/mapping/gaussian_sh.h"
 #include "dypho/mapping/map_renderer.h"
 #include "dypho/mapping/training_math.h"
 
@@ -306,6 +307,38 @@ void GaussianTrainer::stepExposure(TrainingKeyframe& kf) {
     adamUpdate(exposure_grad[k], step, inv_c2, kf.exposure[k], kf.exposure_m[k], kf.exposure_v[k],
                kExposureAdamEpsilon);
   }
+}
+
+void GaussianTrainer::centreExposureGauge() {
+  if (!options.exposure_compensation || keyframes.empty()) return;
+  syncToHost();
+  double k_mean[3] = {0.0, 0.0, 0.0}, b_mean[3] = {0.0, 0.0, 0.0};
+  for (const TrainingKeyframe& kf : keyframes) {
+    for (int c = 0; c < 3; ++c) {
+      k_mean[c] += kf.exposure[c] / static_cast<double>(keyframes.size());
+      b_mean[c] += kf.exposure[3 + c] / static_cast<double>(keyframes.size());
+    }
+  }
+  // A colour 0.5 + C0 dc + sum_k B_k sh_k becomes g (that) + b: the DC coefficient takes the
+  // offset, every coefficient the gain (rows are K coefficients x RGB, DC first).
+  const int row = map.width(kParamSh);
+  float* sh = map.data(kParamSh);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    float* coefficients = sh + i * static_cast<std::size_t>(row);
+    for (int c = 0; c < 3; ++c) {
+      const double g = std::exp(k_mean[c]);
+      coefficients[c] = static_cast<float>(g * coefficients[c] + (0.5 * (g - 1.0) + b_mean[c]) / gs::kShC0);
+      for (int k = 3 + c; k < row; k += 3) coefficients[k] = static_cast<float>(g * coefficients[k]);
+    }
+  }
+  // exp(k) C + b = exp(k - k_mean) (g C + b_mean) + (b - exp(k - k_mean) b_mean).
+  for (TrainingKeyframe& kf : keyframes) {
+    for (int c = 0; c < 3; ++c) {
+      kf.exposure[c] = static_cast<float>(kf.exposure[c] - k_mean[c]);
+      kf.exposure[3 + c] = static_cast<float>(kf.exposure[3 + c] - std::exp(kf.exposure[c]) * b_mean[c]);
+    }
+  }
+  hostChanged();
 }
 
 void GaussianTrainer::addIsotropyGradients() {

@@ -117,7 +117,8 @@ class GaussianMapper {
   /// before the final map is saved or evaluated. Returns the mean loss of those iterations (0: none).
   /// With `budget_s` (shutdown, where the process has seconds): the queued keyframes are added to
   /// the map (seeded, corrections applied) without their training iterations, and refinement
-  /// stops once `budget_s` [s] have passed since the call.
+  /// stops once `budget_s` [s] have passed since the call. With exposure_mean_gauge, the map's
+  /// colours then move into the keyframes' mean exposure.
   double finish(std::optional<double> budget_s = std::nullopt);
   /// Stops and joins the worker (remaining queued jobs are discarded).
   void stop();

@@ -78,6 +78,11 @@ struct GaussianMapperOptions {
   bool exposure_compensation = true;
   /// Adam step size of the exposure parameters, >= 0. Default 0.01.
   double lr_exposure = 0.01;
+  /// With exposure_compensation, the end of a run (GaussianMapper::finish) moves the map's colours
+  /// into the mean exposure of its keyframes, and each keyframe's exposure becomes relative to it
+  /// (the keyframes' renders do not change). Otherwise the map keeps the first keyframe's
+  /// exposure, which a camera's auto-exposure may still be settling in. Default false.
+  bool exposure_mean_gauge = false;
   /// Joint refinement of the keyframe poses with the Gaussians (as MonoGS does): each training
   /// iteration also takes an Adam step on the trained keyframe's pose from the rasterizer's pose
   /// gradient. The first keyframe stays fixed (it holds the gauge). A tracking correction moves

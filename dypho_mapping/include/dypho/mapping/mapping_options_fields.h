@@ -91,6 +91,11 @@ void visitLossAndSeedingOptions(GaussianMapperOptions& options, Visitor&& visito
           "SLAM systems do: the loss and the keyframe evaluation compare the keyframe's image with exp(k) * rendered + "
           "b (the first keyframe stays at identity). Default true.");
   visitor("lr_exposure", options.lr_exposure, "Adam step size of the exposure parameters, >= 0. Default 0.01.");
+  visitor("exposure_mean_gauge", options.exposure_mean_gauge,
+          "With exposure_compensation, the end of a run (GaussianMapper::finish) moves the map's colours into the "
+          "mean exposure of its keyframes, and each keyframe's exposure becomes relative to it (the keyframes' "
+          "renders do not change). Otherwise the map keeps the first keyframe's exposure, which a camera's "
+          "auto-exposure may still be settling in. Default false.");
   visitor("pose_refinement", options.pose_refinement,
           "Joint refinement of the keyframe poses with the Gaussians (as MonoGS does): each training iteration also "
           "takes an Adam step on the trained keyframe's pose from the rasterizer's pose gradient. The first keyframe "

@@ -1,10 +1,14 @@
-/// Joint refinement of keyframe poses with the Gaussians (GaussianMapperOptions::pose_refinement):
-/// a keyframe handed over at a wrong pose moves towards the pose the rest of the map agrees on,
-/// the first keyframe holds the gauge, the bound holds, and a tracking correction keeps the
-/// refinement's offset.
+/// Training options of the Gaussian map beyond the paper's loss:
+///  - pose_refinement: a keyframe handed over at a wrong pose moves towards the pose the rest of
+///    the map agrees on, the first keyframe holds the gauge, the bound holds, and a tracking
+///    correction keeps the refinement's offset;
+///  - exposure_mean_gauge: the map's colours move into the keyframes' mean exposure while the
+///    keyframes' renders stay as they were.
+#include <cmath>
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "dypho/mapping/gaussian_mapper.h"
 #include "plane_keyframe.h"
@@ -102,6 +106,45 @@ TEST(PoseRefinement, ATrackingCorrectionKeepsTheRefinementsOffset) {
   ASSERT_TRUE(mapper.updateKeyframePose(2, T_corrected));
   const Eigen::Isometry3d T_after = poseOf(mapper, 2);
   EXPECT_TRUE(T_after.isApprox(T_corrected * offset, 1e-12));
+}
+
+/// Mean grey level of an image's pixels.
+double meanLevel(const cv::Mat& bgr) {
+  const cv::Scalar m = cv::mean(bgr);
+  return (m[0] + m[1] + m[2]) / 3.0;
+}
+
+TEST(ExposureGauge, TheMapMovesIntoTheMeanExposureAndKeyframeRendersStay) {
+  // Two views of one plane; the second image is 40 % darker (auto exposure).
+  auto run = [](bool mean_gauge, KeyframeEvaluation* before, KeyframeEvaluation* after) {
+    GaussianMapperOptions o = refineOptions(false);
+    o.exposure_compensation = true;
+    o.exposure_mean_gauge = mean_gauge;
+    o.final_refine_iterations = 0;  // finish() only moves the gauge
+    GaussianMapper mapper(o);
+    Keyframe a = planeKeyframe(1, 0.0, 0.0);
+    Keyframe b = planeKeyframe(2, 0.03, 0.0);
+    b.frame.bgr.convertTo(b.frame.bgr, CV_8UC3, 0.6);
+    EXPECT_TRUE(mapper.addKeyframe(a).added);
+    EXPECT_TRUE(mapper.addKeyframe(b).added);
+    mapper.optimize(200);
+    *before = mapper.evaluateKeyframes();
+    mapper.finish();
+    *after = mapper.evaluateKeyframes();
+    return meanLevel(mapper.render(a.T_world_camera, a.frame.camera).bgr) / meanLevel(a.frame.bgr);
+  };
+  KeyframeEvaluation first_before, first_after, mean_before, mean_after;
+  const double first_level = run(false, &first_before, &first_after);
+  const double mean_level = run(true, &mean_before, &mean_after);
+  std::printf("plain render / keyframe 1 image: %.3f in the first keyframe's gauge, %.3f in the mean gauge\n",
+              first_level, mean_level);
+  // The first keyframe's gauge renders keyframe 1's brightness (5 % for the fit); the mean gauge
+  // sits between the images (1.0 and 0.6): log-mean gain sqrt(0.6) = 0.77, +-0.05.
+  EXPECT_NEAR(first_level, 1.0, 0.05);
+  EXPECT_NEAR(mean_level, std::sqrt(0.6), 0.05);
+  // The keyframes' exposed renders do not change (float rounding and the colour clamp: 0.05 dB).
+  EXPECT_NEAR(mean_after.psnr_db, mean_before.psnr_db, 0.05);
+  EXPECT_EQ(first_after.psnr_db, first_before.psnr_db);
 }
 
 }  // namespace
