@@ -74,7 +74,7 @@ TEST(PoseRefinement, AWrongKeyframePoseMovesTowardsTheMap) {
   std::printf("keyframe pose error: %.2f mm without refinement, %.2f mm with\n", 1e3 * off.error_m, 1e3 * on.error_m);
   EXPECT_NEAR(off.error_m, kErrorM, 1e-9);  // off: the pose stays where tracking put it
   // The other keyframes' Gaussians hold the texture where it is: the pose must lose at least
-  // half of its error (the texture repeats every 8 px = 8 cm, far from 2 cm).
+  // half of its error (checker cells of 8 px = 8 cm: no false match near 2 cm).
   EXPECT_LT(on.error_m, 0.5 * kErrorM);
   // Keyframe 1 holds the gauge.
   EXPECT_TRUE(on.T_first.isApprox(Eigen::Isometry3d::Identity(), 1e-12));
