@@ -14,7 +14,8 @@ CC=clang CXX=clang++ cmake -S "$ROOT/fuzz" -B "$OUT" -DCMAKE_BUILD_TYPE=None > "
   || { cat "$OUT/configure.log"; exit 1; }
 cmake --build "$OUT" -j "${DYPHO_JOBS:-$(nproc)}"
 status=0
-for pair in gaussian_ply:ply tum_lists:tum_lists camera_yaml:camera_yaml options_yaml:options_yaml; do
+for pair in gaussian_ply:ply tum_lists:tum_lists camera_yaml:camera_yaml options_yaml:options_yaml \
+            tracker_session:tracker_session; do
   target="fuzz_${pair%%:*}"
   corpus="$OUT/corpus_${pair##*:}"
   rm -rf "$corpus" && cp -r "$ROOT/fuzz/corpus/${pair##*:}" "$corpus"

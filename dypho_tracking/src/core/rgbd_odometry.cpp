@@ -77,6 +77,7 @@ void RgbdOdometry::reset() {
   frames_since_keyframe_ = 0;
   reference_inliers_ = 0;
   lost_frames_ = 0;
+  searching_map_ = false;
 }
 
 std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,
@@ -111,6 +112,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, cons
                                Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& tracked_point_ids,
                                const Pinhole& pinhole, TrackingResult* result) {
   pinhole_ = pinhole;  // for the global BA at the end of the run (finishRun)
+  camera_ = frame.camera;
   has_pinhole_ = true;
   // The previous keyframe's adjustment goes into the map first; this frame was tracked against
   // the map before it, so its pose moves with the reference keyframe and its matches to points

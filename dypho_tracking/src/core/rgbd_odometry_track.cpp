@@ -73,6 +73,10 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
     startMap(&work);
     return finishFrame(&work);
   }
+  if (searching_map_) {
+    searchMap(&work);
+    return finishFrame(&work);
+  }
 
   predictPose(&work);
   matchAndOptimise(&work);
@@ -298,6 +302,11 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
   addKeyframe(work->frame, work->mask, work->features(), work->T_world_camera, ids, work->pinhole, &work->result);
 }
 
+void RgbdOdometry::searchMap(TrackingFrame* work) {
+  work->aligned.message = "searching the restored session's map";
+  if (!relocalise(work)) markLost(work);
+}
+
 bool RgbdOdometry::relocalise(TrackingFrame* work) {
   TrackingResult& result = work->result;
   if (result.num_features < options_.relocalization_min_inliers) return false;
@@ -311,6 +320,7 @@ bool RgbdOdometry::relocalise(TrackingFrame* work) {
   T_world_last_ = reloc.T_world_camera;
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
   lost_frames_ = 0;
+  searching_map_ = false;
   setReference(reloc.keyframe_id);
   // Found again on the map from before a re-initialisation: anchored again.
   if (unanchored_from_keyframe_id_ >= 0 && reloc.keyframe_id < unanchored_from_keyframe_id_) {
@@ -339,6 +349,7 @@ void RgbdOdometry::markLost(TrackingFrame* work) {
 void RgbdOdometry::reinitialise(TrackingFrame* work) {
   TrackingResult& result = work->result;
   const std::int64_t first_new_keyframe_id = next_keyframe_id_;
+  searching_map_ = false;  // not found in a restored map: a new segment, as after any loss
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
   if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
     unverified_keyframe_id_ = reference_id_;

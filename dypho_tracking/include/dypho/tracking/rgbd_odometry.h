@@ -25,6 +25,7 @@
 #include "dypho/tracking/keyframe_selector.h"
 #include "dypho/tracking/local_bundle_adjuster.h"
 #include "dypho/tracking/tracker_map.h"
+#include "dypho/tracking/tracker_session.h"
 #include "dypho/tracking/loop_closer.h"
 #include "dypho/tracking/loop_detector.h"
 #include "dypho/tracking/orb_extractor.h"
@@ -71,6 +72,9 @@ struct RunEnd {
 ///    max_lost_frames consecutive failures, the next frame with enough features becomes a new
 ///    keyframe at the last good pose (re-initialisation; not connected to the old map points, so
 ///    the jump while lost is not recovered unless a loop closes later).
+///  - After restoreSession (a saved session, tracker_session.h): every frame is relocalised
+///    against the loaded map (kLost until found, result.relocalized when found, then OK as
+///    above); max_lost_frames failures re-initialise as from LOST.
 ///  - A stamp not after the previous one (time going backwards or repeated) resets everything:
 ///    NOT_INITIALIZED, identity pose, message; the following frame starts a new world.
 ///
@@ -114,6 +118,21 @@ class RgbdOdometry {
   /// Forgets map, pose and velocity; the next usable frame starts a new world at identity.
   /// Keyframe and map-point ids keep increasing (unique over the object's life).
   void reset();
+
+  /// The tracker's state for a later session (tracker_session.h, saveTrackerSession): map, id
+  /// counters, camera, last pose, loop bookkeeping. A local BA still in flight is not in it: at
+  /// the end of a run call finishRun() first. Throws std::logic_error before the first keyframe
+  /// (there is nothing to go on from).
+  TrackerSession session() const;
+
+  /// Goes on from `session` in its world frame (e.g. loadTrackerSession): forgets the current
+  /// state (reset), takes the session's map, ids and bookkeeping, then searches the loaded map:
+  /// each frame is relocalised against its keyframes (TrackingResult::relocalized) and is kLost
+  /// until one is found; after max_lost_frames failures a new segment starts at the session's
+  /// last pose, unanchored (as after a loss). The next frame may have any stamp (a later day).
+  /// New keyframe and map-point ids continue above the session's. Throws std::invalid_argument
+  /// with trackerSessionProblem's reason, the tracker unchanged, when it cannot be restored.
+  void restoreSession(TrackerSession session);
 
   /// The options in use.
   const TrackingOptions& options() const { return options_; }
@@ -160,6 +179,9 @@ class RgbdOdometry {
   KeyframeDecision decideKeyframe(const TrackingFrame& work) const;
   /// Local map: the tracked frame becomes a keyframe, with its inlier matches as observations.
   void insertKeyframe(TrackingFrame* work);
+  /// After restoreSession: relocalisation against the loaded map without tracking first (the
+  /// camera may be anywhere in it); the frame is lost when that fails.
+  void searchMap(TrackingFrame* work);
   /// Lost: relocalisation against the map's keyframes; true when it found the frame.
   bool relocalise(TrackingFrame* work);
   /// A lost frame: counted, the motion model told; after max_lost_frames, re-initialisation.
@@ -237,8 +259,11 @@ class RgbdOdometry {
   LoopCloser loop_closer_;
   GlobalBundleAdjuster global_ba_;
   GlobalBaStats global_ba_stats_;
-  Pinhole pinhole_;  ///< the camera of the keyframes (set with the first keyframe)
+  Pinhole pinhole_;          ///< the camera of the keyframes (set with the first keyframe)
+  CameraIntrinsics camera_;  ///< the same camera with its image size and distortion (for sessions)
   bool has_pinhole_ = false;
+  /// A restored session's map is searched by relocalisation until the camera is found in it.
+  bool searching_map_ = false;
   PoseOptimizer pose_optimizer_;   ///< re-estimation after the static check
   StaticSceneCheck static_check_;  ///< dense check against the reference keyframe
   DenseRgbdAligner dense_;         ///< dense refinement against the reference keyframe

@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -53,6 +54,35 @@ struct MapKeyframe {
   // The keyframe's images are handed to mapping and not kept here: nothing in tracking reads
   // them, and a long run would otherwise hold every keyframe's images (2.4 MB each at 640x480).
 };
+
+/// Where a removed keyframe is (TrackerMap::removeKeyframe): its pose relative to a keyframe still
+/// in the map, so that its pose follows later corrections of that keyframe.
+struct RemovedKeyframe {
+  std::int64_t parent_id = -1;                                          ///< keyframe still in the map
+  Eigen::Isometry3d T_parent_keyframe = Eigen::Isometry3d::Identity();  ///< removed keyframe in the parent
+};
+
+/// Everything a TrackerMap holds, in id order (TrackerMap::state / restore): what a tracker
+/// session file stores (tracker_session.h). Covisibility needs nothing here: it is computed
+/// from the points' observations.
+struct TrackerMapState {
+  std::map<std::int64_t, MapKeyframe> keyframes;    ///< keyframe id -> keyframe
+  std::map<std::int64_t, MapPoint> points;          ///< map-point id -> point
+  std::map<std::int64_t, RemovedKeyframe> removed;  ///< removed keyframe id -> where it is
+  std::int64_t next_point_id = 0;                   ///< next free map-point id (above every id in use)
+};
+
+/// True when `T` is a finite rigid transform: its rotation orthonormal within 1e-6, determinant
+/// positive, last row 0 0 0 1 (what every pose of a map is; a session file is checked for it).
+bool isRigidPose(const Eigen::Isometry3d& T);
+
+/// The first reason `state` cannot be a map, empty when it can: a keyframe whose feature arrays
+/// differ in length or hold non-finite numbers, a descriptor that is not 32 bytes, an observation
+/// of an unknown keyframe or of a feature index it does not have, an id that does not match its
+/// key or is not below next_point_id, a pose that is not rigid (isRigidPose), a non-finite
+/// point. What a session file is checked for after its checksum, so that no later step of
+/// tracking indexes out of range.
+std::string trackerMapStateProblem(const TrackerMapState& state);
 
 /// The tracker's global map: every keyframe and map point of the run (the sparse counterpart of
 /// the Gaussian map). Tracking works on views of it: the local map of the reference keyframe
@@ -165,6 +195,12 @@ class TrackerMap {
   std::int64_t nextPointId() const { return next_point_id_; }
   /// Forgets everything (ids keep increasing).
   void clear();
+  /// A copy of everything the map holds (for a session file).
+  TrackerMapState state() const;
+  /// Replaces everything with `state` (a session file's map); the next point id is the larger
+  /// of the state's and the current one. Throws std::invalid_argument with
+  /// trackerMapStateProblem's reason and leaves the map unchanged when `state` cannot be a map.
+  void restore(TrackerMapState state);
 
  private:
   /// Sets the point's slot in every keyframe that observes it to -1 (before erasing it).
@@ -175,11 +211,6 @@ class TrackerMap {
   TrackingOptions options_;
   std::map<std::int64_t, MapKeyframe> keyframes_;
   std::unordered_map<std::int64_t, MapPoint> points_;
-  /// A removed keyframe's pose relative to a keyframe still in the map.
-  struct RemovedKeyframe {
-    std::int64_t parent_id = -1;
-    Eigen::Isometry3d T_parent_keyframe = Eigen::Isometry3d::Identity();
-  };
   std::unordered_map<std::int64_t, RemovedKeyframe> removed_;
   std::int64_t next_point_id_ = 0;
 };

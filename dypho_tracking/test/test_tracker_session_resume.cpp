@@ -1,0 +1,187 @@
+/// A tracker session of a real run (rendered synthetic sequence, dypho_synth_core): saved and
+/// loaded field by field, restored into a fresh tracker that goes on exactly as the original, and
+/// a restored tracker that finds the camera in the loaded map by relocalisation.
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "dypho/tools/synthetic_scene.h"
+#include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/tracker_session.h"
+#include "tracker_session_compare.h"
+
+namespace dypho {
+namespace tracking {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TrackerSessionResume : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    tools::SynthOptions o;
+    o.frames = 50;
+    o.people = 0;
+    o.seed = 4;
+    o.motion = tools::SynthMotion::kHalfsphere;
+    tools::SyntheticScene scene(o);
+    for (int i = 0; i < o.frames; ++i) frames_.push_back(scene.render(i));
+  }
+  static void TearDownTestSuite() { frames_.clear(); }
+
+  /// Frame i with the stamp of the `step`-th frame of the sequence (a path over the same frames
+  /// back and forth keeps its stamps increasing).
+  static RgbdFrame frameAt(int i, int step) {
+    RgbdFrame frame = frames_[static_cast<std::size_t>(i)].frame;
+    const Timestamp period_ns = frames_[1].frame.stamp_ns - frames_[0].frame.stamp_ns;
+    frame.stamp_ns = frames_[0].frame.stamp_ns + period_ns * step;
+    return frame;
+  }
+  /// Ground-truth pose of frame i in the tracker's world (= frame 0's camera).
+  static Eigen::Isometry3d gt(int i) {
+    return frames_[0].T_world_camera.inverse() * frames_[static_cast<std::size_t>(i)].T_world_camera;
+  }
+  static double positionError(const Eigen::Isometry3d& T, int i) {
+    return (T.translation() - gt(i).translation()).norm();
+  }
+  static double angleErrorDeg(const Eigen::Isometry3d& T, int i) {
+    return Eigen::AngleAxisd(gt(i).rotation().transpose() * T.rotation()).angle() * 180.0 / M_PI;
+  }
+  /// Tracks frames `first`..`last` (either direction), steps from *step on; every frame must be OK.
+  static void run(RgbdOdometry* odometry, int first, int last, int* step) {
+    const int direction = last >= first ? 1 : -1;
+    for (int i = first; i != last + direction; i += direction) {
+      const TrackingResult r = odometry->track(frameAt(i, (*step)++), cv::Mat());
+      ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i << ": " << r.message;
+    }
+  }
+  static std::string tempPath(const std::string& name) {
+    return (fs::temp_directory_path() / ("dypho_resume_" + std::to_string(::getpid()) + "_" + name)).string();
+  }
+  static std::vector<tools::SynthFrame> frames_;
+};
+
+std::vector<tools::SynthFrame> TrackerSessionResume::frames_;
+
+// There and back over the room: redundant keyframes are removed, so the session holds removed
+// keyframes' poses too. Saved, loaded and restored, every field is the original's to the bit.
+TEST_F(TrackerSessionResume, SessionOfARunIsSavedAndLoadedFieldByField) {
+  RgbdOdometry odometry{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&odometry, 0, 49, &step));
+  ASSERT_NO_FATAL_FAILURE(run(&odometry, 48, 10, &step));
+  ASSERT_GT(odometry.map().numRemovedKeyframes(), 0u) << "the run must remove keyframes for this test";
+  const TrackerSession session = odometry.session();
+  const std::string path = tempPath("run.bin");
+  const auto t0 = std::chrono::steady_clock::now();
+  saveTrackerSession(path, session);
+  const auto t1 = std::chrono::steady_clock::now();
+  const TrackerSession loaded = loadTrackerSession(path, frames_[0].frame.camera);
+  const auto t2 = std::chrono::steady_clock::now();
+  std::cout << "[ session  ] " << session.map.keyframes.size() << " keyframes, " << session.map.points.size()
+            << " points, " << session.map.removed.size() << " removed keyframes: " << fs::file_size(path)
+            << " bytes, saved in " << std::chrono::duration<double, std::milli>(t1 - t0).count() << " ms, loaded in "
+            << std::chrono::duration<double, std::milli>(t2 - t1).count() << " ms\n";
+  fs::remove(path);
+  test::expectSameSession(session, loaded);
+
+  RgbdOdometry restored{TrackingOptions()};
+  restored.restoreSession(loaded);
+  test::expectSameSession(session, restored.session());
+  for (const auto& [id, removed] : session.map.removed) {
+    ASSERT_TRUE(restored.map().keyframePose(id).has_value()) << "removed keyframe " << id;
+    EXPECT_TRUE(restored.map().keyframePose(id)->matrix() == odometry.map().keyframePose(id)->matrix()) << id;
+  }
+  // Covisibility is derived from the observations: the same without being stored.
+  for (const auto& [id, keyframe] : session.map.keyframes) {
+    EXPECT_EQ(restored.map().covisibleKeyframes(id, 100), odometry.map().covisibleKeyframes(id, 100)) << id;
+  }
+}
+
+// The original tracker restored from its own session in memory and a fresh tracker restored from
+// the file go on identically: relocalised on the first frame, then the same poses, keyframes and
+// new ids (above the session's) on every frame.
+TEST_F(TrackerSessionResume, RestoredTrackerGoesOnLikeTheOriginal) {
+  RgbdOdometry original{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&original, 0, 29, &step));
+  const TrackerSession session = original.session();
+  const std::string path = tempPath("resume.bin");
+  saveTrackerSession(path, session);
+  original.restoreSession(session);
+  RgbdOdometry resumed{TrackingOptions()};
+  resumed.restoreSession(loadTrackerSession(path, frames_[0].frame.camera));
+  fs::remove(path);
+  int keyframes = 0;
+  for (int i = 30; i < 50; ++i) {
+    const RgbdFrame frame = frameAt(i, step++);
+    const TrackingResult a = original.track(frame, cv::Mat());
+    const TrackingResult b = resumed.track(frame, cv::Mat());
+    ASSERT_EQ(a.state, TrackingState::kOk) << "frame " << i << ": " << a.message;
+    ASSERT_EQ(b.state, TrackingState::kOk) << "frame " << i << ": " << b.message;
+    EXPECT_EQ(b.relocalized, i == 30) << "frame " << i;
+    EXPECT_EQ(a.is_keyframe, b.is_keyframe) << "frame " << i;
+    EXPECT_LT((a.T_world_camera.matrix() - b.T_world_camera.matrix()).cwiseAbs().maxCoeff(), 1e-9) << "frame " << i;
+    // Tracking itself: ~0.5 cm on this sequence, 2 cm = lost in the loaded map.
+    EXPECT_LT(positionError(b.T_world_camera, i), 0.02) << "frame " << i;
+    if (b.is_keyframe) {
+      ++keyframes;
+      EXPECT_GE(b.keyframe->id, session.next_keyframe_id) << "frame " << i;
+    }
+  }
+  EXPECT_GE(keyframes, 1);
+  int new_points = 0;
+  for (const auto& [id, point] : resumed.map().points()) {
+    if (session.map.points.count(id) > 0) continue;
+    ++new_points;
+    EXPECT_GE(id, session.map.next_point_id);
+  }
+  EXPECT_GT(new_points, 0);
+}
+
+// Yesterday's map, today's camera: a tracker restored from the file searches the loaded map. A
+// frame with nothing to find is lost (and keeps searching); the next frame, in the mapped area
+// and stamped before yesterday's last frame (any stamp goes), is relocalised to its true pose.
+TEST_F(TrackerSessionResume, FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap) {
+  RgbdOdometry yesterday{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  const std::string path = tempPath("yesterday.bin");
+  saveTrackerSession(path, yesterday.session());
+  RgbdOdometry today{TrackingOptions()};
+  today.restoreSession(loadTrackerSession(path, frames_[0].frame.camera));
+  fs::remove(path);
+
+  RgbdFrame black = frameAt(20, 19);
+  black.bgr = cv::Mat(black.bgr.size(), CV_8UC3, cv::Scalar::all(0));
+  const TrackingResult lost = today.track(black, cv::Mat());
+  EXPECT_EQ(lost.state, TrackingState::kLost);
+  EXPECT_FALSE(lost.relocalized);
+  EXPECT_NE(lost.message.find("searching the restored session's map"), std::string::npos) << lost.message;
+  EXPECT_TRUE(lost.T_world_camera.matrix().allFinite());
+
+  const TrackingResult found = today.track(frameAt(20, 20), cv::Mat());
+  ASSERT_EQ(found.state, TrackingState::kOk) << found.message;
+  EXPECT_TRUE(found.relocalized) << found.message;
+  // Relocalisation is as precise as tracking here (~0.5 cm); 1 cm and 1 deg = the right place.
+  EXPECT_LT(positionError(found.T_world_camera, 20), 0.01);
+  EXPECT_LT(angleErrorDeg(found.T_world_camera, 20), 1.0);
+  for (int i = 21; i < 30; ++i) {
+    const TrackingResult r = today.track(frameAt(i, i), cv::Mat());
+    ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i << ": " << r.message;
+    EXPECT_FALSE(r.relocalized) << "frame " << i << ": tracked, not searched";
+    EXPECT_LT(positionError(r.T_world_camera, i), 0.02) << "frame " << i;
+  }
+}
+
+}  // namespace
+}  // namespace tracking
+}  // namespace dypho
