@@ -74,8 +74,11 @@ struct GaussianMapperOptions {
   double isotropy_weight = 0.0;
   /// Per-keyframe affine exposure (gain exp(k_c), offset b_c per RGB channel) optimised with the
   /// map, as 3DGS SLAM systems do: the loss and the keyframe evaluation compare the keyframe's
-  /// image with exp(k) * rendered + b (the first keyframe stays at identity). Default true.
-  bool exposure_compensation = true;
+  /// image with exp(k) * rendered + b (the first keyframe stays at identity). Default false: views
+  /// of the map are rendered without an exposure of their own, and a map trained on the plain
+  /// colours fits them better (at every 10th frame +1.24 dB on fr1/rpy, Bonn unchanged offline and
+  /// live, -0.11 dB on the generator; docs/journal/benchmarks-2026.md section 12).
+  bool exposure_compensation = false;
   /// Adam step size of the exposure parameters, >= 0. Default 0.01.
   double lr_exposure = 0.01;
   /// With exposure_compensation, the end of a run (GaussianMapper::finish) moves the map's colours
