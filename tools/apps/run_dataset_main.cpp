@@ -88,7 +88,7 @@ struct RunTally {
   std::map<std::size_t, cv::Mat> view_masks;  ///< the mask of every --eval-every'th frame, by index
   std::vector<double> keyframe_stamps_s;      ///< frames that became keyframes
   double first_stamp_s = -1.0;                ///< stamp of the first posed or lost frame [s]
-  long first_ok_index = -1;                   ///< first frame tracked OK (--resume: relocalised)
+  long first_ok_index = -1;                   ///< first frame tracked OK and anchored (--resume: relocalised)
   double first_ok_stamp_s = -1.0;             ///< its stamp [s]
 };
 
@@ -152,7 +152,8 @@ void tallyPosedFrame(RunTally& tally, std::size_t index, double stamp_s, double 
   const auto& tr = report.tracking;
   if (tally.first_stamp_s < 0.0) tally.first_stamp_s = stamp_s;
   if (tr.state != tracking::TrackingState::kOk) ++tally.lost;
-  if (tr.state == tracking::TrackingState::kOk && tally.first_ok_index < 0) {
+  // Anchored: a new segment started after a failed search of a resumed map is not "found".
+  if (tr.state == tracking::TrackingState::kOk && tr.anchored && tally.first_ok_index < 0) {
     tally.first_ok_index = static_cast<long>(index);
     tally.first_ok_stamp_s = stamp_s;
   }

@@ -17,7 +17,7 @@
 ///  - Keyframe poses moved by local BA or loop closure leave as one batch per frame
 ///    (TrackingOutput::corrections), for mapping to re-anchor.
 ///  - After restoreSession the trajectory starts empty; frames before the camera is found in the
-///    restored map are not recorded.
+///    restored map (or a new segment starts) are not recorded.
 /// Thread-safe: process(), session/restore, the trajectory queries and save run under one lock.
 
 #include <mutex>
@@ -93,7 +93,8 @@ class TrackingStage {
   /// Goes on from `session` in its world frame (RgbdOdometry::restoreSession): the recorded
   /// trajectory and the stamp gate start afresh (the resumed run records its own frames, with any
   /// stamps), and frames searching the restored map are not recorded until the camera is first
-  /// found (they have no pose). Throws std::invalid_argument, the stage unchanged, when the
+  /// found in it, or a new unanchored segment starts after max_lost_frames (before, they have no
+  /// pose). Throws std::invalid_argument, the stage unchanged, when the
   /// session cannot be restored.
   void restoreSession(TrackerSession session);
 
