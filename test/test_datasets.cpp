@@ -448,6 +448,34 @@ TEST(DatasetRun, SigintWritesWhatWasProcessed) {
   EXPECT_NE(readText(log).find("stopped by a signal"), std::string::npos);
 }
 
+// A run's session resumed through the command line, localisation only: relocalised on the first
+// frame, every frame posed, and the map written at the end is the loaded map.ply to the byte;
+// --localization-only without --resume is refused. Short (40 frames, few training iterations).
+TEST(DatasetRun, ResumedLocalisationOnlyLeavesTheSavedMap) {
+  const std::string data = makeSynthetic("synth_session");
+  const std::string out = std::string(DYPHO_TEST_OUT) + "/synth_session_run";
+  ASSERT_EQ(std::system(("mkdir -p '" + out + "'").c_str()), 0);
+  std::ofstream(out + "_fast.yaml") << "mapping:\n  iterations_per_keyframe: 5\n  final_refine_iterations: 5\n";
+  const std::string common = "--max-frames 40 --eval-every 0 --config '" + out + "_fast.yaml'";
+  ASSERT_EQ(runDataset(data, out, common), 0);
+  for (const char* f : {"tracker.bin", "map.ply", "session.yaml"}) EXPECT_TRUE(exists(out + "/session/" + f)) << f;
+  EXPECT_NE(readText(out + "/log.txt").find("session:      " + out + "/session ("), std::string::npos);
+
+  const std::string again = std::string(DYPHO_TEST_OUT) + "/synth_session_localise";
+  ASSERT_EQ(runDataset(data, again, common + " --resume '" + out + "' --localization-only"), 0);
+  const std::string log = readText(again + "/log.txt");
+  EXPECT_NE(log.find("relocalised at frame 0,"), std::string::npos);
+  EXPECT_NE(log.find("frames:       40 of 40 processed (0 not tracked"), std::string::npos);
+  EXPECT_EQ(dypho::readTumTrajectory(again + "/trajectory.txt").size(), 40u);
+  const std::string loaded = readText(out + "/session/map.ply");
+  EXPECT_FALSE(loaded.empty());
+  EXPECT_TRUE(readText(again + "/map.ply") == loaded) << "localisation only changed the map";
+  EXPECT_TRUE(readText(again + "/session/map.ply") == loaded);
+
+  EXPECT_NE(runDataset(data, again, "--localization-only"), 0);
+  EXPECT_NE(readText(again + "/log.txt").find("--localization-only needs --resume"), std::string::npos);
+}
+
 TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   const std::string out = std::string(DYPHO_TEST_OUT) + "/bad";
   EXPECT_NE(runDataset("/nonexistent/folder", out), 0);

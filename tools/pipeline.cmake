@@ -22,7 +22,7 @@ if(TARGET dypho_tools AND TARGET dypho_mask_core AND TARGET dypho_tracking_core 
   target_link_libraries(dypho_map_views PUBLIC dypho_frame_source dypho_mapping_core)
   dypho_set_warnings(dypho_map_views)
 
-  add_executable(dypho_run_dataset apps/run_dataset_main.cpp)
+  add_executable(dypho_run_dataset apps/run_dataset_main.cpp apps/run_dataset_args.cpp)
   target_link_libraries(dypho_run_dataset dypho_pipeline dypho_frame_source dypho_map_views)
   dypho_set_warnings(dypho_run_dataset)
   add_executable(dypho_evaluate_map apps/evaluate_map_main.cpp)

@@ -18,6 +18,8 @@ SlamPipeline::SlamPipeline(const PipelineOptions& options, mapping::MappingMode 
       tracking_(options.tracking),
       mapping_(options.mapping, mode, options.mapping_stage) {}
 
+bool SlamPipeline::mapsFrames() const { return options_.build_map && !options_.tracking.localization_only; }
+
 bool SlamPipeline::wantsRenderedDepth() const {
   return options_.mask_source == MaskSource::kFlow && mask_.wantsRenderedDepth();
 }
@@ -74,8 +76,8 @@ FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameRepor
   }
   mask_.observePose(out.pose);
   mask_.observeMovingPoints({out.result.stamp_ns, out.result.moving_points_camera_m});
-  if (options_.build_map) {
-    mapping_.observePose(out.pose);
+  if (options_.build_map) mapping_.observePose(out.pose);
+  if (mapsFrames()) {
     const auto t_map = std::chrono::steady_clock::now();
     mapping_.correctKeyframes(out.corrections());
     // A keyframe at an untrusted pose (re-initialised, not yet anchored) would corrupt the map.
@@ -88,12 +90,12 @@ FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameRepor
 
 tracking::RunEnd SlamPipeline::finishTracking() {
   tracking::RunEnd end = tracking_.finishRun();
-  if (options_.build_map) mapping_.correctKeyframes(end.corrected_keyframes);
+  if (mapsFrames()) mapping_.correctKeyframes(end.corrected_keyframes);
   return end;
 }
 
 std::size_t SlamPipeline::adoptMapKeyframePoses() {
-  if (!options_.build_map || !mapping_.gaussians().options().pose_refinement) return 0;
+  if (!mapsFrames() || !mapping_.gaussians().options().pose_refinement) return 0;
   mapping_.finish();
   return tracking_.adoptKeyframePoses(mapping_.gaussians().keyframePoses());
 }

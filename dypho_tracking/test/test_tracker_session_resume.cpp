@@ -182,6 +182,58 @@ TEST_F(TrackerSessionResume, FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap) 
   }
 }
 
+// Localisation only in yesterday's map: every frame of the sequence is found and tracked (to the
+// tracking accuracy), the map keeps its keyframes and points (ids and positions to the bit), and
+// frames with nothing to find (black) stay lost well past max_lost_frames without a new segment
+// (which would add a keyframe).
+// Without a restored map nothing is tracked, and the message says what to do.
+TEST_F(TrackerSessionResume, LocalisationOnlyTracksWithoutChangingTheMap) {
+  RgbdOdometry yesterday{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  const TrackerSession session = yesterday.session();
+  TrackingOptions options;
+  options.localization_only = true;
+  RgbdOdometry today{options};
+  const TrackingResult refused = today.track(frameAt(0, 0), cv::Mat());
+  EXPECT_EQ(refused.state, TrackingState::kNotInitialized);
+  EXPECT_NE(refused.message.find("restore a saved session"), std::string::npos) << refused.message;
+  EXPECT_TRUE(today.map().keyframes().empty());
+
+  today.restoreSession(session);
+  for (int i = 49; i >= 0; --i) {  // backwards: the reference must follow the camera through the map
+    const TrackingResult r = today.track(frameAt(i, step++), cv::Mat());
+    ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i << ": " << r.message;
+    EXPECT_FALSE(r.is_keyframe);
+    EXPECT_LT(positionError(r.T_world_camera, i), 0.02) << "frame " << i;
+  }
+  RgbdFrame black = frameAt(10, step);
+  black.bgr = cv::Mat(black.bgr.size(), CV_8UC3, cv::Scalar::all(0));
+  for (int k = 0; k < 3 * options.max_lost_frames; ++k) {
+    black.stamp_ns = frameAt(10, step++).stamp_ns;
+    const TrackingResult r = today.track(black, cv::Mat());
+    ASSERT_EQ(r.state, TrackingState::kLost) << "black frame " << k << ": " << r.message;
+  }
+  // Far from the last frame tracked (frame 0): found again in the map (by the PnP fallback or
+  // relocalisation), at its true place.
+  const TrackingResult found = today.track(frameAt(40, step++), cv::Mat());
+  EXPECT_EQ(found.state, TrackingState::kOk) << found.message;
+  EXPECT_LT(positionError(found.T_world_camera, 40), 0.02);
+  EXPECT_TRUE(today.finishRun().corrected_keyframes.empty());
+  const TrackerSession after = today.session();
+  ASSERT_EQ(after.map.keyframes.size(), session.map.keyframes.size());
+  ASSERT_EQ(after.map.points.size(), session.map.points.size());
+  EXPECT_EQ(after.next_keyframe_id, session.next_keyframe_id);
+  for (const auto& [id, keyframe] : session.map.keyframes) {
+    ASSERT_EQ(after.map.keyframes.count(id), 1u) << "keyframe " << id;
+    EXPECT_TRUE(after.map.keyframes.at(id).T_world_camera.matrix() == keyframe.T_world_camera.matrix()) << id;
+  }
+  for (const auto& [id, point] : session.map.points) {
+    ASSERT_EQ(after.map.points.count(id), 1u) << "point " << id;
+    EXPECT_TRUE(after.map.points.at(id).p_world_m == point.p_world_m) << "point " << id;
+  }
+}
+
 }  // namespace
 }  // namespace tracking
 }  // namespace dypho

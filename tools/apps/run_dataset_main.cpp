@@ -6,6 +6,7 @@
 ///   dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML] [--config YAML]
 ///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--no-map] [--quiet]
 ///                     [--realtime [--realtime-speed S] [--realtime-queue N]]
+///                     [--resume DIR [--localization-only]]
 ///   dypho_run_dataset --print-config
 ///
 /// This command line is stable: scripts depend on it.
@@ -40,10 +41,12 @@
 #include "dypho/mapping/gaussian_map_io.h"
 #include "dypho/common/trajectory_io.h"
 #include "dypho/pipeline/realtime_runner.h"
+#include "dypho/pipeline/session_store.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/trajectory_plot.h"
 #include "output_files.h"
 #include "realtime_report.h"
+#include "run_dataset_args.h"
 #include "timing_csv.h"
 
 namespace {
@@ -55,154 +58,15 @@ std::atomic<bool> g_stop{false};
 void onStopSignal(int) { g_stop = true; }
 using namespace dypho::tools;
 using namespace dypho::pipeline;
+using dypho::run_dataset::Args;
 using dypho::run_dataset::makeDirs;
 using dypho::run_dataset::MaskWriter;
+using dypho::run_dataset::parseArgs;
 using dypho::run_dataset::realtimeSummary;
 using dypho::run_dataset::TimingRow;
+using dypho::run_dataset::usage;
 using dypho::run_dataset::writeRealtimeCsv;
 using dypho::run_dataset::writeTiming;
-
-struct Args {
-  std::string dataset;
-  std::string out;
-  std::string camera;
-  std::string config;
-  std::string mask = "flow";
-  long max_frames = -1;
-  bool eval = true;
-  bool build_map = true;  ///< --no-map: mask and tracking only
-  bool quiet = false;
-  bool print_config = false;
-  bool save_masks = false;
-  bool realtime = false;                       ///< --realtime: frames at their stamps, live policy
-  pipeline::RealtimeOptions realtime_options;  ///< --realtime-speed, --realtime-queue
-  bool realtime_option_given = false;          ///< one of those was given (needs --realtime)
-  int eval_every = 10;                         ///< --eval-every: map views scored (0: none)
-};
-
-void usage(std::ostream& os) {
-  os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
-        "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
-        "                         [--no-eval] [--no-map] [--eval-every N] [--quiet]\n"
-        "                         [--realtime [--realtime-speed S] [--realtime-queue N]]\n"
-        "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
-        "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
-        "              /camera/rgb/image_color, /camera/depth/image, /camera/rgb/camera_info\n"
-        "  --out       output folder (created): trajectory.txt (final: frames follow the later\n"
-        "              corrections of their keyframe), trajectory_online.txt (poses at frame time),\n"
-        "              keyframes.txt, timing.csv, map.pcd,\n"
-        "              map.ply (3D Gaussian map), map_render/kf_<id>.png (input | rendered),\n"
-        "              view_evaluation.txt (the map at every Nth frame, see --eval-every),\n"
-        "              and with ground truth: evaluation.txt, trajectory.png\n"
-        "  --camera    tum_fr1 | tum_fr2 | tum_fr3 | bonn | path/to/camera.yaml; default: detected\n"
-        "  --config    YAML with optional mask:, tracking:, mapping: maps overriding config/*.yaml\n"
-        "  --mask      flow (default, the mask core), gt (DIR/mask/*.png, synthetic data), none\n"
-        "  --no-map    mask and tracking only: no map is built, trained or written (no map.pcd,\n"
-        "              map.ply, map_render/, map PSNR; R_d has no map to render), for trajectory\n"
-        "              benchmarks; the trajectory is the same as with the map unless R_d is on\n"
-        "  --eval-every N  the saved map is rendered at the final pose of every Nth frame and scored on\n"
-        "              its static pixels (the mask tracking used, dilated): PSNR, SSIM, depth L1 and\n"
-        "              coverage (opacity >= 0.5), keyframes and novel views apart; default 10, 0 = off\n"
-        "  --save-masks  writes the mask tracking used for each frame to OUT/mask/<stamp>.png (8-bit,\n"
-        "              255 = dynamic) and OUT/mask.txt (the dypho_synth layout: --mask gt reads it back)\n"
-        "  --realtime  frames are released at their stamps (wall clock from the first frame) and the\n"
-        "              live policy runs: live mapping, the network asynchronous (yolo_async forced on),\n"
-        "              mask and tracking on their own threads as in the graph (the tracking nodelet's\n"
-        "              live code: a frame waits for its mask at most 0.1 s, then takes the nearest one);\n"
-        "              a frame not taken in time is dropped and counted (no pose). Adds realtime.csv.\n"
-        "              Not repeatable. Default: deterministic,\n"
-        "              every frame processed as fast as possible.\n"
-        "  --realtime-speed S     playback speed factor, > 0 (default 1.0)\n"
-        "  --realtime-queue N     frames waiting for the mask before the oldest is skipped (it is tracked\n"
-        "                         with the nearest mask), >= 1 (default 2)\n";
-}
-
-/// A whole-string number for option `key`; a clear error otherwise.
-double parseNumber(const std::string& key, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size()) throw std::runtime_error(key + " needs a number (got '" + text + "')");
-  return v;
-}
-
-Args parseArgs(int argc, char** argv) {
-  Args a;
-  std::set<std::string> given;  // options with a value: a second one would silently replace the first
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::runtime_error(k + " needs a value");
-      if (!given.insert(k).second) {
-        throw std::runtime_error(k + " given twice: it takes one value" +
-                                 std::string(k == "--config" ? " (put all the keys in one YAML)" : ""));
-      }
-      return argv[++i];
-    };
-    if (k == "--dataset")
-      a.dataset = value();
-    else if (k == "--out")
-      a.out = value();
-    else if (k == "--camera")
-      a.camera = value();
-    else if (k == "--config")
-      a.config = value();
-    else if (k == "--mask")
-      a.mask = value();
-    else if (k == "--max-frames")
-      a.max_frames = std::stol(value());
-    else if (k == "--no-eval")
-      a.eval = false;
-    else if (k == "--no-map")
-      a.build_map = false;
-    else if (k == "--quiet")
-      a.quiet = true;
-    else if (k == "--print-config")
-      a.print_config = true;
-    else if (k == "--eval-every") {
-      const double n = parseNumber(k, value());
-      if (n != std::floor(n) || n < 0 || n > 1e6) throw std::runtime_error("--eval-every needs a whole number >= 0");
-      a.eval_every = static_cast<int>(n);
-    } else if (k == "--save-masks")
-      a.save_masks = true;
-    else if (k == "--realtime")
-      a.realtime = true;
-    else if (k == "--realtime-speed") {
-      a.realtime_options.speed = parseNumber(k, value());
-      a.realtime_option_given = true;
-    } else if (k == "--realtime-queue") {
-      const double frames = parseNumber(k, value());
-      if (frames != std::floor(frames) || frames < 1 || frames > 1000) {
-        throw std::runtime_error("--realtime-queue needs a whole number of frames in [1, 1000]");
-      }
-      a.realtime_options.queue_capacity_frames = static_cast<int>(frames);
-      a.realtime_option_given = true;
-    } else if (k == "-h" || k == "--help") {
-      usage(std::cout);
-      std::exit(0);
-    } else
-      throw std::runtime_error("unknown argument '" + k + "'");
-  }
-  if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
-    throw std::runtime_error("--dataset and --out are required");
-  }
-  if (a.save_masks && a.realtime)
-    throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
-  if (a.realtime_option_given && !a.realtime) {
-    throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
-  }
-  a.realtime_options.keep_masks_every_nth = a.build_map ? a.eval_every : 0;
-  try {
-    a.realtime_options.validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::runtime_error(e.what());
-  }
-  return a;
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -223,6 +87,9 @@ struct RunTally {
   std::optional<RealtimeResult> realtime;     ///< --realtime only
   std::map<std::size_t, cv::Mat> view_masks;  ///< the mask of every --eval-every'th frame, by index
   std::vector<double> keyframe_stamps_s;      ///< frames that became keyframes
+  double first_stamp_s = -1.0;                ///< stamp of the first posed or lost frame [s]
+  long first_ok_index = -1;                   ///< first frame tracked OK and anchored (--resume: relocalised)
+  double first_ok_stamp_s = -1.0;             ///< its stamp [s]
 };
 
 /// What the outputs step hands to the summary and the evaluation.
@@ -234,8 +101,10 @@ struct RunOutputs {
   std::optional<MapViewRun> views;       ///< the map at every --eval-every'th frame (map built)
   /// trajectory.txt as it was before the tracker's end of run (final global BA), for the gain
   std::vector<StampedPose> final_trajectory_before_end;
-  tracking::RunEnd run_end;           ///< the tracker's end of run (final global BA)
-  std::size_t keyframes_adopted = 0;  ///< keyframe poses taken from the map (pose_refinement)
+  tracking::RunEnd run_end;                  ///< the tracker's end of run (final global BA)
+  std::size_t keyframes_adopted = 0;         ///< keyframe poses taken from the map (pose_refinement)
+  std::optional<SessionSaveReport> session;  ///< OUT/session as written (a map was built)
+  std::string session_note;                  ///< why no session was written, when none was
 };
 
 /// The pipeline options: config/*.yaml with --config on top, plus --mask and --no-map.
@@ -243,6 +112,7 @@ PipelineOptions loadRunOptions(const Args& args, const std::string& config_dir) 
   PipelineOptions options = loadPipelineOptions(config_dir, args.config);
   options.mask_source = parseMaskSource(args.mask);
   options.build_map = args.build_map;
+  if (args.localization_only) options.tracking.localization_only = true;
   return options;
 }
 
@@ -280,7 +150,13 @@ void applyRealtimePolicy(const Args& args, PipelineOptions& options) {
 void tallyPosedFrame(RunTally& tally, std::size_t index, double stamp_s, double load_ms, const FrameReport& report,
                      double total_ms) {
   const auto& tr = report.tracking;
+  if (tally.first_stamp_s < 0.0) tally.first_stamp_s = stamp_s;
   if (tr.state != tracking::TrackingState::kOk) ++tally.lost;
+  // Anchored: a new segment started after a failed search of a resumed map is not "found".
+  if (tr.state == tracking::TrackingState::kOk && tr.anchored && tally.first_ok_index < 0) {
+    tally.first_ok_index = static_cast<long>(index);
+    tally.first_ok_stamp_s = stamp_s;
+  }
   if (tr.keyframe) {
     ++tally.num_keyframes;
     tally.keyframe_stamps_s.push_back(stamp_s);
@@ -374,6 +250,31 @@ RunTally runFrames(const Args& args, const FrameSource& source, SlamPipeline& pi
   return tally;
 }
 
+/// OUT/session: the whole session (session_store.h), after the tracker's end, the map's final
+/// refinement and the poses it refined, so it holds the final state. A run that never got a
+/// keyframe has none to write (the note says so).
+void saveRunSession(const Args& args, SlamPipeline& pipeline, RunOutputs& outputs) {
+  try {
+    outputs.session = saveSession(pipeline, args.out + "/" + kSessionFolder, args.dataset);
+  } catch (const std::logic_error& e) {
+    outputs.session_note = e.what();
+  }
+}
+
+/// --resume: loads the session before the first frame, for the camera of the dataset's first
+/// frame; throws naming the file when it is refused.
+void resumeSession(const Args& args, const FrameSource& source, SlamPipeline& pipeline) {
+  const std::string dir = resolveSessionDir(args.resume);
+  const auto t0 = std::chrono::steady_clock::now();
+  const SessionManifest m = loadSession(pipeline, dir, source.load(0).frame.camera);
+  std::cerr << "dypho_run_dataset: resumed " << dir << " (" << m.num_keyframes << " keyframes, " << m.num_map_points
+            << " map points, " << m.num_gaussians << " Gaussians; saved " << m.created_utc << " from " << m.source
+            << ") in " << std::fixed << std::setprecision(2)
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << " s; searching it by relocalisation"
+            << (args.localization_only ? ", localisation only (the maps are not changed)" : "") << "\n";
+}
+
 /// Writes the trajectories, keyframes, timing.csv, the --save-masks list and (unless --no-map) the
 /// refined map with its per-keyframe renders.
 RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally& tally,
@@ -403,6 +304,7 @@ RunOutputs writeOutputs(const Args& args, SlamPipeline& pipeline, const RunTally
       pipeline.tracking().saveTrajectories(args.out);
       outputs.final_trajectory = toStampedPoses(pipeline.tracking().finalTrajectory());
     }
+    saveRunSession(args, pipeline, outputs);
   }
   return outputs;
 }
@@ -447,6 +349,23 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
                                : " ms/frame median (mask + tracking + mapping)\n")
             << "global BA:    at end " << tracking::describe(outputs.run_end.global_ba) << "; after loops "
             << tracking::describeAfterLoop(pipeline.tracking().odometry().globalBaStats()) << "\n";
+  if (!args.resume.empty()) {
+    std::cout << "resumed:      " << args.resume;
+    if (tally.first_ok_index >= 0)
+      std::cout << ", relocalised at frame " << tally.first_ok_index << ", " << std::setprecision(2)
+                << tally.first_ok_stamp_s - tally.first_stamp_s << " s after the first frame\n";
+    else
+      std::cout << ", never relocalised (no frame tracked)\n";
+  }
+  if (outputs.session) {
+    const SessionSaveReport& s = *outputs.session;
+    std::cout << "session:      " << s.dir << " (" << s.manifest.num_keyframes << " keyframes, "
+              << s.manifest.num_map_points << " map points, " << s.manifest.num_gaussians << " Gaussians; "
+              << std::setprecision(1) << static_cast<double>(s.bytes) / 1e6 << " MB saved in " << std::setprecision(2)
+              << s.seconds << " s)\n";
+  } else if (args.build_map) {
+    std::cout << "session:      not saved (" << outputs.session_note << ")\n";
+  }
   if (outputs.keyframes_adopted > 0)
     std::cout << "pose refine:  " << outputs.keyframes_adopted
               << " keyframe poses refined with the map, trajectory.txt follows them\n";
@@ -542,6 +461,7 @@ int run(const Args& args) {
   // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.
   SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
   if (args.build_map) std::cerr << "dypho_run_dataset: " << pipeline.mapping().gaussians().deviceMessage() << "\n";
+  if (!args.resume.empty()) resumeSession(args, *source, pipeline);
   std::size_t n = source->size();
   if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
   MaskWriter mask_writer(args.out);

@@ -52,7 +52,9 @@ RunEnd RgbdOdometry::finishRun() {
   RunEnd end;
   TrackingResult scratch;  // collects the corrections and the last pose's correction
   if (pending_ba_.valid() && has_pinhole_) finishLocalBa(pinhole_, &scratch);
-  if (!options_.global_ba_at_end) {
+  if (options_.localization_only) {
+    end.global_ba.message = "off (localization_only: the loaded map is not changed)";
+  } else if (!options_.global_ba_at_end) {
     end.global_ba.message = "off (global_ba_at_end false)";
   } else {
     // The last pose was tracked against the reference keyframe: it keeps its place relative to
@@ -74,6 +76,7 @@ RunEnd RgbdOdometry::finishRun() {
 }
 
 std::size_t RgbdOdometry::adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe) {
+  if (options_.localization_only) return 0;  // the loaded map is not changed
   std::map<std::int64_t, Eigen::Isometry3d> poses;
   for (const auto& [id, T] : T_world_keyframe) {
     if (map_.keyframe(id) != nullptr && T.matrix().allFinite()) poses.emplace(id, T);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -70,7 +71,13 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   if (pending_ba_.valid() && --pending_ba_frames_left_ <= 0) finishLocalBa(work.pinhole, &work.result);
   prepareFeatures(prepared, &work);
   if (reference_id_ < 0) {
-    startMap(&work);
+    if (options_.localization_only) {
+      work.result.message =
+          "localization_only: no map to localise in; restore a saved session first (RgbdOdometry::restoreSession, "
+          "dypho_run_dataset --resume DIR)";
+    } else {
+      startMap(&work);
+    }
     return finishFrame(&work);
   }
   if (searching_map_) {
@@ -84,6 +91,10 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   refineDensely(&work);
   if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
     acceptPose(&work);
+    if (options_.localization_only) {  // the map stays as loaded: only the reference follows
+      followMap(work);
+      return finishFrame(&work);
+    }
     // Local map: the points' visibility and moving-point culling, then a keyframe when due.
     updatePointStatistics(work.aligned, work.pinhole, work.features(), frame, mask, &work.result);
     if (decideKeyframe(work).is_keyframe) insertKeyframe(&work);
@@ -302,6 +313,29 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
   addKeyframe(work->frame, work->mask, work->features(), work->T_world_camera, ids, work->pinhole, &work->result);
 }
 
+void RgbdOdometry::followMap(const TrackingFrame& work) {
+  // The keyframe that observes most of the frame's inlier points becomes the reference (its
+  // local map is what the next frame is matched against), as ORB-SLAM's localisation mode.
+  const AlignmentResult& aligned = work.aligned;
+  const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+  std::map<std::int64_t, int> seen;
+  for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
+    if (!aligned.inliers[m]) continue;
+    const MapPoint* point = map_.point(ref.map_point_ids[static_cast<std::size_t>(aligned.matches[m].reference_index)]);
+    if (point == nullptr) continue;
+    for (const auto& [keyframe_id, feature] : point->observations) ++seen[keyframe_id];
+  }
+  std::int64_t best_id = reference_id_;
+  int best = seen.count(reference_id_) > 0 ? seen[reference_id_] : 0;
+  for (const auto& [keyframe_id, count] : seen) {
+    if (count > best && map_.keyframe(keyframe_id) != nullptr) {
+      best = count;
+      best_id = keyframe_id;
+    }
+  }
+  if (best_id != reference_id_) setReference(best_id);
+}
+
 void RgbdOdometry::searchMap(TrackingFrame* work) {
   work->aligned.message = "searching the restored session's map";
   if (!relocalise(work)) markLost(work);
@@ -343,6 +377,10 @@ void RgbdOdometry::markLost(TrackingFrame* work) {
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/false, false});
   work->result.state = TrackingState::kLost;
   work->result.message = "lost against keyframe " + std::to_string(reference_id_) + ": " + work->aligned.message;
+  if (options_.localization_only) {
+    work->result.message += "; localization_only: searching the loaded map by relocalisation";
+    return;  // never a new segment: the map must stay as loaded
+  }
   if (lost_frames_ >= options_.max_lost_frames && work->enough_to_start) reinitialise(work);
 }
 

@@ -29,7 +29,8 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
     out.restarted = true;
   }
   out.result = odometry_.track(frame, mask, judgement, prepared, frames_waiting);
-  recorder_.add(out.result);
+  if (out.result.state == TrackingState::kOk) awaiting_first_pose_ = false;
+  if (!awaiting_first_pose_) recorder_.add(out.result);
   const TrackingResult& r = out.result;
   out.pose.stamp_ns = r.stamp_ns;
   out.pose.T_world_camera = r.T_world_camera;
@@ -95,11 +96,25 @@ std::vector<std::string> TrackingStage::saveTrajectories(const std::string& dir)
   return paths;
 }
 
+TrackerSession TrackingStage::session() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return odometry_.session();
+}
+
+void TrackingStage::restoreSession(TrackerSession session) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  odometry_.restoreSession(std::move(session));  // throws before changing anything
+  recorder_.clear();
+  stamp_gate_.reset();
+  awaiting_first_pose_ = true;
+}
+
 void TrackingStage::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   odometry_.reset();
   recorder_.clear();
   stamp_gate_.reset();
+  awaiting_first_pose_ = false;
 }
 
 std::size_t TrackingStage::droppedOutOfOrder() const {

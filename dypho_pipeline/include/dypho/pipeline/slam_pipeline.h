@@ -16,6 +16,10 @@
 ///  5. Corrections of earlier keyframes, then the new keyframe, go to mapping (graph: topics
 ///     keyframe_corrections, keyframe).
 /// R_d is rendered only when MaskStage::wantsRenderedDepth() (background model on, tau > 0).
+/// With TrackingOptions::localization_only nothing goes to mapping (step 5): no keyframes, no
+/// corrections, no training, so the map loaded with a session (session_store.h) stays as it was.
+/// A keyframe goes to mapping only at a trusted, anchored pose: a tracker lost or searching a
+/// restored map, or in a segment not yet tied to the map, never seeds it.
 ///
 /// process() is maskFrame() (steps 1-2) then trackFrame() (steps 3-5, handOnTracked() for 4-5). Threads: process() from
 /// one thread; or, pipelined like the graph's mask and tracking nodelets, maskFrame() on one
@@ -97,7 +101,8 @@ class SlamPipeline {
 
   /// With mapping's pose_refinement: finish(), then the map's refined keyframe poses become the
   /// tracker's (TrackingStage::adoptKeyframePoses), so a trajectory saved after it follows them.
-  /// Returns the keyframes moved (0 without a map or with pose_refinement off).
+  /// Returns the keyframes moved (0 without a map, with pose_refinement off or with
+  /// TrackingOptions::localization_only).
   std::size_t adoptMapKeyframePoses();
 
   mask::MaskStage& mask() { return mask_; }
@@ -107,6 +112,9 @@ class SlamPipeline {
 
  private:
   bool wantsRenderedDepth() const;
+  /// Keyframes and corrections go to mapping: a map is built and tracking may change it (not
+  /// TrackingOptions::localization_only, where the loaded map stays as it is).
+  bool mapsFrames() const;
 
   PipelineOptions options_;
   mask::MaskStage mask_;

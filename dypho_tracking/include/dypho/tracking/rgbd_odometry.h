@@ -75,6 +75,10 @@ struct RunEnd {
 ///  - After restoreSession (a saved session, tracker_session.h): every frame is relocalised
 ///    against the loaded map (kLost until found, result.relocalized when found, then OK as
 ///    above); max_lost_frames failures re-initialise as from LOST.
+///  - TrackingOptions::localization_only: the same, but the map is never changed (no keyframes,
+///    points, culling, BA, loop closure); tracked frames move the reference to the keyframe that
+///    sees most of their inliers; lost frames relocalise in the map, never re-initialise; with
+///    no restored map nothing is tracked (kNotInitialized, the message says why).
 ///  - A stamp not after the previous one (time going backwards or repeated) resets everything:
 ///    NOT_INITIALIZED, identity pose, message; the following frame starts a new world.
 ///
@@ -179,6 +183,9 @@ class RgbdOdometry {
   KeyframeDecision decideKeyframe(const TrackingFrame& work) const;
   /// Local map: the tracked frame becomes a keyframe, with its inlier matches as observations.
   void insertKeyframe(TrackingFrame* work);
+  /// TrackingOptions::localization_only, a tracked frame: the map is left as it is; the keyframe
+  /// that observes most of the frame's inlier points becomes the reference.
+  void followMap(const TrackingFrame& work);
   /// After restoreSession: relocalisation against the loaded map without tracking first (the
   /// camera may be anywhere in it); the frame is lost when that fails.
   void searchMap(TrackingFrame* work);

@@ -355,6 +355,14 @@ struct TrackingOptions {
   /// Levenberg-Marquardt iterations of each of the two global BA rounds (outliers removed in
   /// between) [count]; default 10 (ORB-SLAM's global BA), range [1, 100].
   int global_ba_iterations = 10;
+
+  // --- localisation in a loaded map (RgbdOdometry::restoreSession) ---
+  /// Localise only: track against the map a saved session brought (restoreSession) without
+  /// changing it: no keyframes, no map points, no point culling, no local or global BA, no loop
+  /// closure; the reference keyframe moves to the one that sees most of the frame's inliers. A
+  /// lost frame searches the map by relocalisation, never a new segment. Without a loaded map
+  /// nothing is tracked (kNotInitialized, the message says to restore a session). Default false.
+  bool localization_only = false;
 };
 
 }  // namespace tracking

@@ -302,6 +302,15 @@ void visitGlobalBaOptions(TrackingOptions& options, Visitor&& visitor) {
           "default 10 (ORB-SLAM), range [1, 100].");
 }
 
+/// Localisation in a loaded map (TrackingOptions), after the global BA block.
+template <typename Visitor>
+void visitLocalizationOptions(TrackingOptions& options, Visitor&& visitor) {
+  visitor("localization_only", options.localization_only,
+          "Localise only in the map of a restored session (dypho_run_dataset --resume --localization-only): no "
+          "keyframes, map points, culling, BA or loop closure change it; a lost frame searches the map by "
+          "relocalisation, never a new segment; without a loaded map nothing is tracked; default false.");
+}
+
 /// Calls `visitor(key, field, doc)` for every field of `options`, in the order of the struct.
 template <typename Visitor>
 void visitOptions(TrackingOptions& options, Visitor&& visitor) {
@@ -311,6 +320,7 @@ void visitOptions(TrackingOptions& options, Visitor&& visitor) {
   visitMapPointOptions(options, visitor);
   visitBackEndOptions(options, visitor);
   visitGlobalBaOptions(options, visitor);
+  visitLocalizationOptions(options, visitor);
 }
 
 }  // namespace dypho::tracking

@@ -16,7 +16,9 @@
 ///    closure), so no stage forms a velocity across a jump (motion_prior.h).
 ///  - Keyframe poses moved by local BA or loop closure leave as one batch per frame
 ///    (TrackingOutput::corrections), for mapping to re-anchor.
-/// Thread-safe: process(), the trajectory queries and save run under one lock.
+///  - After restoreSession the trajectory starts empty; frames before the camera is found in the
+///    restored map (or a new segment starts) are not recorded.
+/// Thread-safe: process(), session/restore, the trajectory queries and save run under one lock.
 
 #include <mutex>
 #include <string>
@@ -85,6 +87,17 @@ class TrackingStage {
   /// each atomically; returns the paths. Throws std::runtime_error naming a file it cannot write.
   std::vector<std::string> saveTrajectories(const std::string& dir) const;
 
+  /// The tracker's state for a later session (RgbdOdometry::session; call finishRun() first).
+  /// Throws std::logic_error before the first keyframe.
+  TrackerSession session() const;
+  /// Goes on from `session` in its world frame (RgbdOdometry::restoreSession): the recorded
+  /// trajectory and the stamp gate start afresh (the resumed run records its own frames, with any
+  /// stamps), and frames searching the restored map are not recorded until the camera is first
+  /// found in it, or a new unanchored segment starts after max_lost_frames (before, they have no
+  /// pose). Throws std::invalid_argument, the stage unchanged, when the
+  /// session cannot be restored.
+  void restoreSession(TrackerSession session);
+
   /// Forgets map, pose and trajectory.
   void reset();
   /// Frames dropped for a repeated or late stamp since construction.
@@ -98,6 +111,8 @@ class TrackingStage {
   RgbdOdometry odometry_;
   TrajectoryRecorder recorder_;
   StampGate stamp_gate_;
+  /// Restored, and the camera not yet found in the restored map: lost frames are not recorded.
+  bool awaiting_first_pose_ = false;
 };
 
 }  // namespace dypho::tracking
