@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_number.h"
 #include "dypho/common/atomic_file.h"
 #include "dypho/tools/evaluation.h"
 #include "dypho/common/trajectory_io.h"
@@ -45,17 +46,11 @@ constexpr const char* kUsage =
     "  --title TEXT         plot title (default: the estimate file name)\n";
 
 double parsePositive(const std::string& flag, const std::string& value) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || !(v > 0.0)) {
+  const std::optional<double> v = dypho::cli::wholeStringNumber(value);
+  if (!v || !(*v > 0.0)) {
     throw std::invalid_argument(flag + " expects a positive number of seconds, got '" + value + "'");
   }
-  return v;
+  return *v;
 }
 
 Args parseArgs(int argc, char** argv) {

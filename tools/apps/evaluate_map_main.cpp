@@ -12,6 +12,7 @@
 #include <iostream>
 #include <set>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@
 #include "dypho/tools/camera_config.h"
 #include "dypho/tools/frame_source.h"
 #include "dypho/tools/map_views.h"
+#include "cli_number.h"
 
 namespace {
 
@@ -47,16 +49,10 @@ constexpr const char* kUsage =
     "  --out FILE        write the scores there, atomically (default: print only)\n";
 
 int wholeNumber(const std::string& flag, const std::string& text, int min) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || v != std::floor(v) || v < min || v > 1e6)
+  const std::optional<double> v = dypho::cli::wholeStringNumber(text);
+  if (!v || *v != std::floor(*v) || *v < min || *v > 1e6)
     throw std::invalid_argument(flag + " needs a whole number >= " + std::to_string(min) + ", got '" + text + "'");
-  return static_cast<int>(v);
+  return static_cast<int>(*v);
 }
 
 Args parseArgs(int argc, char** argv) {

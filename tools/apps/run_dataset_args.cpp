@@ -1,11 +1,13 @@
 /// dypho_run_dataset's command line.
 #include "run_dataset_args.h"
+#include "cli_number.h"
 
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <set>
 #include <stdexcept>
+#include <optional>
 #include <string>
 
 namespace dypho::run_dataset {
@@ -56,15 +58,9 @@ void usage(std::ostream& os) {
 }
 
 double parseNumber(const std::string& key, const std::string& text) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size()) throw std::runtime_error(key + " needs a number (got '" + text + "')");
-  return v;
+  const std::optional<double> v = dypho::cli::wholeStringNumber(text);
+  if (!v) throw std::runtime_error(key + " needs a number (got '" + text + "')");
+  return *v;
 }
 
 Args parseArgs(int argc, char** argv) {
