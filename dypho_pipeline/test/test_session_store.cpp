@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iostream>
 #include <iterator>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -243,6 +244,45 @@ TEST_F(SessionStore, LocalisationOnlyLeavesTheMapsAsLoaded) {
   EXPECT_EQ(r.tracking.state, tracking::TrackingState::kNotInitialized);
   EXPECT_NE(r.tracking.message.find("restore a saved session"), std::string::npos) << r.tracking.message;
   EXPECT_EQ(no_map.tracking().odometry().map().keyframes().size(), 0u);
+}
+
+// The ROS graph writes the two halves from two nodelets, in either order (session_folder.h): the
+// first completeSession finds one half and writes no manifest, the second writes it with the
+// counts of the files, and the folder loads. A half older than the writer's start (a previous
+// run's) does not complete a session.
+TEST_F(SessionStore, HalvesWrittenApartCompleteTheSessionInEitherOrder) {
+  const SessionManifest original = readSessionManifest(sessionFile(root_ + "/half", kSessionManifestFile));
+  for (const bool tracker_first : {true, false}) {
+    const std::string dir = root_ + (tracker_first ? "/halves_tracker_first" : "/halves_map_first");
+    const auto since = fs::file_time_type::clock::now();
+    beginSessionSave(dir);
+    const char* first = tracker_first ? kSessionTrackerFile : kSessionMapFile;
+    const char* second = tracker_first ? kSessionMapFile : kSessionTrackerFile;
+    fs::copy_file(sessionFile(root_ + "/half", first), sessionFile(dir, first));
+    std::string why;
+    EXPECT_FALSE(completeSession(dir, since, "test", &why));
+    EXPECT_NE(why.find(second), std::string::npos) << why;
+    EXPECT_FALSE(fs::exists(sessionFile(dir, kSessionManifestFile)));
+    fs::copy_file(sessionFile(root_ + "/half", second), sessionFile(dir, second));
+    const std::optional<SessionManifest> m = completeSession(dir, since, "test", &why);
+    ASSERT_TRUE(m) << why;
+    EXPECT_EQ(m->num_keyframes, original.num_keyframes);
+    EXPECT_EQ(m->num_map_points, original.num_map_points);
+    EXPECT_EQ(m->num_gaussians, original.num_gaussians);
+    SlamPipeline resumed(options());
+    EXPECT_NO_THROW(loadSession(resumed, dir, camera()));
+  }
+  // A map half from an hour before this writer started.
+  const std::string dir = root_ + "/halves_stale";
+  beginSessionSave(dir);
+  fs::copy_file(sessionFile(root_ + "/half", kSessionMapFile), sessionFile(dir, kSessionMapFile));
+  fs::last_write_time(sessionFile(dir, kSessionMapFile), fs::file_time_type::clock::now() - std::chrono::hours(1));
+  const auto since = fs::file_time_type::clock::now();
+  fs::copy_file(sessionFile(root_ + "/half", kSessionTrackerFile), sessionFile(dir, kSessionTrackerFile));
+  std::string why;
+  EXPECT_FALSE(completeSession(dir, since, "test", &why));
+  EXPECT_NE(why.find("earlier save"), std::string::npos) << why;
+  EXPECT_THROW(resolveSessionDir(dir), std::runtime_error);
 }
 
 }  // namespace

@@ -161,8 +161,10 @@ std::string encodeTrackerSession(const TrackerSession& session) {
   return std::move(bytes);
 }
 
-TrackerSession decodeTrackerSession(const std::string& bytes, const CameraIntrinsics& run_camera,
-                                    const std::string& source) {
+namespace {
+
+/// decodeTrackerSession, checking the camera only when `run_camera` is given.
+TrackerSession decode(const std::string& bytes, const CameraIntrinsics* run_camera, const std::string& source) {
   auto fail = [&](const std::string& what) { return std::runtime_error("cannot load '" + source + "': " + what); };
   TrackerSession session;
   try {
@@ -174,9 +176,28 @@ TrackerSession decodeTrackerSession(const std::string& bytes, const CameraIntrin
   }
   const std::string problem = trackerSessionProblem(session);
   if (!problem.empty()) throw fail(problem);
-  const std::string mismatch = cameraMismatch(session.camera, run_camera);
+  if (run_camera == nullptr) return session;
+  const std::string mismatch = cameraMismatch(session.camera, *run_camera);
   if (!mismatch.empty()) throw fail("the session is for another camera (" + mismatch + ")");
   return session;
+}
+
+std::string readSessionBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) throw std::runtime_error("cannot load '" + path + "': cannot open it (does it exist, is it readable?)");
+  const std::streamoff size = in.tellg();
+  in.seekg(0);
+  if (size < 0 || !in) throw std::runtime_error("cannot load '" + path + "': cannot read it (not a regular file?)");
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  if (!in.read(bytes.data(), size)) throw std::runtime_error("cannot load '" + path + "': read error");
+  return bytes;
+}
+
+}  // namespace
+
+TrackerSession decodeTrackerSession(const std::string& bytes, const CameraIntrinsics& run_camera,
+                                    const std::string& source) {
+  return decode(bytes, &run_camera, source);
 }
 
 void saveTrackerSession(const std::string& path, const TrackerSession& session) {
@@ -187,14 +208,11 @@ void saveTrackerSession(const std::string& path, const TrackerSession& session) 
 }
 
 TrackerSession loadTrackerSession(const std::string& path, const CameraIntrinsics& run_camera) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw std::runtime_error("cannot load '" + path + "': cannot open it (does it exist, is it readable?)");
-  const std::streamoff size = in.tellg();
-  in.seekg(0);
-  if (size < 0 || !in) throw std::runtime_error("cannot load '" + path + "': cannot read it (not a regular file?)");
-  std::string bytes(static_cast<std::size_t>(size), '\0');
-  if (!in.read(bytes.data(), size)) throw std::runtime_error("cannot load '" + path + "': read error");
-  return decodeTrackerSession(bytes, run_camera, path);
+  return decode(readSessionBytes(path), &run_camera, path);
+}
+
+TrackerSession loadTrackerSessionAnyCamera(const std::string& path) {
+  return decode(readSessionBytes(path), nullptr, path);
 }
 
 }  // namespace tracking

@@ -1,41 +1,17 @@
 #pragma once
 /// \file session_store.h
-/// A whole session on disk, to resume it or localise in it later (issue 36): the folder
-/// `session/` holds
-///   tracker.bin   the tracker's state (tracker_session.h: keyframes, map points, ids, poses),
-///   map.ply       the Gaussian map (3DGS PLY, as MappingStage::save writes it),
-///   session.yaml  the manifest, written last: format version, camera, counts, creation time and
-///                 what the session came from.
-/// Every file is written atomically and the manifest last (an old manifest is removed first), so
-/// a folder with a valid manifest holds a complete session; a folder without one is refused.
-/// ROS-free: the offline runner uses it, the nodelets can. docs/file_formats.md has the layout.
+/// A whole in-process pipeline's session on disk, to resume it or localise in it later: the
+/// folder session_folder.h describes (tracker.bin, map.ply, then session.yaml). ROS-free: the
+/// offline runner uses it; the nodelets write and read the two halves apart (session_folder.h).
 
 #include <cstdint>
 #include <string>
 
 #include "dypho/common/camera.h"
+#include "dypho/pipeline/session_folder.h"
 #include "dypho/pipeline/slam_pipeline.h"
 
 namespace dypho::pipeline {
-
-/// Manifest format version this build writes and reads (another version is refused).
-constexpr int kSessionFormatVersion = 1;
-/// Names inside a session folder, and the folder's name inside a run's output folder.
-constexpr const char* kSessionFolder = "session";
-constexpr const char* kSessionManifestFile = "session.yaml";
-constexpr const char* kSessionTrackerFile = "tracker.bin";
-constexpr const char* kSessionMapFile = "map.ply";
-
-/// The manifest (session.yaml): what a session holds, checked against its files when loaded.
-struct SessionManifest {
-  int format_version = kSessionFormatVersion;  ///< kSessionFormatVersion
-  CameraIntrinsics camera;                     ///< the camera of the keyframes
-  std::size_t num_keyframes = 0;               ///< tracker keyframes (removed ones not counted)
-  std::size_t num_map_points = 0;              ///< tracker map points
-  std::size_t num_gaussians = 0;               ///< Gaussians in map.ply
-  std::string created_utc;                     ///< creation time, ISO 8601 UTC ("2026-11-28T09:12:51Z")
-  std::string source;                          ///< what it came from (e.g. the dataset folder); free text
-};
 
 /// What saveSession wrote.
 struct SessionSaveReport {
@@ -52,15 +28,6 @@ struct SessionSaveReport {
 /// std::logic_error without a map (PipelineOptions::build_map false) or before the tracker's
 /// first keyframe, std::runtime_error naming a file it cannot write.
 SessionSaveReport saveSession(SlamPipeline& pipeline, const std::string& dir, const std::string& source);
-
-/// The session folder `path` names: `path` itself when it holds session.yaml, else
-/// `path`/session (a run's output folder). Throws std::runtime_error when neither has a manifest.
-std::string resolveSessionDir(const std::string& path);
-
-/// Reads and checks `path` (a session.yaml). Throws std::runtime_error "session manifest
-/// '<path>': <problem>" when it is missing, not YAML, another format version, or a field is
-/// missing or invalid.
-SessionManifest readSessionManifest(const std::string& path);
 
 /// Loads the session folder `dir` into `pipeline` for the camera `run_camera`: the Gaussian map
 /// replaces the mapper's (with PipelineOptions::build_map only), then the tracker is restored

@@ -86,6 +86,10 @@ void saveTrackerSession(const std::string& path, const TrackerSession& session);
 /// when the file cannot be read). Returns a new state: nothing of the caller's changes on error.
 TrackerSession loadTrackerSession(const std::string& path, const CameraIntrinsics& run_camera);
 
+/// As loadTrackerSession for the camera the file was saved with (every other check holds): to
+/// count what a file holds without a run's camera.
+TrackerSession loadTrackerSessionAnyCamera(const std::string& path);
+
 /// FNV-1a 64 of `size` bytes: the checksum the header holds for the payload.
 std::uint64_t trackerSessionChecksum(const char* data, std::size_t size);
 
