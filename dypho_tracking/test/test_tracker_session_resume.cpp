@@ -16,6 +16,7 @@
 #include "dypho/tools/synthetic_scene.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/tracker_session.h"
+#include "dypho/tracking/tracking_stage.h"
 #include "tracker_session_compare.h"
 
 namespace dypho {
@@ -165,7 +166,7 @@ TEST_F(TrackerSessionResume, FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap) 
   const TrackingResult lost = today.track(black, cv::Mat());
   EXPECT_EQ(lost.state, TrackingState::kLost);
   EXPECT_FALSE(lost.relocalized);
-  EXPECT_NE(lost.message.find("searching the restored session's map"), std::string::npos) << lost.message;
+  EXPECT_NE(lost.message.find("searching the loaded map"), std::string::npos) << lost.message;
   EXPECT_TRUE(lost.T_world_camera.matrix().allFinite());
 
   const TrackingResult found = today.track(frameAt(20, 20), cv::Mat());
@@ -232,6 +233,67 @@ TEST_F(TrackerSessionResume, LocalisationOnlyTracksWithoutChangingTheMap) {
     ASSERT_EQ(after.map.points.count(id), 1u) << "point " << id;
     EXPECT_TRUE(after.map.points.at(id).p_world_m == point.p_world_m) << "point " << id;
   }
+}
+
+// The live graph learns the camera from its first frame: the stage restores a session there. A
+// frame of another camera (focal length 5 % off) refuses it and the stage goes on without it; a
+// frame of the session's camera restores it, and the camera is found in the loaded map at once.
+TEST_F(TrackerSessionResume, StageRestoresASessionAtTheFirstFrameOfItsCamera) {
+  RgbdOdometry yesterday{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  const TrackerSession session = yesterday.session();
+
+  TrackingStage other{TrackingOptions()};
+  other.restoreSessionAtNextFrame(session);
+  RgbdFrame zoomed = frameAt(20, 0);
+  zoomed.camera.fx *= 1.05;
+  const TrackingOutput refused = other.process(zoomed, cv::Mat());
+  EXPECT_NE(refused.session_event.find("another camera"), std::string::npos) << refused.session_event;
+  EXPECT_FALSE(refused.result.relocalized);
+  EXPECT_LT(other.odometry().map().keyframes().size(), session.map.keyframes.size());  // a new map
+  EXPECT_TRUE(other.process(frameAt(21, 1), cv::Mat()).session_event.empty());         // dropped, not retried
+
+  TrackingStage stage{TrackingOptions()};
+  stage.restoreSessionAtNextFrame(session);
+  const TrackingOutput found = stage.process(frameAt(20, 0), cv::Mat());
+  EXPECT_NE(found.session_event.find("searching the loaded map"), std::string::npos) << found.session_event;
+  ASSERT_EQ(found.result.state, TrackingState::kOk) << found.result.message;
+  EXPECT_TRUE(found.result.relocalized);
+  EXPECT_LT(positionError(found.result.T_world_camera, 20), 0.01);
+  // REP-105: map -> odom took the jump into the loaded map; odom -> camera is what it is.
+  EXPECT_TRUE((found.T_map_odom.inverse() * found.result.T_world_camera).matrix().allFinite());
+}
+
+// Localisation only: a stamp that jumps back (a bag played again) restarts the trajectory but
+// not the map: the same session is searched again, and the next frames are found in it with the
+// map's keyframes unchanged. Without the session kept, the restart would drop the loaded map
+// and, in localisation only, nothing could be tracked any more.
+TEST_F(TrackerSessionResume, LocalisationOnlyKeepsTheLoadedMapWhenTimeJumpsBack) {
+  RgbdOdometry yesterday{TrackingOptions()};
+  int step = 0;
+  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  const TrackerSession session = yesterday.session();
+  TrackingOptions options;
+  options.localization_only = true;
+  TrackingStage stage{options};
+  stage.restoreSession(session);
+  for (int i = 10; i < 70; ++i) {
+    const TrackingOutput out = stage.process(frameAt(i % 50, i), cv::Mat());
+    ASSERT_EQ(out.result.state, TrackingState::kOk) << "frame " << i << ": " << out.result.message;
+  }
+  const TrackingOutput restarted = stage.process(frameAt(5, 5), cv::Mat());  // 65 frames = 2 s back
+  EXPECT_TRUE(restarted.restarted);
+  EXPECT_NE(restarted.session_event.find("loaded map is kept"), std::string::npos) << restarted.session_event;
+  EXPECT_EQ(restarted.result.state, TrackingState::kOk) << restarted.result.message;
+  EXPECT_LT(positionError(restarted.result.T_world_camera, 5), 0.02);
+  for (int i = 6; i < 15; ++i) {
+    const TrackingOutput out = stage.process(frameAt(i, i), cv::Mat());
+    ASSERT_EQ(out.result.state, TrackingState::kOk) << "frame " << i << ": " << out.result.message;
+    EXPECT_LT(positionError(out.result.T_world_camera, i), 0.02) << "frame " << i;
+  }
+  EXPECT_EQ(stage.odometry().map().keyframes().size(), session.map.keyframes.size());
+  EXPECT_EQ(stage.odometry().map().points().size(), session.map.points.size());
 }
 
 }  // namespace

@@ -337,7 +337,7 @@ void RgbdOdometry::followMap(const TrackingFrame& work) {
 }
 
 void RgbdOdometry::searchMap(TrackingFrame* work) {
-  work->aligned.message = "searching the restored session's map";
+  work->aligned.message = "searching the loaded map";
   if (!relocalise(work)) markLost(work);
 }
 

@@ -27,7 +27,13 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
   if (order == StampOrder::kJumpedBack) {
     recorder_.clear();  // the tracker resets itself on this frame (RgbdOdometry::track)
     out.restarted = true;
+    odom_.reset();
+    if (localization_session_) {  // the loaded map stays: searched again from this frame
+      restoreLocked(*localization_session_);
+      out.session_event = "time jumped backwards: the loaded map is kept (localization_only), searching it again";
+    }
   }
+  if (pending_session_) out.session_event = restorePending(frame.camera);
   out.result = odometry_.track(frame, mask, judgement, prepared, frames_waiting);
   if (out.result.state == TrackingState::kOk) awaiting_first_pose_ = false;
   if (!awaiting_first_pose_) recorder_.add(out.result);
@@ -39,6 +45,11 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
   out.pose.discontinuous = r.discontinuous || out.restarted;
   out.pose.restarted = out.restarted;
   out.pose.T_correction = r.T_correction;
+  if (out.pose.trusted && out.pose.anchored) {
+    // Loop closures are in the tracker's odometry frame already; other jumps go into map -> odom.
+    const bool jumped = r.relocalized || (r.discontinuous && !r.loop_closed);
+    out.T_map_odom = odom_.update(r.T_world_camera, r.T_world_odom, jumped);
+  }
   return out;
 }
 
@@ -103,10 +114,39 @@ TrackerSession TrackingStage::session() const {
 
 void TrackingStage::restoreSession(TrackerSession session) {
   std::lock_guard<std::mutex> lock(mutex_);
+  restoreLocked(std::move(session));
+}
+
+void TrackingStage::restoreLocked(TrackerSession session) {
+  std::optional<TrackerSession> kept;
+  if (options().localization_only) kept = session;
   odometry_.restoreSession(std::move(session));  // throws before changing anything
   recorder_.clear();
   stamp_gate_.reset();
   awaiting_first_pose_ = true;
+  odom_.reset();
+  if (kept) localization_session_ = std::move(kept);
+}
+
+void TrackingStage::restoreSessionAtNextFrame(TrackerSession session) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_session_ = std::move(session);
+}
+
+std::string TrackingStage::restorePending(const CameraIntrinsics& camera) {
+  TrackerSession session = std::move(*pending_session_);
+  pending_session_.reset();
+  const std::string mismatch = cameraMismatch(session.camera, camera);
+  if (!mismatch.empty()) {
+    return "the session to restore is for another camera than this frame's (" + mismatch + "): not restored";
+  }
+  const std::size_t keyframes = session.map.keyframes.size();
+  try {
+    restoreLocked(std::move(session));
+  } catch (const std::invalid_argument& e) {
+    return std::string("the session cannot be restored: ") + e.what();
+  }
+  return "session restored (" + std::to_string(keyframes) + " keyframes): searching the loaded map";
 }
 
 void TrackingStage::reset() {
@@ -115,6 +155,9 @@ void TrackingStage::reset() {
   recorder_.clear();
   stamp_gate_.reset();
   awaiting_first_pose_ = false;
+  pending_session_.reset();
+  localization_session_.reset();
+  odom_.reset();
 }
 
 std::size_t TrackingStage::droppedOutOfOrder() const {

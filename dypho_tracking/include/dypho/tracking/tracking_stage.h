@@ -17,10 +17,14 @@
 ///  - Keyframe poses moved by local BA or loop closure leave as one batch per frame
 ///    (TrackingOutput::corrections), for mapping to re-anchor.
 ///  - After restoreSession the trajectory starts empty; frames before the camera is found in the
-///    restored map (or a new segment starts) are not recorded.
+///    restored map (or a new segment starts) are not recorded. With localization_only a stamp
+///    that jumps back restores the same session again (the loaded map is never dropped).
+///  - map -> odom (TrackingOutput::T_map_odom, odom_frame.h) takes the pose's jumps, so that
+///    odom -> camera stays smooth (REP-105).
 /// Thread-safe: process(), session/restore, the trajectory queries and save run under one lock.
 
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,6 +34,7 @@
 #include "dypho/common/motion_prior.h"
 #include "dypho/common/stamp_gate.h"
 #include "dypho/common/types.h"
+#include "dypho/tracking/odom_frame.h"
 #include "dypho/tracking/rgbd_odometry.h"
 #include "dypho/tracking/trajectory_recorder.h"
 
@@ -41,6 +46,11 @@ struct TrackingOutput {
   PoseUpdate pose;        ///< for the mask and mapping stages
   const KeyframePoseCorrections& corrections() const { return result.corrected_keyframes; }
   bool restarted = false;  ///< the stamp jumped back: tracker and trajectory reset
+  /// REP-105 map -> odom for a trusted, anchored pose (odom_frame.h); identity otherwise.
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
+  /// What became of a session at this frame, for the log: restored (restoreSessionAtNextFrame),
+  /// refused and why, or restored again after a restart in localization_only. Empty otherwise.
+  std::string session_event;
   /// The frame was dropped (repeated or late stamp, see stamp_gate.h): not tracked, nothing to
   /// publish; result.message says why, pose is NaN and untrusted.
   bool dropped = false;
@@ -97,8 +107,12 @@ class TrackingStage {
   /// pose). Throws std::invalid_argument, the stage unchanged, when the
   /// session cannot be restored.
   void restoreSession(TrackerSession session);
+  /// restoreSession on the next frame processed, once its camera is known (a live graph learns
+  /// the camera from its first frame): a session for another camera (cameraMismatch) is dropped
+  /// there and the tracker goes on as it was; TrackingOutput::session_event says which.
+  void restoreSessionAtNextFrame(TrackerSession session);
 
-  /// Forgets map, pose and trajectory.
+  /// Forgets map, pose and trajectory (and a session waiting to be restored).
   void reset();
   /// Frames dropped for a repeated or late stamp since construction.
   std::size_t droppedOutOfOrder() const;
@@ -113,6 +127,15 @@ class TrackingStage {
   StampGate stamp_gate_;
   /// Restored, and the camera not yet found in the restored map: lost frames are not recorded.
   bool awaiting_first_pose_ = false;
+  std::optional<TrackerSession> pending_session_;  ///< restoreSessionAtNextFrame's, until that frame
+  /// localization_only: the restored session, restored again when the stamp jumps back.
+  std::optional<TrackerSession> localization_session_;
+  OdomFrame odom_;
+
+  /// restoreSession with the lock held.
+  void restoreLocked(TrackerSession session);
+  /// The pending session restored for a frame of `camera`, or dropped; returns the event.
+  std::string restorePending(const CameraIntrinsics& camera);
 };
 
 }  // namespace dypho::tracking
