@@ -76,6 +76,11 @@ TEST(GaussianMapLoad, LoadedMapRendersLikeTheSavedOneWithTheWorkerRunning) {
   EXPECT_EQ(loaded.loadPly(ply, &note), saved.stats().num_gaussians);
   EXPECT_EQ(note, "");  // same degree, within capacity: nothing adapted
   EXPECT_EQ(loaded.stats().num_gaussians, saved.stats().num_gaussians);
+  // Views and clouds read the snapshot: it holds the loaded map at once, before any keyframe (a
+  // localisation-only run never sends one).
+  const MapSnapshot snapshot = loaded.latestSnapshot();
+  ASSERT_TRUE(snapshot.map);
+  EXPECT_EQ(snapshot.map->size(), saved.stats().num_gaussians);
   const Keyframe kf = planeKeyframe(1, Eigen::Isometry3d::Identity());
   for (const Eigen::Isometry3d& T : {Eigen::Isometry3d::Identity(), sidePose()}) {
     const RenderedView a = saved.render(T, kf.frame.camera), b = loaded.render(T, kf.frame.camera);

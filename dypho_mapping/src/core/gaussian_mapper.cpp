@@ -279,15 +279,27 @@ void GaussianMapper::savePly(const std::string& path) const {
 std::size_t GaussianMapper::loadPly(const std::string& path, std::string* note) {
   // Read first (throws before touching the map), then swap under the lock.
   GaussianMap loaded = loadGaussianPly(path, options_.sh_degree, options_.max_gaussians, note);
-  ChangeLock lock(*this);
-  GaussianTrainer& t = *trainer_;
-  t.map = std::move(loaded);
-  t.adam.compact(t.map, std::vector<std::uint8_t>());
-  t.adam.resize(t.map);
-  t.grad_accum.assign(t.map.size(), 0.f);
-  t.grad_count.assign(t.map.size(), 0);
-  t.hostChanged();
-  return t.map.size();
+  std::size_t count = 0;
+  {
+    ChangeLock lock(*this);
+    GaussianTrainer& t = *trainer_;
+    t.map = std::move(loaded);
+    t.adam.compact(t.map, std::vector<std::uint8_t>());
+    t.adam.resize(t.map);
+    t.grad_accum.assign(t.map.size(), 0.f);
+    t.grad_count.assign(t.map.size(), 0);
+    t.hostChanged();
+    count = t.map.size();
+  }
+  // Views and clouds show the loaded map at once, not after the next keyframe's training (which a
+  // localisation-only run never has).
+  std::int64_t done = -1;
+  {
+    std::lock_guard<std::mutex> lock(snapshot_mutex_);
+    done = done_keyframe_id_;
+  }
+  publishSnapshot(done);
+  return count;
 }
 
 void GaussianMapper::saveCentresPcd(const std::string& path) const { mapping::saveCentresPcd(path, centres()); }
