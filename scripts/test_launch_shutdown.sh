@@ -4,9 +4,13 @@
 # output_dir set:
 #   1. Ctrl-C (SIGINT to roslaunch) while the bag plays and mapping trains;
 #   2. the bag ends (the player is required: roslaunch shuts the graph down).
+#   3. sessions: during case 2, ~save_session (tracking, which asks mapping for the map half)
+#      must write a complete session; the shutdowns of cases 1 and 2 must each write one into
+#      output_dir/session; then the bag again with session:= (case 2's) and
+#      localization_only:=true must pose the frames in that map and leave it byte-identical.
 # Each must end within 90 s, with exit code 0, no process that died (no segfault or abort at
 # shutdown), and the outputs written completely: trajectory.txt with the posed frames and a
-# map.ply, no temporary files left. Exit 0 when both pass.
+# map.ply, no temporary files left. Exit 0 when all pass.
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -uo pipefail
 bag="${1:-}"
@@ -25,26 +29,53 @@ cat "$bag" > /dev/null
 
 start_delay=3.0  # tum_bag.launch start_delay: the player waits this long before it plays
 
-run_case() {  # NAME PLAYED_S (Ctrl-C this long after the first tracked frame; 0 = let the bag end)
+# A complete session folder: its manifest, tracker.bin and map.ply (the manifest is written last).
+check_session() {  # NAME DIR
+  local name="$1" dir="$2" f
+  for f in session.yaml tracker.bin map.ply; do
+    [[ -s "$dir/$f" ]] || { echo "FAIL $name: no $dir/$f (session incomplete)" >&2; return 1; }
+  done
+  echo "ok   $name: session in $dir ($(grep -E '^(keyframes|gaussians):' "$dir/session.yaml" | tr '\n' ' '))"
+}
+
+wait_for_first_frame() {  # PORT PID
+  local waited_for_frame=0
+  until ROS_MASTER_URI="http://localhost:$1" timeout 5 rostopic echo -n 1 --noarr /dypho/tracking_status \
+      > /dev/null 2>&1 || ((waited_for_frame >= 60)) || ! kill -0 "$2" 2>/dev/null; do
+    sleep 1
+    waited_for_frame=$((waited_for_frame + 1))
+  done
+}
+
+run_case() {  # NAME PLAYED_S [roslaunch args] (Ctrl-C this long after the first tracked frame; 0 = let the bag end)
   local name="$1" interrupt_after="$2"
+  shift 2
   # The output folder does not exist yet: the nodelets create it.
   local dir="$out/$name/run" log="$out/$name.log"
   local port=$((20000 + RANDOM % 20000))
   mkdir -p "$out/$name"
   setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
-    start_delay:="$start_delay" > "$log" 2>&1 &
+    start_delay:="$start_delay" "$@" > "$log" 2>&1 &
   local pid=$!
+  if [[ "$name" == bag_ended ]]; then
+    # A session saved while the bag plays, through the tracking nodelet's service.
+    wait_for_first_frame "$port" "$pid"
+    sleep 1
+    if ROS_MASTER_URI="http://localhost:$port" timeout 30 rosservice call /dypho/tracking/save_session \
+        "directory: 'while_playing'" > "$out/$name/save_session.txt" 2>&1 &&
+        grep -q "success: True" "$out/$name/save_session.txt"; then
+      check_session save_session_while_playing "$dir/while_playing/session" || failures=$((failures + 1))
+    else
+      echo "FAIL save_session_while_playing: $(cat "$out/$name/save_session.txt")" >&2
+      failures=$((failures + 1))
+    fi
+  fi
   if [[ "$interrupt_after" != 0 ]]; then
     # Counted from the first tracked frame, not from roslaunch's or the player's start: starting
     # the master and loading the nodelets takes 1-4 s on a loaded 2-core machine, and a player
     # whose libraries the machine had paged out was still in its start delay 4.5 s after its
     # process started (no frame played: trajectory.txt empty).
-    local waited_for_frame=0
-    until ROS_MASTER_URI="http://localhost:$port" timeout 5 rostopic echo -n 1 --noarr /dypho/tracking_status \
-        > /dev/null 2>&1 || ((waited_for_frame >= 60)) || ! kill -0 "$pid" 2>/dev/null; do
-      sleep 1
-      waited_for_frame=$((waited_for_frame + 1))
-    done
+    wait_for_first_frame "$port" "$pid"
     sleep "$interrupt_after"
     kill -INT "$pid" 2>/dev/null
   fi
@@ -84,5 +115,27 @@ run_case() {  # NAME PLAYED_S (Ctrl-C this long after the first tracked frame; 0
 }
 
 run_case ctrl_c_while_playing 1.5  # the synthetic bag plays 4 s: Ctrl-C in its middle (1.5 s after its first tracked frame)
+check_session shutdown_session_ctrl_c "$out/ctrl_c_while_playing/run/session" || failures=$((failures + 1))
 run_case bag_ended 0
+session="$out/bag_ended/run/session"
+if check_session shutdown_session_bag_ended "$session"; then
+  # Localisation only in yesterday's map: the frames are posed (run_case: >= 20 poses), no
+  # session is written (nothing changed) and the map comes out as it went in, to the byte.
+  run_case localization_only 0 session:="$out/bag_ended/run" localization_only:=true
+  located="$out/localization_only/run"
+  if ! cmp -s "$session/map.ply" "$located/map.ply"; then
+    echo "FAIL localization_only: map.ply differs from the loaded session's" >&2
+    failures=$((failures + 1))
+  elif [[ -e "$located/session" ]]; then
+    echo "FAIL localization_only: a session was written, the map did not change" >&2
+    failures=$((failures + 1))
+  elif ! grep -q "searching the loaded map" "$out/localization_only.log"; then
+    echo "FAIL localization_only: the log never says the loaded map was searched" >&2
+    failures=$((failures + 1))
+  else
+    echo "ok   localization_only: map.ply byte-identical to the session's"
+  fi
+else
+  failures=$((failures + 1))
+fi
 exit $((failures > 0 ? 1 : 0))

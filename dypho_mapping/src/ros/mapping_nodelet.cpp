@@ -12,7 +12,10 @@
 /// rendered/depth_predicted (32FC1 m, R_d) at the constant-velocity prediction of the next frame's
 /// pose, at the mask's working resolution (~predicted_depth_scale), header stamp = the expected
 /// stamp of that frame; gaussian_cloud (XYZRGB Gaussian centres) and map_cloud (keyframe points).
-/// Services: ~save_map (final refinement first with ~refine_before_save), ~load_map, ~reset.
+/// Services: ~save_map (final refinement first with ~refine_before_save), ~load_map, ~reset,
+/// and the map half of a session (session_folder.h): ~save_session writes session/map.ply and
+/// completes the session when the tracking nodelet's tracker.bin is there (the tracking
+/// nodelet's ~save_session calls it); ~load_session and ~session load a session's map.
 
 #include <atomic>
 #include <chrono>
@@ -33,6 +36,8 @@
 #include <nodelet/nodelet.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <ros/callback_queue.h>
+#include <ros/spinner.h>
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/common/output_path.h"
@@ -41,6 +46,7 @@
 #include "dypho/mapping/mapping_options_fields.h"
 #include "dypho/mapping/mapping_stage.h"
 #include "dypho/mapping/rasterizer.h"
+#include "dypho/pipeline/session_folder.h"
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
@@ -64,6 +70,12 @@ struct MappingRosParams {
   /// (empty: $ROS_HOME/dypho, default ~/.ros/dypho, resolved at start-up)
   std::string output_dir;
   std::string map_load_path;  ///< 3DGS PLY loaded at start-up (empty: start with an empty map)
+  /// A saved session whose map is loaded at start-up (a session folder or a run's output folder
+  /// holding session/; the tracking nodelet restores its tracker half). Empty: none.
+  std::string session;
+  /// Localisation in a loaded map (the tracking nodelet's localization_only): a restart (time
+  /// jumped back) keeps the map, and no session is saved on shutdown (it did not change).
+  bool localization_only = false;
   /// save_map first runs the mapper's final refinement (`final_refine_iterations` over all
   /// keyframes, GaussianMapper::finish(); blocks the call for that long, mapping goes on beside it)
   bool refine_before_save = true;
@@ -88,6 +100,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   /// Shutdown order (nodelet_runtime.h): diagnostics, the render and cloud threads, then the map
   /// is saved (a bounded final refinement first) with map_evaluation.txt.
   ~GaussianMappingNodelet() override {
+    if (session_spinner_) session_spinner_->stop();
     if (diagnostics_) diagnostics_->stop();
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
@@ -107,17 +120,18 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
                          NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of "
                                                          << eval.num_keyframes << " keyframes (map_evaluation.txt)");
                        });
+    // The map half of the session (also a loaded map that got no keyframe: see tracking).
+    rc::saveOnShutdown(
+        getName(), params_.output_dir, params_.localization_only || stage_->stats().gaussians.num_gaussians == 0,
+        "no session (localization_only, or no Gaussian)", [&] {
+          NODELET_INFO_STREAM(
+              saveSessionHalf((std::filesystem::path(params_.output_dir) / pipeline::kSessionFolder).string()));
+        });
   }
 
-  void onInit() override {
-    rc::startOrStayIdle(getName(), [this] { start(); });
-  }
-
-  void start() {
-    ros::NodeHandle& nh = getNodeHandle();
-    ros::NodeHandle& pnh = getPrivateNodeHandle();
-
-    // 1. Parameters.
+  /// The nodelet's parameters into params_, the core's returned (validated, thread budget
+  /// applied); throws on a bad one.
+  mapping::MappingOptions readParameters(ros::NodeHandle& pnh) {
     rc::RosParamReader reader(pnh);
     mapping::MappingOptions options;
     mapping::visitOptions(options, reader);
@@ -132,6 +146,11 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     reader("predicted_depth_scale", params_.predicted_depth_scale, "");
     reader("output_dir", params_.output_dir, "");
     reader("map_load_path", params_.map_load_path, "");
+    reader("session", params_.session, "");
+    reader("localization_only", params_.localization_only, "");
+    if (!params_.session.empty() && !params_.map_load_path.empty()) {
+      throw std::invalid_argument("~session and ~map_load_path are both set: a session brings its own map, set one");
+    }
     reader("refine_before_save", params_.refine_before_save, "");
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
     reader("cores", params_.cores, "");
@@ -151,6 +170,19 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
                         << options.gaussian.training_nice
                         << (options.gaussian.training_idle_class ? " in the idle class (SCHED_IDLE)" : "")
                         << (options.gaussian.live_train_when_idle ? ", training while idle" : ""));
+    return options;
+  }
+
+  void onInit() override {
+    rc::startOrStayIdle(getName(), [this] { start(); });
+  }
+
+  void start() {
+    ros::NodeHandle& nh = getNodeHandle();
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+
+    // 1. Parameters.
+    const mapping::MappingOptions options = readParameters(pnh);
 
     // 2. Cores and threads.
     mapping::MappingStageOptions stage_options;
@@ -171,6 +203,13 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
         NODELET_ERROR_STREAM("~map_load_path: " << r.message << "; starting with an empty map");
       }
     }
+    start_time_ = std::filesystem::file_time_type::clock::now();
+    if (!params_.session.empty()) {
+      // A session that cannot be loaded leaves the nodelet idle with the reason (see tracking).
+      const LoadOutcome r = loadSessionMap(params_.session);
+      if (!r.success) throw std::runtime_error("~session: " + r.message);
+      NODELET_INFO_STREAM("~session: " << r.message);
+    }
     render_thread_ = std::thread([this] { renderLoop(); });
 
     // 3. Outputs.
@@ -182,6 +221,14 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     save_srv_ = pnh.advertiseService("save_map", &GaussianMappingNodelet::onSave, this);
     reset_srv_ = pnh.advertiseService("reset", &GaussianMappingNodelet::onReset, this);
     load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
+    // Own queue and thread: the tracking nodelet calls these from its session services, which
+    // must not wait for a manager thread.
+    session_nh_ = pnh;
+    session_nh_.setCallbackQueue(&session_queue_);
+    save_session_srv_ = session_nh_.advertiseService("save_session", &GaussianMappingNodelet::onSaveSession, this);
+    load_session_srv_ = session_nh_.advertiseService("load_session", &GaussianMappingNodelet::onLoadSession, this);
+    session_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &session_queue_);
+    session_spinner_->start();
     cloud_thread_ = std::thread([this, nice = options.gaussian.training_nice] { cloudLoop(nice); });
     diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
         nh, pnh, getName(), "mapping", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
@@ -218,8 +265,13 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   }
 
   void onTrackingStatus(const dypho_slam::TrackingStatusConstPtr& msg) {
-    const PoseUpdate update = rc::toPoseUpdate(*msg);
-    if (update.restarted) NODELET_WARN_STREAM("tracking restarted (time went backwards): the map is cleared");
+    PoseUpdate update = rc::toPoseUpdate(*msg);
+    if (update.restarted && params_.localization_only) {
+      NODELET_WARN_STREAM("tracking restarted (time went backwards): the loaded map is kept (localization_only)");
+      update.restarted = false;  // still discontinuous: no velocity across the jump
+    } else if (update.restarted) {
+      NODELET_WARN_STREAM("tracking restarted (time went backwards): the map is cleared");
+    }
     stage_->observePose(update);
     if (update.restarted) changed_ = true;
     if (!update.trusted) return;
@@ -390,6 +442,61 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  /// The map half of the session at `path` (a session folder or a run's output folder), checked
+  /// against its manifest, replaces the map.
+  LoadOutcome loadSessionMap(const std::string& path) {
+    try {
+      const std::string dir = pipeline::resolveSessionDir(path);
+      const pipeline::SessionManifest m =
+          pipeline::readSessionManifest(pipeline::sessionFile(dir, pipeline::kSessionManifestFile));
+      return loadMap(pipeline::checkedSessionMap(dir, m));
+    } catch (const std::exception& e) {
+      return LoadOutcome{false, std::string(e.what()) + "; the current map is kept"};
+    }
+  }
+
+  /// Writes `dir`/map.ply (the map as it stands, no refinement: a session save is quick) and
+  /// completes the session when tracker.bin is there; returns what happened. Throws on a write
+  /// error.
+  std::string saveSessionHalf(const std::string& dir) {
+    pipeline::beginSessionSave(dir);
+    const std::string map_path = pipeline::sessionFile(dir, pipeline::kSessionMapFile);
+    stage_->gaussians().savePly(map_path);
+    std::string why;
+    if (pipeline::completeSession(dir, start_time_, "ROS graph (" + getName() + ")", &why)) {
+      return "session saved to " + dir;
+    }
+    return "map half of the session written to " + dir + "; the tracking nodelet completes it (" + why + ")";
+  }
+
+  bool onSaveSession(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
+    try {
+      const std::string dir =
+          (std::filesystem::path(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory)) /
+           pipeline::kSessionFolder)
+              .string();
+      res.message = saveSessionHalf(dir);
+      res.files.push_back(pipeline::sessionFile(dir, pipeline::kSessionMapFile));
+      res.success = true;
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = std::string("map half of the session not saved: ") + e.what();
+    }
+    return true;
+  }
+
+  bool onLoadSession(dypho_slam::LoadMap::Request& req, dypho_slam::LoadMap::Response& res) {
+    const LoadOutcome r = loadSessionMap(req.path);
+    res.success = r.success;
+    res.message = r.message;
+    if (r.success) {
+      NODELET_INFO_STREAM("load_session: " << r.message);
+    } else {
+      NODELET_WARN_STREAM("load_session: " << r.message);
+    }
+    return true;
+  }
+
   /// /diagnostics: training rate, map size and the keyframe queue.
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     const mapping::MappingStageStats s = stage_->stats();
@@ -449,6 +556,12 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
+  std::filesystem::file_time_type start_time_;  ///< session halves older than this are not this run's
+  /// ~save_session and ~load_session: their own queue and thread (the tracking nodelet calls them).
+  ros::CallbackQueue session_queue_;
+  ros::NodeHandle session_nh_;
+  ros::ServiceServer save_session_srv_, load_session_srv_;
+  std::unique_ptr<ros::AsyncSpinner> session_spinner_;
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< last: destroyed first (its task reads the stage)
   ros::WallTime last_diagnosis_{0.0};                    ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;

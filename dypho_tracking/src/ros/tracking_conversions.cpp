@@ -99,12 +99,13 @@ geometry_msgs::TransformStamped toTransform(const Eigen::Isometry3d& T, const ro
 
 }  // namespace
 
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const tracking::TrackingResult& result, const ros::Time& stamp,
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const Eigen::Isometry3d& T_map_camera,
+                                                      const Eigen::Isometry3d& T_map_odom, const ros::Time& stamp,
                                                       const std::string& map_frame, const std::string& odom_frame,
                                                       const std::string& camera_frame) {
-  const Eigen::Isometry3d T_odom_camera = result.T_world_odom.inverse() * result.T_world_camera;
-  if (!T_odom_camera.matrix().allFinite() || !result.T_world_odom.matrix().allFinite()) return {};
-  return {toTransform(result.T_world_odom, stamp, map_frame, odom_frame),
+  const Eigen::Isometry3d T_odom_camera = T_map_odom.inverse() * T_map_camera;
+  if (!T_odom_camera.matrix().allFinite() || !T_map_odom.matrix().allFinite()) return {};
+  return {toTransform(T_map_odom, stamp, map_frame, odom_frame),
           toTransform(T_odom_camera, stamp, odom_frame, camera_frame)};
 }
 

@@ -34,9 +34,10 @@ void fillLiveCounters(dypho_slam::TrackingStatus& status, const tracking::LiveCo
 /// The tracker's stage times of one frame.
 dypho_slam::StageTiming toTimingMsg(const tracking::TrackingResult& result, const std_msgs::Header& header);
 
-/// REP-105: map -> odom (the accumulated loop correction) and odom -> camera (the odometry);
-/// empty when either is not finite.
-std::vector<geometry_msgs::TransformStamped> toTfMsgs(const tracking::TrackingResult& result, const ros::Time& stamp,
+/// REP-105: map -> odom (TrackingOutput::T_map_odom: loop corrections and relocalisation jumps)
+/// and odom -> camera (the smooth odometry); empty when either is not finite.
+std::vector<geometry_msgs::TransformStamped> toTfMsgs(const Eigen::Isometry3d& T_map_camera,
+                                                      const Eigen::Isometry3d& T_map_odom, const ros::Time& stamp,
                                                       const std::string& map_frame, const std::string& odom_frame,
                                                       const std::string& camera_frame);
 

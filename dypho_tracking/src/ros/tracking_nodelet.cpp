@@ -4,6 +4,14 @@
 /// keyframe correction batches, timing and /diagnostics out. All the tracking and its policy are
 /// in dypho::tracking::TrackingStage (the same stage the in-process pipeline runs).
 ///
+/// Sessions (issue 36, session_folder.h): ~save_session writes tracker.bin and asks the mapping
+/// nodelet (~mapping_node) for map.ply, whose completion writes the manifest; ~load_session and
+/// ~session read a saved session, have mapping load its map, and restore the tracker at the next
+/// frame (its camera checked there), which then searches the loaded map. On shutdown with
+/// output_dir each nodelet writes its half into output_dir/session and the second writes the
+/// manifest. Session services run on a queue and thread of their own, so that the call to the
+/// mapping nodelet never waits for a manager thread this nodelet holds.
+///
 /// Threads: the live tracking itself, pairing each frame with its mask, preparing features and
 /// tracking on threads of their own, dropping and counting, is dypho::tracking::LiveTracker (the
 /// same code dypho_run_dataset --realtime runs); the callbacks only hand it message pointers, and
@@ -12,9 +20,11 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <utility>
 
 #include <dypho_slam/Keyframe.h>
 #include <dypho_slam/KeyframeCorrections.h>
+#include <dypho_slam/LoadMap.h>
 #include <dypho_slam/Reset.h>
 #include <dypho_slam/SaveMap.h>
 #include <dypho_slam/StageTiming.h>
@@ -28,10 +38,13 @@
 #include <message_filters/synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <ros/callback_queue.h>
+#include <ros/spinner.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "dypho/common/output_path.h"
 #include "dypho/common/rolling_stats.h"
+#include "dypho/pipeline/session_folder.h"
 #include "dypho/tracking/live_tracker.h"
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
@@ -66,6 +79,12 @@ struct TrackingRosParams {
   int max_path_length = 20000;                ///< path poses kept, newest (11 min at 30 Hz) [poses], >= 1
   double path_period_s = 0.5;                 ///< the path is published at most this often, when it changed [s], > 0
   tracking::MaskPairingOptions mask_pairing;  ///< ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s
+  /// A saved session to go on from (a session folder, or a run's output folder holding
+  /// session/): restored at the first frame, which then searches its map. Empty: a new map.
+  std::string session;
+  /// The mapping nodelet's name (its services are <namespace>/<mapping_node>/save_session and
+  /// load_session), for saving and loading the map half of a session.
+  std::string mapping_node = "mapping";
 };
 
 class TrackingNodelet : public nodelet::Nodelet {
@@ -89,35 +108,17 @@ class TrackingNodelet : public nodelet::Nodelet {
     ros::NodeHandle& pnh = getPrivateNodeHandle();
 
     // 1. Parameters.
-    rc::RosParamReader reader(pnh);
-    tracking::TrackingOptions options;
-    tracking::visitOptions(options, reader);
-    reader("map_frame", params_.map_frame, "");
-    reader("odom_frame", params_.odom_frame, "");
-    reader("camera_frame", params_.camera_frame, "");
-    reader("publish_tf", params_.publish_tf, "");
-    reader("use_mask", params_.use_mask, "");
-    reader("queue_size", params_.queue_size, "");
-    reader("watchdog_s", params_.watchdog_s, "");
-    reader("output_dir", params_.output_dir, "");
-    reader("max_path_length", params_.max_path_length, "");
-    reader("path_period_s", params_.path_period_s, "");
-    reader("mask_max_wait_s", params_.mask_pairing.max_wait_s, "");
-    reader("mask_max_pending_frames", params_.mask_pairing.max_pending_frames, "");
-    reader("mask_max_carry_age_s", params_.mask_pairing.max_carry_age_s, "");
-    reader.checkNoUnknownKeys();
-    if (params_.max_path_length < 1) throw std::invalid_argument("max_path_length must be >= 1");
-    if (!(params_.path_period_s > 0)) throw std::invalid_argument("path_period_s must be > 0");
-    params_.mask_pairing.validate();
-    // Empty output_dir: $ROS_HOME/dypho (~/.ros/dypho); the shutdown save writes there.
-    std::string output_warning;
-    params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
-    if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the trajectory");
-    options.validate();
-    NODELET_INFO_STREAM("tracking parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir);
+    const tracking::TrackingOptions options = readParameters(pnh);
 
-    // 2. Core.
+    // 2. Core, and the session to go on from (a session that cannot be read leaves the nodelet
+    // idle with the reason: going on in an empty map would silently not be what was asked).
     stage_ = std::make_unique<tracking::TrackingStage>(options);
+    start_time_ = std::filesystem::file_time_type::clock::now();
+    if (!params_.session.empty()) {
+      NODELET_INFO_STREAM("~session: " << readSession(params_.session));
+    } else if (options.localization_only) {
+      NODELET_WARN_STREAM("localization_only without ~session: nothing is tracked until ~load_session loads one");
+    }
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
@@ -130,6 +131,12 @@ class TrackingNodelet : public nodelet::Nodelet {
     moving_points_pub_ = nh.advertise<sensor_msgs::PointCloud2>("moving_points", 5);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
+    session_nh_ = pnh;
+    session_nh_.setCallbackQueue(&session_queue_);
+    save_session_srv_ = session_nh_.advertiseService("save_session", &TrackingNodelet::onSaveSession, this);
+    load_session_srv_ = session_nh_.advertiseService("load_session", &TrackingNodelet::onLoadSession, this);
+    session_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &session_queue_);
+    session_spinner_->start();
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
         nh, pnh, getName(), "tracking", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
@@ -156,10 +163,44 @@ class TrackingNodelet : public nodelet::Nodelet {
                                                    /*has_approx_sync=*/false);
   }
 
+  /// The nodelet's parameters into params_, the core's returned (validated); throws on a bad one.
+  tracking::TrackingOptions readParameters(ros::NodeHandle& pnh) {
+    rc::RosParamReader reader(pnh);
+    tracking::TrackingOptions options;
+    tracking::visitOptions(options, reader);
+    reader("map_frame", params_.map_frame, "");
+    reader("odom_frame", params_.odom_frame, "");
+    reader("camera_frame", params_.camera_frame, "");
+    reader("publish_tf", params_.publish_tf, "");
+    reader("use_mask", params_.use_mask, "");
+    reader("queue_size", params_.queue_size, "");
+    reader("watchdog_s", params_.watchdog_s, "");
+    reader("output_dir", params_.output_dir, "");
+    reader("max_path_length", params_.max_path_length, "");
+    reader("path_period_s", params_.path_period_s, "");
+    reader("mask_max_wait_s", params_.mask_pairing.max_wait_s, "");
+    reader("mask_max_pending_frames", params_.mask_pairing.max_pending_frames, "");
+    reader("mask_max_carry_age_s", params_.mask_pairing.max_carry_age_s, "");
+    reader("session", params_.session, "");
+    reader("mapping_node", params_.mapping_node, "");
+    reader.checkNoUnknownKeys();
+    if (params_.max_path_length < 1) throw std::invalid_argument("max_path_length must be >= 1");
+    if (!(params_.path_period_s > 0)) throw std::invalid_argument("path_period_s must be > 0");
+    params_.mask_pairing.validate();
+    // Empty output_dir: $ROS_HOME/dypho (~/.ros/dypho); the shutdown save writes there.
+    std::string output_warning;
+    params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
+    if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the trajectory");
+    options.validate();
+    NODELET_INFO_STREAM("tracking parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir);
+    return options;
+  }
+
   /// Shutdown order (nodelet_runtime.h): the path, diagnostics, the live tracker's threads (the
   /// frames already prepared are still published), then the tracker's end of run (final global
   /// BA) and the trajectory is written.
   ~TrackingNodelet() override {
+    if (session_spinner_) session_spinner_->stop();
     if (path_) path_->stopPublishing();
     if (diagnostics_) diagnostics_->stop();
     if (live_) live_->stop();
@@ -168,6 +209,11 @@ class TrackingNodelet : public nodelet::Nodelet {
       finishRun();
       saveTrajectory(params_.output_dir);
     });
+    // A resumed run that never found the camera still writes its (restored) half, so that the
+    // mapping nodelet's half does not leave the folder without a manifest.
+    rc::saveOnShutdown(getName(), params_.output_dir,
+                       stage_->options().localization_only || stage_->odometry().map().keyframes().empty(),
+                       "no session (localization_only, or no keyframe)", [this] { saveSessionHalfOnShutdown(); });
   }
 
  private:
@@ -213,6 +259,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     const tracking::TrackingResult& result = out.result;
     const std::string camera_frame = params_.camera_frame.empty() ? header.frame_id : params_.camera_frame;
     if (out.restarted) NODELET_WARN_STREAM("time jumped backwards (bag restarted?): tracking and path restart");
+    if (!out.session_event.empty()) NODELET_WARN_STREAM("session: " << out.session_event);
     auto status = boost::make_shared<dypho_slam::TrackingStatus>(toStatusMsg(out, header, camera_frame, source, live));
     fillLiveFigures(*status);
     status_pub_.publish(status);
@@ -238,7 +285,8 @@ class TrackingNodelet : public nodelet::Nodelet {
     pose_pub_.publish(pose);
     updatePath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
     if (params_.publish_tf) {
-      const auto tfs = toTfMsgs(result, header.stamp, params_.map_frame, params_.odom_frame, camera_frame);
+      const auto tfs = toTfMsgs(result.T_world_camera, out.T_map_odom, header.stamp, params_.map_frame,
+                                params_.odom_frame, camera_frame);
       if (!tfs.empty()) tf_broadcaster_->sendTransform(tfs);
     }
     if (result.keyframe) keyframe_pub_.publish(rc::toKeyframeMsg(*result.keyframe, camera_frame));
@@ -344,6 +392,115 @@ class TrackingNodelet : public nodelet::Nodelet {
     return true;
   }
 
+  // --- sessions (session_folder.h) -------------------------------------------------------------
+
+  /// Reads the session at `path` (a session folder or a run's output folder) and restores it at
+  /// the next frame; returns what was read. Throws std::runtime_error naming the file.
+  std::string readSession(const std::string& path) {
+    const std::string dir = pipeline::resolveSessionDir(path);
+    const pipeline::SessionManifest m =
+        pipeline::readSessionManifest(pipeline::sessionFile(dir, pipeline::kSessionManifestFile));
+    // The camera is the run's once its first frame comes: checked there (restoreSessionAtNextFrame).
+    tracking::TrackerSession session = pipeline::readSessionTracker(dir, m, m.camera);
+    stage_->restoreSessionAtNextFrame(std::move(session));
+    return "session " + dir + " (" + std::to_string(m.num_keyframes) + " keyframes, " +
+           std::to_string(m.num_map_points) + " map points, saved " + m.created_utc +
+           "): restored at the next frame, which searches the loaded map";
+  }
+
+  /// Calls the mapping nodelet's `service`; empty on success, else why not.
+  template <class Service>
+  std::string callMapping(const std::string& service, Service& call) {
+    const std::string name = getNodeHandle().resolveName(params_.mapping_node + "/" + service);
+    if (!ros::service::waitForService(name, ros::Duration(5.0))) {
+      return name + " did not answer within 5 s (is the mapping nodelet running, named by ~mapping_node?)";
+    }
+    if (!ros::service::call(name, call)) return "calling " + name + " failed";
+    if (!call.response.success) return name + ": " + call.response.message;
+    return "";
+  }
+
+  /// ~save_session: tracker.bin into <output_dir>/<directory>/session, then the mapping
+  /// nodelet's map.ply into the same folder, whose completion writes the manifest.
+  bool onSaveSession(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
+    try {
+      const std::string dir =
+          (std::filesystem::path(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory)) /
+           pipeline::kSessionFolder)
+              .string();
+      const tracking::TrackerSession session = stage_->session();  // throws before the first keyframe
+      pipeline::beginSessionSave(dir);
+      const std::string tracker_path = pipeline::sessionFile(dir, pipeline::kSessionTrackerFile);
+      tracking::saveTrackerSession(tracker_path, session);
+      res.files.push_back(tracker_path);
+      dypho_slam::SaveMap map_half;
+      map_half.request.directory = req.directory;
+      const std::string problem = callMapping("save_session", map_half);
+      if (!problem.empty()) throw std::runtime_error("tracker.bin written, the map half not: " + problem);
+      res.files.insert(res.files.end(), map_half.response.files.begin(), map_half.response.files.end());
+      const std::string manifest_path = pipeline::sessionFile(dir, pipeline::kSessionManifestFile);
+      const pipeline::SessionManifest m = pipeline::readSessionManifest(manifest_path);
+      res.files.push_back(manifest_path);
+      res.success = true;
+      res.message = "session saved to " + dir + ": " + std::to_string(m.num_keyframes) + " keyframes, " +
+                    std::to_string(m.num_map_points) + " map points, " + std::to_string(m.num_gaussians) +
+                    " Gaussians, " + std::to_string(pipeline::sessionBytes(dir)) + " bytes";
+      NODELET_INFO_STREAM(res.message);
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = std::string("session not saved: ") + e.what();
+      NODELET_WARN_STREAM(res.message);
+    }
+    return true;
+  }
+
+  /// ~load_session: the session at `path` read and checked, its map loaded by the mapping
+  /// nodelet, then the tracker restored at the next frame. On any error nothing changes.
+  bool onLoadSession(dypho_slam::LoadMap::Request& req, dypho_slam::LoadMap::Response& res) {
+    try {
+      const std::string dir = pipeline::resolveSessionDir(req.path);
+      const pipeline::SessionManifest m =
+          pipeline::readSessionManifest(pipeline::sessionFile(dir, pipeline::kSessionManifestFile));
+      tracking::TrackerSession session = pipeline::readSessionTracker(dir, m, m.camera);
+      dypho_slam::LoadMap map_half;
+      map_half.request.path = dir;
+      const std::string problem = callMapping("load_session", map_half);
+      if (!problem.empty()) throw std::runtime_error("the map half did not load: " + problem);
+      stage_->restoreSessionAtNextFrame(std::move(session));
+      live_->clearWaiting();
+      path_->clear();
+      res.success = true;
+      res.message = "session " + dir + " loaded (" + std::to_string(m.num_keyframes) + " keyframes, " +
+                    std::to_string(m.num_gaussians) + " Gaussians): the next frame searches its map";
+      NODELET_INFO_STREAM(res.message);
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = std::string("session not loaded, tracking unchanged: ") + e.what();
+      NODELET_WARN_STREAM(res.message);
+    }
+    return true;
+  }
+
+  /// At shutdown, after the trajectory: tracker.bin into output_dir/session, and the manifest
+  /// when the mapping nodelet's half is there already (else its shutdown writes it).
+  void saveSessionHalfOnShutdown() {
+    const std::string dir = (std::filesystem::path(params_.output_dir) / pipeline::kSessionFolder).string();
+    try {
+      const tracking::TrackerSession session = stage_->session();
+      pipeline::beginSessionSave(dir);
+      tracking::saveTrackerSession(pipeline::sessionFile(dir, pipeline::kSessionTrackerFile), session);
+      std::string why;
+      if (pipeline::completeSession(dir, start_time_, "ROS graph (" + getName() + ")", &why)) {
+        NODELET_INFO_STREAM("session saved to " << dir);
+      } else {
+        NODELET_INFO_STREAM("tracker half of the session written to "
+                            << dir << "; the mapping nodelet's shutdown completes it (" << why << ")");
+      }
+    } catch (const std::logic_error&) {
+      NODELET_INFO_STREAM("no keyframe: no session to save");
+    }
+  }
+
   /// At shutdown, before the trajectory is saved: the final global BA
   /// (TrackingOptions::global_ba_at_end), which trajectory.txt then follows. Its keyframe
   /// corrections are not published: the graph is going down.
@@ -378,6 +535,12 @@ class TrackingNodelet : public nodelet::Nodelet {
   ros::Publisher pose_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
   ros::Publisher moving_points_pub_;  ///< features seen moving (sensor_msgs/PointCloud2, camera optical frame)
   ros::ServiceServer reset_srv_, save_srv_;
+  std::filesystem::file_time_type start_time_;  ///< session halves older than this are not this run's
+  /// ~save_session and ~load_session: their own queue and thread (they call the mapping nodelet).
+  ros::CallbackQueue session_queue_;
+  ros::NodeHandle session_nh_;
+  ros::ServiceServer save_session_srv_, load_session_srv_;
+  std::unique_ptr<ros::AsyncSpinner> session_spinner_;
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< after what its task uses: destroyed first
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;
