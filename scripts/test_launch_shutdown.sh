@@ -7,7 +7,9 @@
 #   3. sessions: during case 2, ~save_session (tracking, which asks mapping for the map half)
 #      must write a complete session; the shutdowns of cases 1 and 2 must each write one into
 #      output_dir/session; then the bag again with session:= (case 2's) and
-#      localization_only:=true must pose the frames in that map and leave it byte-identical.
+#      localization_only:=true must pose the frames in that map and leave it byte-identical,
+#      with ~load_session (before the first frame) refusing a missing folder and loading the
+#      session again.
 # Each must end within 90 s, with exit code 0, no process that died (no segfault or abort at
 # shutdown), and the outputs written completely: trajectory.txt with the posed frames and a
 # map.ply, no temporary files left. Exit 0 when all pass.
@@ -54,8 +56,12 @@ run_case() {  # NAME PLAYED_S [roslaunch args] (Ctrl-C this long after the first
   local dir="$out/$name/run" log="$out/$name.log"
   local port=$((20000 + RANDOM % 20000))
   mkdir -p "$out/$name"
+  local delay="$start_delay"
+  # Localisation: time for the ~load_session calls before the first frame (a load restarts the
+  # trajectory, so a load in mid-bag would leave too few poses to judge).
+  [[ "$name" == localization_only ]] && delay=10.0
   setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
-    start_delay:="$start_delay" "$@" > "$log" 2>&1 &
+    start_delay:="$delay" "$@" > "$log" 2>&1 &
   local pid=$!
   if [[ "$name" == bag_ended ]]; then
     # A session saved while the bag plays, through the tracking nodelet's service.
@@ -67,6 +73,29 @@ run_case() {  # NAME PLAYED_S [roslaunch args] (Ctrl-C this long after the first
       check_session save_session_while_playing "$dir/while_playing/session" || failures=$((failures + 1))
     else
       echo "FAIL save_session_while_playing: $(cat "$out/$name/save_session.txt")" >&2
+      failures=$((failures + 1))
+    fi
+  fi
+  if [[ "$name" == localization_only ]]; then
+    # ~load_session before the player starts: a missing folder is refused and changes nothing;
+    # the session itself loads again (mapping loads its map, tracking restores it at the first frame).
+    local reply="" tries=0
+    until grep -q "success:" <<< "$reply" || ((tries >= 40)); do
+      sleep 0.5
+      tries=$((tries + 1))
+      reply=$(ROS_MASTER_URI="http://localhost:$port" timeout 30 rosservice call /dypho/tracking/load_session \
+        "path: '$out/no_such_session'" 2>&1)
+    done
+    if ! grep -q "success: False" <<< "$reply" || ! grep -q "no session in" <<< "$reply"; then
+      echo "FAIL load_session_missing: $reply" >&2
+      failures=$((failures + 1))
+    fi
+    reply=$(ROS_MASTER_URI="http://localhost:$port" timeout 30 rosservice call /dypho/tracking/load_session \
+      "path: '$out/bag_ended/run'" 2>&1)
+    if grep -q "success: True" <<< "$reply"; then
+      echo "ok   load_session: a missing folder refused, the session loaded again"
+    else
+      echo "FAIL load_session: $reply" >&2
       failures=$((failures + 1))
     fi
   fi
