@@ -474,6 +474,15 @@ TEST(DatasetRun, ResumedLocalisationOnlyLeavesTheSavedMap) {
 
   EXPECT_NE(runDataset(data, again, "--localization-only"), 0);
   EXPECT_NE(readText(again + "/log.txt").find("--localization-only needs --resume"), std::string::npos);
+
+  // A refused session (no manifest there) fails before --out is made: no empty folder is left.
+  const std::string refused = std::string(DYPHO_TEST_OUT) + "/synth_session_refused";
+  ASSERT_EQ(std::system(("rm -rf '" + refused + "'").c_str()), 0);
+  const std::string cmd = std::string("'") + DYPHO_RUN_DATASET + "' --dataset '" + data + "' --out '" + refused +
+                          "' --quiet --resume '" + data + "' > '" + refused + ".log' 2>&1";
+  EXPECT_NE(WEXITSTATUS(std::system(cmd.c_str())), 0);
+  EXPECT_NE(readText(refused + ".log").find("no session in"), std::string::npos) << readText(refused + ".log");
+  EXPECT_FALSE(exists(refused)) << "a refused --resume left " << refused;
 }
 
 TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {

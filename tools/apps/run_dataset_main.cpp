@@ -116,14 +116,13 @@ PipelineOptions loadRunOptions(const Args& args, const std::string& config_dir) 
   return options;
 }
 
-/// Opens --dataset, checks it has what --mask needs, creates --out and logs what was opened.
+/// Opens --dataset, checks it has what --mask needs and logs what was opened.
 std::unique_ptr<FrameSource> openDataset(const Args& args, const PipelineOptions& options,
                                          const std::string& config_dir) {
   std::unique_ptr<FrameSource> source = openFrameSource(args.dataset, args.camera, config_dir);
   if (options.mask_source == MaskSource::kExternal && !source->hasMasks()) {
     throw std::runtime_error("--mask gt needs a mask/ folder in the dataset (written by dypho_synth)");
   }
-  makeDirs(args.out);
   std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size() << " frames, camera "
             << source->cameraName() << ", mask " << args.mask << "\n";
   for (const std::string& w : source->warnings()) std::cerr << "warning: " << w << "\n";
@@ -462,6 +461,7 @@ int run(const Args& args) {
   SlamPipeline pipeline(options, args.realtime ? mapping::MappingMode::kLive : mapping::MappingMode::kDeterministic);
   if (args.build_map) std::cerr << "dypho_run_dataset: " << pipeline.mapping().gaussians().deviceMessage() << "\n";
   if (!args.resume.empty()) resumeSession(args, *source, pipeline);
+  makeDirs(args.out);  // after the inputs and the session were accepted: a refused run leaves no folder
   std::size_t n = source->size();
   if (args.max_frames >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(args.max_frames));
   MaskWriter mask_writer(args.out);
