@@ -47,7 +47,8 @@ std::string quoted(const std::string& text) {
 /// (threads of one manager or separate processes) complete a session one at a time.
 class FolderLock {
  public:
-  explicit FolderLock(const std::string& dir) : fd_(::open(sessionFile(dir, ".session.lock").c_str(), O_CREAT | O_RDWR, 0644)) {
+  explicit FolderLock(const std::string& dir)
+      : fd_(::open(sessionFile(dir, ".session.lock").c_str(), O_CREAT | O_RDWR, 0644)) {
     if (fd_ < 0) throw std::runtime_error("cannot create the lock file in '" + dir + "' (is it writable?)");
     ::flock(fd_, LOCK_EX);
   }
