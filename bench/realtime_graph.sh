@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # realtime_graph.sh BAG [--rate R] [--out DIR] [--detector MODEL.onnx] [--groundtruth FILE]
-#                       [--bonn-correction] [--config-dir DIR]
+#                       [--bonn-correction] [--config-dir DIR] [--launch-arg NAME:=VALUE ...]
+#                       [--no-map-views]
 #
 # Plays BAG through `roslaunch dypho_slam tum_bag.launch` at rate R (default 1.0, the camera's
 # own pace) and prints what a user of the live graph gets:
@@ -14,7 +15,9 @@
 #   --bonn-correction for Bonn RGB-D Dynamic ground truth).
 # --detector: the mask runs the network at MODEL (launch arg yolo_model), else the shipped
 # config/mask.yaml (flow and background model only). --config-dir: parameter folder other than
-# the shipped config/ (launch arg config_dir).
+# the shipped config/ (launch arg config_dir). --launch-arg (repeatable): any other argument of
+# tum_bag.launch, e.g. session:=DIR localization_only:=true. --no-map-views: skip the map at
+# every 10th frame (an offline mask run and a render of every 10th frame afterwards).
 # Needs the catkin build and its environment (source build/devel/setup.bash). The summary is
 # also written to OUT/summary.txt; OUT keeps the roslaunch log, the outputs and the probe CSV.
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
@@ -25,7 +28,7 @@ BIN="${DYPHO_BIN:-$ROOT/build/devel/lib/dypho_slam}"
 usage() { sed -n '2,3p' "$0" | sed 's/^# //' >&2; exit 2; }
 [[ $# -ge 1 ]] || usage
 bag="$(realpath "$1")"; shift
-rate=1.0 out="realtime_graph" detector="" groundtruth="" evaluate_args=() config_dir="$ROOT/config"
+rate=1.0 out="realtime_graph" detector="" groundtruth="" evaluate_args=() config_dir="$ROOT/config" launch_args=() map_views=1
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate="$2"; shift 2 ;;
@@ -34,6 +37,8 @@ while [[ $# -gt 0 ]]; do
     --groundtruth) groundtruth="$(realpath "$2")"; shift 2 ;;
     --bonn-correction) evaluate_args+=(--bonn-correction); shift ;;
     --config-dir) config_dir="$(realpath "$2")"; shift 2 ;;
+    --launch-arg) launch_args+=("$2"); shift 2 ;;
+    --no-map-views) map_views=0; shift ;;
     *) usage ;;
   esac
 done
@@ -57,7 +62,7 @@ print(next((t["messages"] for t in topics if t["topic"] == "/camera/rgb/image_co
 # bursts; the benchmark measures the graph, not the disk.
 cat "$bag" > /dev/null
 start_graph "$out" bag:="$bag" rate:="$rate" output_dir:="$out/run" yolo_model:="$detector" \
-  config_dir:="$config_dir" start_delay:=8.0
+  config_dir:="$config_dir" start_delay:=8.0 "${launch_args[@]}"
 trap 'kill -INT -- -"$launch_pid" 2>/dev/null || true' EXIT
 "$BIN/graph_soak_probe" --pid "$manager_pid" --out "$out/probe.csv" --expect "$frames_in" --every 100 \
   > "$out/probe.txt" 2> "$out/probe.log"
@@ -92,7 +97,7 @@ statuses="$(value statuses | cut -d' ' -f1)"
   else
     echo "map PSNR:       map_evaluation.txt not written (see $out/roslaunch.log)"
   fi
-  if [[ -f "$out/run/map.ply" && -f "$out/run/trajectory.txt" ]]; then
+  if [[ "$map_views" == 1 && -f "$out/run/map.ply" && -f "$out/run/trajectory.txt" ]]; then
     # The map at every 10th frame. The graph keeps no masks: the offline mask of the same frames
     # (the runner, same parameters and model), run after the graph so it measures nothing live.
     mask_cfg=()
