@@ -373,7 +373,8 @@ bool RgbdOdometry::relocalise(TrackingFrame* work) {
   TrackingResult& result = work->result;
   if (result.num_features < options_.relocalization_min_inliers) return false;
   const auto t_reloc = Clock::now();
-  const RelocalizationResult reloc = relocalizer_.relocalize(map_, work->features(), work->pinhole, &result.times);
+  const RelocalizationResult reloc =
+      relocalizer_.relocalize(map_, work->features(), work->pinhole, &result.times, searching_map_);
   result.times.relocalization = msSince(t_reloc);
   if (!reloc.success) {
     work->aligned.message += "; " + reloc.message;

@@ -73,8 +73,9 @@ struct RunEnd {
 ///    keyframe at the last good pose (re-initialisation; not connected to the old map points, so
 ///    the jump while lost is not recovered unless a loop closes later).
 ///  - After restoreSession (a saved session, tracker_session.h): every frame is relocalised
-///    against the loaded map (kLost until found, result.relocalized when found, then OK as
-///    above); max_lost_frames failures re-initialise as from LOST.
+///    against the loaded map, every candidate keyframe tried and the one with most inliers taken
+///    (kLost until found, result.relocalized when found, then OK as above); max_lost_frames
+///    failures re-initialise as from LOST.
 ///  - TrackingOptions::localization_only: the same, but the map is never changed (no keyframes,
 ///    points, culling, BA, loop closure); tracked frames move the reference to the keyframe that
 ///    sees most of their inliers; lost frames relocalise in the map, never re-initialise; with
