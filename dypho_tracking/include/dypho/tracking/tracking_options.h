@@ -367,8 +367,8 @@ struct TrackingOptions {
   /// constant-velocity prediction (the last good pose after a loss; the limit grows by itself
   /// per frame lost since) is refused as lost unless it has localization_confident_inliers
   /// inliers; a wrong pose would also spoil the next prediction. Not applied while a restored
-  /// map is searched (no prediction yet) [m]; default 0.15, range (0, 100].
-  double localization_max_jump_m = 0.15;
+  /// map is searched (no prediction yet) [m]; default 0.2, range (0, 100].
+  double localization_max_jump_m = 0.2;
   /// The same for the rotation [deg]; default 5, range (0, 180].
   double localization_max_jump_deg = 5.0;
   /// Inliers from which a pose that strays from the prediction is still accepted (the prediction

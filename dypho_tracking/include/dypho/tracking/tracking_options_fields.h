@@ -313,7 +313,7 @@ void visitLocalizationOptions(TrackingOptions& options, Visitor&& visitor) {
           "Localisation only: a pose (tracked or relocalised) farther than this from the constant-velocity "
           "prediction (the last good pose after a loss; the limit grows per frame lost since) is refused as lost "
           "unless it has localization_confident_inliers inliers; not applied while a restored map is searched [m]; "
-          "default 0.15, range (0, 100].");
+          "default 0.2, range (0, 100].");
   visitor("localization_max_jump_deg", options.localization_max_jump_deg,
           "The same for the rotation [deg]; default 5, range (0, 180].");
   visitor("localization_confident_inliers", options.localization_confident_inliers,
