@@ -8,7 +8,7 @@ namespace tracking {
 Relocalizer::Relocalizer(const TrackingOptions& options) : options_(options), aligner_(options) { options_.validate(); }
 
 RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameFeatures& frame, const Pinhole& pinhole,
-                                             TrackingTimesMs* times) const {
+                                             TrackingTimesMs* times, bool most_inliers) const {
   RelocalizationResult result;
   std::vector<std::int64_t> ids;
   for (auto it = map.keyframes().rbegin(); it != map.keyframes().rend(); ++it) {
@@ -39,13 +39,14 @@ RelocalizationResult Relocalizer::relocalize(const TrackerMap& map, const FrameF
     AlignmentResult b = aligner_.align(local, frame, pinhole, a.T_camera_world, times, nullptr);
     const AlignmentResult& best = (b.success && b.num_inliers >= a.num_inliers) ? b : a;
     const Eigen::Isometry3d T_world_camera = best.T_camera_world.inverse();
-    if (!T_world_camera.matrix().allFinite()) continue;
+    if (!T_world_camera.matrix().allFinite() || best.num_inliers <= result.num_inliers) continue;
     result.success = true;
     result.keyframe_id = id;
     result.T_world_camera = T_world_camera;
     result.num_inliers = best.num_inliers;
-    return result;
+    if (!most_inliers) return result;
   }
+  if (result.success) return result;
   result.message = "relocalisation failed against " + std::to_string(result.tried) + " keyframes (best " +
                    std::to_string(best_inliers) + " inliers, need " +
                    std::to_string(options_.relocalization_min_inliers) + ")";

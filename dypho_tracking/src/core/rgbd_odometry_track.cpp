@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <string>
@@ -89,6 +90,13 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   matchAndOptimise(&work);
   verifyPose(&work);
   refineDensely(&work);
+  if (work.aligned.success) {
+    const std::string stray = strayFromPrediction(work, work.T_world_camera, work.aligned.num_inliers);
+    if (!stray.empty()) {  // lost: relocalisation may still find it
+      work.aligned.success = false;
+      work.aligned.message = "tracked " + stray;
+    }
+  }
   if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
     acceptPose(&work);
     if (options_.localization_only) {  // the map stays as loaded: only the reference follows
@@ -270,6 +278,26 @@ void RgbdOdometry::refineDensely(TrackingFrame* work) {
   work->result.dense_correction_m = correction.translation().norm();
 }
 
+std::string RgbdOdometry::strayFromPrediction(const TrackingFrame& work, const Eigen::Isometry3d& T_world_camera,
+                                              int num_inliers) const {
+  if (!options_.localization_only || searching_map_ || !work.enough_to_match ||
+      num_inliers >= options_.localization_confident_inliers) {
+    return "";
+  }
+  // The camera may have moved farther while lost: the limits grow with each frame lost since.
+  const double frames = 1.0 + lost_frames_;
+  const Eigen::Isometry3d jump = work.T_world_predicted.inverse() * T_world_camera;
+  const double jump_m = jump.translation().norm();
+  const double jump_deg = Eigen::AngleAxisd(jump.rotation()).angle() * 180.0 / M_PI;
+  if (jump_m <= frames * options_.localization_max_jump_m && jump_deg <= frames * options_.localization_max_jump_deg) {
+    return "";
+  }
+  std::ostringstream os;
+  os << std::setprecision(3) << jump_m << " m, " << jump_deg << " deg from the prediction with " << num_inliers
+     << " inliers: refused (localization_max_jump_m/deg, localization_confident_inliers)";
+  return os.str();
+}
+
 void RgbdOdometry::acceptPose(TrackingFrame* work) {
   const AlignmentResult& aligned = work->aligned;
   const Eigen::Isometry3d& T_world_camera = work->T_world_camera;
@@ -345,10 +373,15 @@ bool RgbdOdometry::relocalise(TrackingFrame* work) {
   TrackingResult& result = work->result;
   if (result.num_features < options_.relocalization_min_inliers) return false;
   const auto t_reloc = Clock::now();
-  const RelocalizationResult reloc = relocalizer_.relocalize(map_, work->features(), work->pinhole, &result.times);
+  const RelocalizationResult reloc =
+      relocalizer_.relocalize(map_, work->features(), work->pinhole, &result.times, searching_map_);
   result.times.relocalization = msSince(t_reloc);
   if (!reloc.success) {
     work->aligned.message += "; " + reloc.message;
+    return false;
+  }
+  if (const std::string stray = strayFromPrediction(*work, reloc.T_world_camera, reloc.num_inliers); !stray.empty()) {
+    work->aligned.message += "; relocalised against keyframe " + std::to_string(reloc.keyframe_id) + " " + stray;
     return false;
   }
   T_world_last_ = reloc.T_world_camera;

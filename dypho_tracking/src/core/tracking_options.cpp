@@ -96,6 +96,9 @@ void TrackingOptions::validate() const {
   requireRange("catch_up_frames_waiting", catch_up_frames_waiting, 0, 1000);
   requireRange("relocalization_max_keyframes", relocalization_max_keyframes, 1, 10000);
   requireRange("relocalization_min_inliers", relocalization_min_inliers, min_inliers, 10000);
+  requireRange("localization_max_jump_m", localization_max_jump_m, 0.0, 100.0, true);
+  requireRange("localization_max_jump_deg", localization_max_jump_deg, 0.0, 180.0, true);
+  requireRange("localization_confident_inliers", localization_confident_inliers, min_inliers, 100000);
   requireRange("loop_min_keyframe_gap", loop_min_keyframe_gap, 2, 100000);
   requireRange("loop_search_radius_m", loop_search_radius_m, 0.0, 100.0, true);
   requireRange("loop_max_angle_deg", loop_max_angle_deg, 0.0, 180.0, true);

@@ -32,7 +32,8 @@ struct RelocalizationResult {
 /// candidate's own map points: KeyframeAligner (projection from the keyframe's pose, otherwise
 /// brute-force descriptor matching + EPnP RANSAC, Ceres refinement); on success the pose is
 /// refined once more against the candidate's local map (covisible keyframes). The first candidate
-/// reaching relocalization_min_inliers wins.
+/// reaching relocalization_min_inliers wins, or with `most_inliers` the candidate with most inliers
+/// (a search with no pose to go by, where the first one good enough may be a wrong place).
 class Relocalizer {
  public:
   /// Throws std::invalid_argument when options.validate() does.
@@ -40,7 +41,7 @@ class Relocalizer {
 
   /// Never throws on data. `times` (may be null) accumulates matching/pnp/refine.
   RelocalizationResult relocalize(const TrackerMap& map, const FrameFeatures& frame, const Pinhole& pinhole,
-                                  TrackingTimesMs* times) const;
+                                  TrackingTimesMs* times, bool most_inliers = false) const;
 
  private:
   TrackingOptions options_;

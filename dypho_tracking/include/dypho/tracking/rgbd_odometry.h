@@ -73,12 +73,15 @@ struct RunEnd {
 ///    keyframe at the last good pose (re-initialisation; not connected to the old map points, so
 ///    the jump while lost is not recovered unless a loop closes later).
 ///  - After restoreSession (a saved session, tracker_session.h): every frame is relocalised
-///    against the loaded map (kLost until found, result.relocalized when found, then OK as
-///    above); max_lost_frames failures re-initialise as from LOST.
+///    against the loaded map, every candidate keyframe tried and the one with most inliers taken
+///    (kLost until found, result.relocalized when found, then OK as above); max_lost_frames
+///    failures re-initialise as from LOST.
 ///  - TrackingOptions::localization_only: the same, but the map is never changed (no keyframes,
 ///    points, culling, BA, loop closure); tracked frames move the reference to the keyframe that
 ///    sees most of their inliers; lost frames relocalise in the map, never re-initialise; with
-///    no restored map nothing is tracked (kNotInitialized, the message says why).
+///    no restored map nothing is tracked (kNotInitialized, the message says why). Once found, a
+///    pose (tracked or relocalised) far from the frame's prediction on few inliers is refused:
+///    the frame is lost (localization_max_jump_m/deg, localization_confident_inliers).
 ///  - A stamp not after the previous one (time going backwards or repeated) resets everything:
 ///    NOT_INITIALIZED, identity pose, message; the following frame starts a new world.
 ///
@@ -177,6 +180,13 @@ class RgbdOdometry {
   /// Refine: the dense alignment to the reference keyframe with the feature pose as its prior
   /// (TrackingOptions::dense_refinement); the pose is replaced when the correction is plausible.
   void refineDensely(TrackingFrame* work);
+  /// TrackingOptions::localization_only: why a pose with `num_inliers` inliers, tracked or
+  /// relocalised, is refused: it lies farther from the frame's prediction than
+  /// localization_max_jump_m/deg allow (times the frames since the last good pose). Empty when it
+  /// is accepted, always while a restored map is searched (no prediction) and from
+  /// localization_confident_inliers inliers on.
+  std::string strayFromPrediction(const TrackingFrame& work, const Eigen::Isometry3d& T_world_camera,
+                                  int num_inliers) const;
   /// A tracked frame: the motion model, the last pose and the counters take its pose.
   void acceptPose(TrackingFrame* work);
   /// Decide keyframe: KeyframeSelector on the tracked pose against the reference keyframe.

@@ -363,6 +363,17 @@ struct TrackingOptions {
   /// lost frame searches the map by relocalisation, never a new segment. Without a loaded map
   /// nothing is tracked (kNotInitialized, the message says to restore a session). Default false.
   bool localization_only = false;
+  /// Localisation only: a pose (tracked or relocalised) farther than this from the
+  /// constant-velocity prediction (the last good pose after a loss; the limit grows by itself
+  /// per frame lost since) is refused as lost unless it has localization_confident_inliers
+  /// inliers; a wrong pose would also spoil the next prediction. Not applied while a restored
+  /// map is searched (no prediction yet) [m]; default 0.2, range (0, 100].
+  double localization_max_jump_m = 0.2;
+  /// The same for the rotation [deg]; default 5, range (0, 180].
+  double localization_max_jump_deg = 5.0;
+  /// Inliers from which a pose that strays from the prediction is still accepted (the prediction
+  /// was wrong, not the pose) [count]; default 200, range [min_inliers, 100000].
+  int localization_confident_inliers = 200;
 };
 
 }  // namespace tracking

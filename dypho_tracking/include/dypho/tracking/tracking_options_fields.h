@@ -309,6 +309,16 @@ void visitLocalizationOptions(TrackingOptions& options, Visitor&& visitor) {
           "Localise only in the map of a restored session (dypho_run_dataset --resume --localization-only): no "
           "keyframes, map points, culling, BA or loop closure change it; a lost frame searches the map by "
           "relocalisation, never a new segment; without a loaded map nothing is tracked; default false.");
+  visitor("localization_max_jump_m", options.localization_max_jump_m,
+          "Localisation only: a pose (tracked or relocalised) farther than this from the constant-velocity "
+          "prediction (the last good pose after a loss; the limit grows per frame lost since) is refused as lost "
+          "unless it has localization_confident_inliers inliers; not applied while a restored map is searched [m]; "
+          "default 0.2, range (0, 100].");
+  visitor("localization_max_jump_deg", options.localization_max_jump_deg,
+          "The same for the rotation [deg]; default 5, range (0, 180].");
+  visitor("localization_confident_inliers", options.localization_confident_inliers,
+          "Inliers from which a pose that strays from the prediction is still accepted in localisation only "
+          "[count]; default 200, range [min_inliers, 100000].");
 }
 
 /// Calls `visitor(key, field, doc)` for every field of `options`, in the order of the struct.
