@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# session_graph.sh DATASET OUT [--bonn-correction]
+# session_graph.sh DATASET OUT CAMERA [--bonn-correction]
 #
 # Sessions through the ROS graph at 1x (tum_bag.launch, bench/realtime_graph.sh), on a TUM-layout
 # DATASET cut in two at its middle frame:
@@ -11,15 +11,18 @@
 # Prints, per run, frames answered and posed and the ATE; then the ATE of first + second
 # concatenated (aligned once) against the uncut run, how long after its first frame the second
 # run was found in the loaded map, the session's size, and whether the localisation run left the
-# map byte-identical. Needs the catkin build and its environment (source build/devel/setup.bash).
+# map byte-identical. CAMERA: the dataset's camera (tum_fr1, bonn, ... as dypho_dataset_to_bag
+# --camera; the halves' folder names do not tell it). Needs the catkin build and its environment (source build/devel/setup.bash).
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BIN="$(dirname "$(command -v dypho_run_dataset 2>/dev/null || echo "$ROOT/build/devel/lib/dypho_slam/x")")"
-dataset="$(realpath "${1:?usage: session_graph.sh DATASET OUT [--bonn-correction]}")"
-out="$(realpath -m "${2:?usage: session_graph.sh DATASET OUT [--bonn-correction]}")"
+usage="usage: session_graph.sh DATASET OUT CAMERA [--bonn-correction]"
+dataset="$(realpath "${1:?$usage}")"
+out="$(realpath -m "${2:?$usage}")"
+camera="${3:?$usage}"
 evaluate_args=()
-[[ "${3:-}" == --bonn-correction ]] && evaluate_args=(--bonn-correction)
+[[ "${4:-}" == --bonn-correction ]] && evaluate_args=(--bonn-correction)
 mkdir -p "$out"
 
 # The two halves as datasets (links to the images) and every sequence as a bag.
@@ -42,9 +45,9 @@ for half, keep in (('first', lambda t: t < cut), ('second', lambda t: t >= cut))
             os.symlink(os.path.join(src, name), os.path.join(d, name))
 PY
 for part in first second; do
-  [[ -f "$out/$part.bag" ]] || "$BIN/dypho_dataset_to_bag" --dataset "$out/${part}_data" --out "$out/$part.bag" > /dev/null
+  [[ -f "$out/$part.bag" ]] || "$BIN/dypho_dataset_to_bag" --dataset "$out/${part}_data" --camera "$camera" --out "$out/$part.bag" > /dev/null
 done
-[[ -f "$out/whole.bag" ]] || "$BIN/dypho_dataset_to_bag" --dataset "$dataset" --out "$out/whole.bag" > /dev/null
+[[ -f "$out/whole.bag" ]] || "$BIN/dypho_dataset_to_bag" --dataset "$dataset" --camera "$camera" --out "$out/whole.bag" > /dev/null
 
 graph() {  # NAME BAG [realtime_graph.sh args]
   local name="$1" bag="$2"
