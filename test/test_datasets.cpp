@@ -495,6 +495,11 @@ TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   const std::string empty = std::string(DYPHO_TEST_OUT) + "/empty_dataset";
   ASSERT_EQ(std::system(("mkdir -p '" + empty + "'").c_str()), 0);
   EXPECT_NE(runDataset(empty, out, "--camera tum_fr1"), 0);
+  // A frame count that is not a whole number is refused by name, not read as its prefix ("1e").
+  for (const char* bad : {"1e", "2.5", "-3", "x"}) {
+    EXPECT_NE(runDataset(empty, out, std::string("--camera tum_fr1 --max-frames ") + bad), 0) << bad;
+    EXPECT_NE(readText(out + "/log.txt").find("error: --max-frames needs a"), std::string::npos) << bad;
+  }
   // No camera given and none detectable: asks for --camera.
   EXPECT_NE(runDataset(empty, out), 0);
   std::ifstream log2(out + "/log.txt");

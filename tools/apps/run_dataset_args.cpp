@@ -86,9 +86,11 @@ Args parseArgs(int argc, char** argv) {
       a.config = value();
     else if (k == "--mask")
       a.mask = value();
-    else if (k == "--max-frames")
-      a.max_frames = std::stol(value());
-    else if (k == "--no-eval")
+    else if (k == "--max-frames") {
+      const double n = parseNumber(k, value());
+      if (n != std::floor(n) || n < 0 || n > 1e9) throw std::runtime_error("--max-frames needs a whole number >= 0");
+      a.max_frames = static_cast<long>(n);
+    } else if (k == "--no-eval")
       a.eval = false;
     else if (k == "--no-map")
       a.build_map = false;
