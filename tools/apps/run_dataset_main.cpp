@@ -254,7 +254,7 @@ RunTally runFrames(const Args& args, const FrameSource& source, SlamPipeline& pi
 /// keyframe has none to write (the note says so).
 void saveRunSession(const Args& args, SlamPipeline& pipeline, RunOutputs& outputs) {
   try {
-    outputs.session = saveSession(pipeline, args.out + "/" + kSessionFolder, args.dataset);
+    outputs.session = saveSession(pipeline, sessionFolderIn(args.out), args.dataset);
   } catch (const std::logic_error& e) {
     outputs.session_note = e.what();
   }

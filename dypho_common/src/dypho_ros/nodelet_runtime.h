@@ -18,9 +18,12 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 
 #include "dypho/common/frame_allocator.h"
 
@@ -82,5 +85,30 @@ inline void saveOnShutdown(const std::string& name, const std::string& output_di
     ROS_ERROR_STREAM_NAMED(name, "could not write the outputs on shutdown: " << e.what());
   }
 }
+
+/// Services on a callback queue and thread of their own instead of the manager's: for a service
+/// that calls another nodelet's service (which needs a manager thread) and so must not hold one
+/// (the session services). Advertise, then start(); stop() before what the callbacks use goes.
+class OwnThreadServices {
+ public:
+  explicit OwnThreadServices(const ros::NodeHandle& private_nh) : nh_(private_nh) { nh_.setCallbackQueue(&queue_); }
+  ~OwnThreadServices() { stop(); }
+  OwnThreadServices(const OwnThreadServices&) = delete;
+  OwnThreadServices& operator=(const OwnThreadServices&) = delete;
+
+  template <class Owner, class Request, class Response>
+  void advertise(const std::string& name, bool (Owner::*callback)(Request&, Response&), Owner* owner) {
+    servers_.push_back(nh_.advertiseService(name, callback, owner));
+  }
+  void start() { spinner_.start(); }
+  /// Waits for a running callback to return.
+  void stop() { spinner_.stop(); }
+
+ private:
+  ros::CallbackQueue queue_;
+  ros::NodeHandle nh_;
+  std::vector<ros::ServiceServer> servers_;
+  ros::AsyncSpinner spinner_{1, &queue_};
+};
 
 }  // namespace dypho::ros_conversions

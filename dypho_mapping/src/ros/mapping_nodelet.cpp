@@ -36,8 +36,6 @@
 #include <nodelet/nodelet.h>
 #include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <ros/callback_queue.h>
-#include <ros/spinner.h>
 #include <sensor_msgs/PointCloud2.h>
 
 #include "dypho/common/output_path.h"
@@ -100,7 +98,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   /// Shutdown order (nodelet_runtime.h): diagnostics, the render and cloud threads, then the map
   /// is saved (a bounded final refinement first) with map_evaluation.txt.
   ~GaussianMappingNodelet() override {
-    if (session_spinner_) session_spinner_->stop();
+    if (session_services_) session_services_->stop();
     if (diagnostics_) diagnostics_->stop();
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
@@ -121,12 +119,10 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
                                                          << eval.num_keyframes << " keyframes (map_evaluation.txt)");
                        });
     // The map half of the session (also a loaded map that got no keyframe: see tracking).
-    rc::saveOnShutdown(
-        getName(), params_.output_dir, params_.localization_only || stage_->stats().gaussians.num_gaussians == 0,
-        "no session (localization_only, or no Gaussian)", [&] {
-          NODELET_INFO_STREAM(
-              saveSessionHalf((std::filesystem::path(params_.output_dir) / pipeline::kSessionFolder).string()));
-        });
+    rc::saveOnShutdown(getName(), params_.output_dir,
+                       params_.localization_only || stage_->stats().gaussians.num_gaussians == 0,
+                       "no session (localization_only, or no Gaussian)",
+                       [&] { NODELET_INFO_STREAM(saveSessionHalf(pipeline::sessionFolderIn(params_.output_dir))); });
   }
 
   /// The nodelet's parameters into params_, the core's returned (validated, thread budget
@@ -223,12 +219,10 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     load_srv_ = pnh.advertiseService("load_map", &GaussianMappingNodelet::onLoad, this);
     // Own queue and thread: the tracking nodelet calls these from its session services, which
     // must not wait for a manager thread.
-    session_nh_ = pnh;
-    session_nh_.setCallbackQueue(&session_queue_);
-    save_session_srv_ = session_nh_.advertiseService("save_session", &GaussianMappingNodelet::onSaveSession, this);
-    load_session_srv_ = session_nh_.advertiseService("load_session", &GaussianMappingNodelet::onLoadSession, this);
-    session_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &session_queue_);
-    session_spinner_->start();
+    session_services_ = std::make_unique<rc::OwnThreadServices>(pnh);
+    session_services_->advertise("save_session", &GaussianMappingNodelet::onSaveSession, this);
+    session_services_->advertise("load_session", &GaussianMappingNodelet::onLoadSession, this);
+    session_services_->start();
     cloud_thread_ = std::thread([this, nice = options.gaussian.training_nice] { cloudLoop(nice); });
     diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
         nh, pnh, getName(), "mapping", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
@@ -472,9 +466,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   bool onSaveSession(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
     try {
       const std::string dir =
-          (std::filesystem::path(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory)) /
-           pipeline::kSessionFolder)
-              .string();
+          pipeline::sessionFolderIn(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory));
       res.message = saveSessionHalf(dir);
       res.files.push_back(pipeline::sessionFile(dir, pipeline::kSessionMapFile));
       res.success = true;
@@ -558,10 +550,7 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;
   std::filesystem::file_time_type start_time_;  ///< session halves older than this are not this run's
   /// ~save_session and ~load_session: their own queue and thread (the tracking nodelet calls them).
-  ros::CallbackQueue session_queue_;
-  ros::NodeHandle session_nh_;
-  ros::ServiceServer save_session_srv_, load_session_srv_;
-  std::unique_ptr<ros::AsyncSpinner> session_spinner_;
+  std::unique_ptr<rc::OwnThreadServices> session_services_;
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< last: destroyed first (its task reads the stage)
   ros::WallTime last_diagnosis_{0.0};                    ///< diagnostics timer only
   std::int64_t iterations_at_last_diagnosis_ = 0;

@@ -38,8 +38,6 @@
 #include <message_filters/synchronizer.h>
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <ros/callback_queue.h>
-#include <ros/spinner.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "dypho/common/output_path.h"
@@ -131,12 +129,10 @@ class TrackingNodelet : public nodelet::Nodelet {
     moving_points_pub_ = nh.advertise<sensor_msgs::PointCloud2>("moving_points", 5);
     reset_srv_ = pnh.advertiseService("reset", &TrackingNodelet::onReset, this);
     save_srv_ = pnh.advertiseService("save_trajectory", &TrackingNodelet::onSave, this);
-    session_nh_ = pnh;
-    session_nh_.setCallbackQueue(&session_queue_);
-    save_session_srv_ = session_nh_.advertiseService("save_session", &TrackingNodelet::onSaveSession, this);
-    load_session_srv_ = session_nh_.advertiseService("load_session", &TrackingNodelet::onLoadSession, this);
-    session_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &session_queue_);
-    session_spinner_->start();
+    session_services_ = std::make_unique<rc::OwnThreadServices>(pnh);
+    session_services_->advertise("save_session", &TrackingNodelet::onSaveSession, this);
+    session_services_->advertise("load_session", &TrackingNodelet::onLoadSession, this);
+    session_services_->start();
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
     diagnostics_ = std::make_unique<rc::NodeletDiagnostics>(
         nh, pnh, getName(), "tracking", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); });
@@ -200,7 +196,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   /// frames already prepared are still published), then the tracker's end of run (final global
   /// BA) and the trajectory is written.
   ~TrackingNodelet() override {
-    if (session_spinner_) session_spinner_->stop();
+    if (session_services_) session_services_->stop();
     if (path_) path_->stopPublishing();
     if (diagnostics_) diagnostics_->stop();
     if (live_) live_->stop();
@@ -425,9 +421,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   bool onSaveSession(dypho_slam::SaveMap::Request& req, dypho_slam::SaveMap::Response& res) {
     try {
       const std::string dir =
-          (std::filesystem::path(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory)) /
-           pipeline::kSessionFolder)
-              .string();
+          pipeline::sessionFolderIn(resolveOutputDirectory(rc::outputBaseDirectory(params_.output_dir), req.directory));
       const tracking::TrackerSession session = stage_->session();  // throws before the first keyframe
       pipeline::beginSessionSave(dir);
       const std::string tracker_path = pipeline::sessionFile(dir, pipeline::kSessionTrackerFile);
@@ -484,7 +478,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   /// At shutdown, after the trajectory: tracker.bin into output_dir/session, and the manifest
   /// when the mapping nodelet's half is there already (else its shutdown writes it).
   void saveSessionHalfOnShutdown() {
-    const std::string dir = (std::filesystem::path(params_.output_dir) / pipeline::kSessionFolder).string();
+    const std::string dir = pipeline::sessionFolderIn(params_.output_dir);
     try {
       const tracking::TrackerSession session = stage_->session();
       pipeline::beginSessionSave(dir);
@@ -537,10 +531,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   ros::ServiceServer reset_srv_, save_srv_;
   std::filesystem::file_time_type start_time_;  ///< session halves older than this are not this run's
   /// ~save_session and ~load_session: their own queue and thread (they call the mapping nodelet).
-  ros::CallbackQueue session_queue_;
-  ros::NodeHandle session_nh_;
-  ros::ServiceServer save_session_srv_, load_session_srv_;
-  std::unique_ptr<ros::AsyncSpinner> session_spinner_;
+  std::unique_ptr<rc::OwnThreadServices> session_services_;
   std::unique_ptr<rc::NodeletDiagnostics> diagnostics_;  ///< after what its task uses: destroyed first
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
   std::unique_ptr<image_transport::ImageTransport> it_;

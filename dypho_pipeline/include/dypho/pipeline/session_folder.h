@@ -47,6 +47,9 @@ struct SessionManifest {
 /// `dir`/`name` as a string.
 std::string sessionFile(const std::string& dir, const char* name);
 
+/// The session folder of the run output folder `run_dir` (`run_dir`/session).
+inline std::string sessionFolderIn(const std::string& run_dir) { return sessionFile(run_dir, kSessionFolder); }
+
 /// The session folder `path` names: `path` itself when it holds session.yaml, else
 /// `path`/session (a run's output folder). Throws std::runtime_error when neither has a manifest.
 std::string resolveSessionDir(const std::string& path);
