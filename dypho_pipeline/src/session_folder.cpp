@@ -30,7 +30,7 @@ std::string utcNow() {
 }
 
 /// A YAML double-quoted string (the source may hold any characters).
-std::string quoted(const std::string& text) {
+std::string yamlQuoted(const std::string& text) {
   std::string out = "\"";
   for (const char c : text) {
     if (c == '"' || c == '\\') out += '\\';
@@ -76,7 +76,7 @@ std::string sessionFile(const std::string& dir, const char* name) { return (fs::
 
 std::string resolveSessionDir(const std::string& path) {
   if (fs::is_regular_file(sessionFile(path, kSessionManifestFile))) return path;
-  const std::string nested = sessionFile(path, kSessionFolder);
+  const std::string nested = sessionFolderIn(path);
   if (fs::is_regular_file(sessionFile(nested, kSessionManifestFile))) return nested;
   throw std::runtime_error("no session in '" + path + "': neither '" + sessionFile(path, kSessionManifestFile) +
                            "' nor '" + sessionFile(nested, kSessionManifestFile) +
@@ -131,8 +131,8 @@ void writeSessionManifest(const std::string& dir, SessionManifest m) {
     os << std::setprecision(17);
     os << "# DyPho-SLAM session manifest (docs/file_formats.md), written after tracker.bin and map.ply\n"
        << "format_version: " << m.format_version << "\n"
-       << "created_utc: " << quoted(m.created_utc) << "\n"
-       << "source: " << quoted(m.source) << "\n"
+       << "created_utc: " << yamlQuoted(m.created_utc) << "\n"
+       << "source: " << yamlQuoted(m.source) << "\n"
        << "camera:\n"
        << "  width: " << m.camera.width << "\n  height: " << m.camera.height << "\n"
        << "  fx: " << m.camera.fx << "\n  fy: " << m.camera.fy << "\n  cx: " << m.camera.cx << "\n  cy: " << m.camera.cy
