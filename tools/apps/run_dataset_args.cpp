@@ -63,6 +63,14 @@ double parseNumber(const std::string& key, const std::string& text) {
   return *v;
 }
 
+/// A whole number in [min, max]; else "<key> needs <what>".
+long parseWholeNumber(const std::string& key, const std::string& text, double min, double max,
+                      const std::string& what) {
+  const double n = parseNumber(key, text);
+  if (n != std::floor(n) || n < min || n > max) throw std::runtime_error(key + " needs " + what);
+  return static_cast<long>(n);
+}
+
 Args parseArgs(int argc, char** argv) {
   Args a;
   std::set<std::string> given;  // options with a value: a second one would silently replace the first
@@ -86,11 +94,9 @@ Args parseArgs(int argc, char** argv) {
       a.config = value();
     else if (k == "--mask")
       a.mask = value();
-    else if (k == "--max-frames") {
-      const double n = parseNumber(k, value());
-      if (n != std::floor(n) || n < 0 || n > 1e9) throw std::runtime_error("--max-frames needs a whole number >= 0");
-      a.max_frames = static_cast<long>(n);
-    } else if (k == "--no-eval")
+    else if (k == "--max-frames")
+      a.max_frames = parseWholeNumber(k, value(), 0, 1e9, "a whole number >= 0");
+    else if (k == "--no-eval")
       a.eval = false;
     else if (k == "--no-map")
       a.build_map = false;
@@ -98,11 +104,9 @@ Args parseArgs(int argc, char** argv) {
       a.quiet = true;
     else if (k == "--print-config")
       a.print_config = true;
-    else if (k == "--eval-every") {
-      const double n = parseNumber(k, value());
-      if (n != std::floor(n) || n < 0 || n > 1e6) throw std::runtime_error("--eval-every needs a whole number >= 0");
-      a.eval_every = static_cast<int>(n);
-    } else if (k == "--save-masks")
+    else if (k == "--eval-every")
+      a.eval_every = static_cast<int>(parseWholeNumber(k, value(), 0, 1e6, "a whole number >= 0"));
+    else if (k == "--save-masks")
       a.save_masks = true;
     else if (k == "--realtime")
       a.realtime = true;
@@ -110,11 +114,8 @@ Args parseArgs(int argc, char** argv) {
       a.realtime_options.speed = parseNumber(k, value());
       a.realtime_option_given = true;
     } else if (k == "--realtime-queue") {
-      const double frames = parseNumber(k, value());
-      if (frames != std::floor(frames) || frames < 1 || frames > 1000) {
-        throw std::runtime_error("--realtime-queue needs a whole number of frames in [1, 1000]");
-      }
-      a.realtime_options.queue_capacity_frames = static_cast<int>(frames);
+      a.realtime_options.queue_capacity_frames =
+          static_cast<int>(parseWholeNumber(k, value(), 1, 1000, "a whole number of frames in [1, 1000]"));
       a.realtime_option_given = true;
     } else if (k == "--resume") {
       a.resume = value();
