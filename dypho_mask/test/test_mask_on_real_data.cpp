@@ -1,34 +1,47 @@
-// Report-style checks of the flow mask on the real sequences in DYPHO_SHARED_DIR/data (skipped,
-// loudly, when the data is absent). Prints masked fractions; asserts only coarse properties.
+// Report-style checks of the flow mask and the whole dynamic mask on the real sequences in
+// DYPHO_SHARED_DIR/data (skipped, loudly, when the data is absent). Prints masked fractions;
+// asserts only coarse properties.
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
+#include "dypho/mask/dynamic_masker.h"
 #include "dypho/mask/flow_motion_masker.h"
 
 namespace dypho {
 namespace mask {
 namespace {
 
-/// Image paths listed in a TUM-format rgb.txt ("timestamp path" lines, '#' comments).
-std::vector<std::string> listImages(const std::string& folder) {
-  std::vector<std::string> paths;
-  std::ifstream in(folder + "/rgb.txt");
+/// Stamps [s] and paths of a TUM-format list ("timestamp path" lines, '#' comments).
+std::vector<std::pair<double, std::string>> listStamped(const std::string& folder, const std::string& list) {
+  std::vector<std::pair<double, std::string>> entries;
+  std::ifstream in(folder + "/" + list);
   std::string line;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream s(line);
-    std::string stamp, path;
-    if (s >> stamp >> path) paths.push_back(folder + "/" + path);
+    double stamp = 0.0;
+    std::string path;
+    if (s >> stamp >> path) entries.emplace_back(stamp, folder + "/" + path);
   }
+  return entries;
+}
+
+/// Image paths listed in a TUM-format rgb.txt.
+std::vector<std::string> listImages(const std::string& folder) {
+  std::vector<std::string> paths;
+  for (const auto& entry : listStamped(folder, "rgb.txt")) paths.push_back(entry.second);
   return paths;
 }
 
@@ -104,6 +117,85 @@ TEST(FlowMaskRealData, TumRpyStaticSceneRotatingCamera) {
   // the texture gate about 20 % of this static scene was masked on average; the bound of 10 %
   // guards that regression (not a target).
   EXPECT_LT(s.mean_fraction, 0.10);
+}
+
+/// Ground-truth camera poses of a TUM folder by stamp [s] (groundtruth.txt: t x y z qx qy qz qw).
+std::map<double, Eigen::Isometry3d> readGroundTruth(const std::string& folder) {
+  std::map<double, Eigen::Isometry3d> poses;
+  std::ifstream in(folder + "/groundtruth.txt");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream s(line);
+    double t, x, y, z, qx, qy, qz, qw;
+    if (!(s >> t >> x >> y >> z >> qx >> qy >> qz >> qw)) continue;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+    T.translation() << x, y, z;
+    poses[t] = T;
+  }
+  return poses;
+}
+
+/// The entry of `entries` nearest in time to `stamp_s`.
+const std::string& nearest(const std::vector<std::pair<double, std::string>>& entries, double stamp_s) {
+  const auto best = std::min_element(entries.begin(), entries.end(), [&](const auto& a, const auto& b) {
+    return std::abs(a.first - stamp_s) < std::abs(b.first - stamp_s);
+  });
+  return best->second;
+}
+
+TEST(DynamicMaskRealData, TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns) {
+  // fr1/rpy turns fast from its first frame (up to 4 deg per frame) over a static desk. On the
+  // first frames the background model has no value yet; a flow region of a few per cent on the
+  // desk grew over the whole depth-connected desk and stayed there while nothing was learnt
+  // under it: 25-58 % of the static view was masked on frames 1-13 (the tracker then lost its
+  // best features; at 1x the mask ran away to 80 %). With the ground-truth relative pose as the
+  // prediction (what tracking hands over at best), the whole mask now stays under 10 % on each of
+  // the first 40 frames (measured: at most 9.6 %, mean 2.5 %). Bounds: 20 % on any frame, 8 % on
+  // average (every masked pixel of this scene is a false positive).
+  const std::string folder = std::string(DYPHO_SHARED_DIR) + "/data/tum_fr1_rpy_first150";
+  const auto colour = listStamped(folder, "rgb.txt");
+  const auto depth = listStamped(folder, "depth.txt");
+  const auto truth = readGroundTruth(folder);
+  if (colour.size() < 40 || depth.size() < 40 || truth.empty())
+    GTEST_SKIP() << "TUM fr1/rpy data not found in " << folder;
+  const auto poseAt = [&](double stamp_s) {
+    auto it = truth.lower_bound(stamp_s);
+    if (it == truth.end()) --it;
+    return it->second;
+  };
+  CameraIntrinsics camera;  // config/cameras/tum_fr1.yaml
+  camera.fx = 517.306408;
+  camera.fy = 516.469215;
+  camera.cx = 318.643040;
+  camera.cy = 255.313989;
+  camera.width = 640;
+  camera.height = 480;
+  camera.distortion = {0.262383, -0.953104, -0.005358, 0.002628, 1.163314};
+  DynamicMasker masker{DynamicMaskOptions()};
+  double sum = 0.0, worst = 0.0;
+  int frames = 0;
+  for (std::size_t i = 0; i < 40; ++i) {
+    RgbdFrame frame;
+    frame.stamp_ns = static_cast<Timestamp>(colour[i].first * 1e9);
+    frame.bgr = cv::imread(colour[i].second, cv::IMREAD_COLOR);
+    const cv::Mat raw = cv::imread(nearest(depth, colour[i].first), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(frame.bgr.empty() || raw.empty()) << "cannot read frame " << i;
+    raw.convertTo(frame.depth_m, CV_32F, 1.0 / 5000.0);
+    frame.camera = camera;
+    MaskPrior prior;
+    if (i > 0) prior.T_prev_cur = poseAt(colour[i - 1].first).inverse() * poseAt(colour[i].first);
+    const MaskResult result = masker.compute(frame, prior);
+    if (i == 0) continue;
+    EXPECT_LE(result.masked_fraction, 0.20) << "frame " << i;
+    sum += result.masked_fraction;
+    worst = std::max(worst, result.masked_fraction);
+    ++frames;
+  }
+  std::printf("[ report ] tum fr1/rpy static desk, dynamic mask frames 1-39: mean %.4f max %.4f\n", sum / frames,
+              worst);
+  EXPECT_LE(sum / frames, 0.08);
 }
 
 }  // namespace

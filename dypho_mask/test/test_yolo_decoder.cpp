@@ -208,3 +208,35 @@ TEST(BoxDepthSegmenter, CrowdRegionKeepsPeopleBehindPeopleNotTheWall) {
   cutRegionsToDepthLayers(single_depth, BoxDepthSettings(), halo_px, 3, single);
   EXPECT_EQ(cv::countNonZero(single), 20 * 70);
 }
+
+// The depth growth fills an object whose outline the flow found, but not a surface that reaches
+// far beyond the region: a flow region on a desk seen before the background has a value grew
+// over the whole desk. No background value anywhere here (the first frames).
+TEST(BoxDepthSegmenter, GrowthFillsAPersonButNotADesk) {
+  const cv::Mat no_background = cv::Mat::zeros(100, 160, CV_32FC1);
+  DepthGrowSettings settings;
+  settings.max_growth_ratio = 8.0;
+
+  // A desk: one slanted surface over the whole view (1.0-1.2 m), a 15 x 15 px flow region on it.
+  cv::Mat desk(100, 160, CV_32FC1);
+  for (int y = 0; y < desk.rows; ++y) desk.row(y).setTo(1.0f + 0.002f * static_cast<float>(y));
+  const cv::Rect seed(70, 40, 15, 15);
+  cv::Mat on_desk = cv::Mat::zeros(desk.size(), CV_8UC1);
+  on_desk(seed).setTo(255);
+  cv::Mat unlimited = on_desk.clone();
+  growRegionsInDepth(desk, no_background, DepthGrowSettings(), unlimited);
+  EXPECT_EQ(cv::countNonZero(unlimited), desk.rows * desk.cols);  // without a limit: the whole desk
+  growRegionsInDepth(desk, no_background, settings, on_desk);
+  EXPECT_EQ(cv::countNonZero(on_desk), seed.area());  // with it: the region as found
+  EXPECT_EQ(cv::countNonZero(on_desk(seed)), seed.area());
+
+  // A person at 2 m before a wall at 4 m, the flow on the left half of the body: filled whole.
+  cv::Mat room(100, 160, CV_32FC1, cv::Scalar(4.0f));
+  const cv::Rect person(40, 20, 20, 70);
+  room(person).setTo(2.0f);
+  cv::Mat outline = cv::Mat::zeros(room.size(), CV_8UC1);
+  outline(cv::Rect(40, 20, 10, 70)).setTo(255);
+  growRegionsInDepth(room, no_background, settings, outline);
+  EXPECT_EQ(cv::countNonZero(outline(person)), person.area());
+  EXPECT_EQ(cv::countNonZero(outline), person.area());
+}

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -240,11 +241,13 @@ void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, con
   BoxDepthSettings s;
   s.depth_range_m = g.depth_range_m;
   std::vector<std::vector<float>> z(n);
+  std::vector<std::size_t> area_px(n, 0);
   const int w = mask.cols, h = mask.rows;
   for (int y = 0; y < h; ++y) {
     const int* l = labels.ptr<int>(y);
     const float* d = depth_m.ptr<float>(y);
     for (int x = 0; x < w; ++x) {
+      ++area_px[l[x]];
       if (l[x] != 0 && d[x] > 0.f) z[l[x]].push_back(d[x]);
     }
   }
@@ -269,10 +272,18 @@ void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, con
   const float* D = depth_m.ptr<float>(0);
   const float* B = background_m.ptr<float>(0);
   uchar* M = mask.ptr<uchar>(0);
+  // Pixels each region gained, and the regions that grew past their limit (not grown at all).
+  std::vector<std::vector<int>> grown(n);
+  std::vector<char> too_far(n, 0);
+  const auto limit = [&](int label) {
+    return g.max_growth_ratio > 0.0 ? g.max_growth_ratio * static_cast<double>(area_px[label])
+                                    : std::numeric_limits<double>::infinity();
+  };
   while (!queue.empty()) {
     const int i = queue.front();
     queue.pop_front();
     const int x = i % w, y = i / w, label = L[i];
+    if (too_far[label]) continue;
     const float d = D[i], step = step0 + step_rel * d;
     const int neighbours[4] = {x > 0 ? i - 1 : -1, x + 1 < w ? i + 1 : -1, y > 0 ? i - w : -1, y + 1 < h ? i + w : -1};
     for (const int j : neighbours) {
@@ -283,7 +294,16 @@ void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, con
       L[j] = label;
       M[j] = 255;
       queue.push_back(j);
+      grown[label].push_back(j);
+      if (static_cast<double>(grown[label].size()) > limit(label)) {
+        too_far[label] = 1;
+        break;
+      }
     }
+  }
+  for (int label = 1; label < n; ++label) {
+    if (!too_far[label]) continue;
+    for (const int j : grown[label]) M[j] = 0;  // its pixels stay labelled: no other region takes them
   }
 }
 

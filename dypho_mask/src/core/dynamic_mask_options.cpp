@@ -76,6 +76,8 @@ void BackgroundOptions::validate() const {
           "background_window_px must be odd and >= 3, got " + std::to_string(window_px));
   require(min_agreeing >= 0 && min_agreeing < window_px * window_px,
           "background_min_agreeing must be in [0, window_px^2), got " + std::to_string(min_agreeing));
+  require(grow_max_ratio >= 0.0 && std::isfinite(grow_max_ratio),
+          "background_grow_max_ratio must be finite and >= 0, got " + std::to_string(grow_max_ratio));
   require(veto_after_updates >= 0,
           "background_veto_after_updates must be >= 0, got " + std::to_string(veto_after_updates));
 }

@@ -60,6 +60,7 @@ DynamicMasker::DynamicMasker(const DynamicMaskOptions& options)
   grow_settings_.depth_range_m = options.yolo.box_depth_range_m;
   grow_settings_.sigma_m = options.background.sigma_m;
   grow_settings_.min_seed_area_px = cleanerAt(options, options.background.scale).min_region_area_px;
+  grow_settings_.max_growth_ratio = options.background.grow_max_ratio;
   // The flow's halo on the background: its margin plus about 4 px of flow smoothing (full res).
   halo_small_px_ = std::max(1, static_cast<int>(std::lround((options.flow.dilate_px + 4) * options.background.scale)));
   if (options.permanence_frames > 0) {
@@ -402,7 +403,8 @@ void DynamicMasker::addMovingPointSeeds(const std::vector<cv::Point3f>& p_camera
   }
   if (seeds == 0) return;
   DepthGrowSettings grow = grow_settings_;
-  grow.min_seed_area_px = 1;  // a seed is one point; the depth cluster and the background bound it
+  grow.min_seed_area_px = 1;    // a seed is one point; the depth cluster and the background bound it
+  grow.max_growth_ratio = 0.0;  // and it grows over the whole surface it moved with
   growRegionsInDepth(depth_small_, background, grow, seeds_small_);
   combined_ |= seeds_small_;
 }

@@ -59,6 +59,11 @@ struct DepthGrowSettings {
   /// Regions with fewer pixels with depth than this do not grow (speckles the clean-up drops
   /// anyway must not spread) [px at the mask's resolution], >= 0.
   int min_seed_area_px = 100;
+  /// A region grows to at most this many times its own area [ratio], >= 0 (0 = no limit). One
+  /// that would grow further is not grown at all: it lies on a surface that reaches far beyond
+  /// it (a desk, a floor or a wall the flow misjudged on a fast turn while the background has no
+  /// value yet), not on an object whose inside it fills.
+  double max_growth_ratio = 0.0;
 };
 
 /// Grows every 8-connected region of `mask` (CV_8UC1, non-zero = dynamic, in place; 255 written)
@@ -67,6 +72,7 @@ struct DepthGrowSettings {
 /// by at most the step, and the background does not explain it (`background_m` CV_32FC1, 0 = no
 /// value). Fills the textureless inside of a person whose outline the flow found where the
 /// background model has no value yet (new view, person entering or standing since the start).
+/// A region that would grow beyond max_growth_ratio times its area keeps its own pixels only.
 /// Pixels without depth are never grown into. `depth_m` CV_32FC1 of the mask's size.
 void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, const DepthGrowSettings& settings,
                         cv::Mat& mask);
