@@ -295,8 +295,13 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
     permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
     combined_ |= kept_small_;
   }
-  if (options_.background.grow_in_depth)
-    growRegionsInDepth(depth_small_, background_.prior(), grow_settings_, combined_);
+  if (options_.background.grow_in_depth) {
+    // The growth limit holds while the view moves fast (median flow of 6 px per frame or more),
+    // when the ego-motion model's errors on depth edges make flow regions on static surfaces.
+    DepthGrowSettings grow = grow_settings_;
+    if (f.flow.still_camera_weight > 0.0) grow.max_growth_ratio = 0.0;
+    growRegionsInDepth(depth_small_, background_.prior(), grow, combined_);
+  }
   // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
   background_.update(depth_small_, rendered_small_, combined_);
   ++background_updates_;

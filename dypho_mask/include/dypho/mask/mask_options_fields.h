@@ -127,10 +127,13 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
           "Grow the dynamic regions over their depth-connected surface where the background has no value or lies "
           "behind (fills the textureless inside of a person the flow outlined; grown pixels are not learnt into the "
           "background). Default true.");
-  visitor("grow_max_ratio", options.grow_max_ratio,
-          "A flow region grows in depth to at most this many times its own area, >= 0 (0 = no limit); one that would "
-          "grow further is not grown at all: it lies on a surface reaching far beyond it (a desk on a fast turn before "
-          "the background has a value), not on an object. Default 8.");
+  visitor(
+      "grow_max_ratio", options.grow_max_ratio,
+      "While the view moves fast (median flow 6 px per frame or more), a flow region grows in depth to at most "
+      "this many times its own area, >= 0 (0 = no limit); one that would grow further is not grown at all: it lies "
+      "on a surface reaching far beyond it (a desk on a fast turn before the background has a value), not on an "
+      "object. Slower, the growth is not limited. 8 is the measured value; default 0 (off): with 8 fr1/rpy at 1x "
+      "improved but its whole 150-frame window offline went 3.12 -> 4.49 cm (docs/journal/2026-11-28-precision.md).");
   visitor(
       "veto_after_updates", options.veto_after_updates,
       "Flow regions that the background explains (same depth, no consistency pixel) are dropped only after this many "
