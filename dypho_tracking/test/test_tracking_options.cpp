@@ -38,6 +38,12 @@ TEST(TrackingOptions, OutOfRangeFieldIsNamedInTheError) {
   o = TrackingOptions();
   o.max_depth_m = o.min_depth_m;
   EXPECT_THROW(o.validate(), std::invalid_argument);
+  o = TrackingOptions();
+  o.fuse_keyframes = 51;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
+  o = TrackingOptions();
+  o.fuse_radius_px = 0.0;
+  EXPECT_THROW(o.validate(), std::invalid_argument);
 }
 
 // config/tracking.yaml is written by hand, key by key: every key there appears in toString() and

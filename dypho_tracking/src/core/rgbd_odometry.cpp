@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "dypho/tracking/keyframe_point_fuser.h"
 #include "dypho/tracking/pinhole.h"
 #include "rgbd_odometry_frame.h"
 
@@ -131,6 +132,7 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, cons
   kf.map_point_ids = map_point_ids;
   const std::int64_t id = kf.id;
   map_.addKeyframe(std::move(kf));
+  fuseKeyframePoints(&map_, id, pinhole, options_);
 
   const auto t0 = Clock::now();
   if (catching_up_) {

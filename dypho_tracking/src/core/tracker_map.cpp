@@ -312,6 +312,20 @@ bool TrackerMap::mergePoints(std::int64_t keep_id, std::int64_t remove_id) {
   return true;
 }
 
+bool TrackerMap::addObservation(std::int64_t point_id, std::int64_t keyframe_id, int feature_index) {
+  MapPoint* p = mutablePoint(point_id);
+  MapKeyframe* kf = mutableKeyframe(keyframe_id);
+  if (p == nullptr || kf == nullptr || feature_index < 0 ||
+      feature_index >= static_cast<int>(kf->map_point_ids.size()) || p->observations.count(keyframe_id) > 0) {
+    return false;
+  }
+  std::int64_t& slot = kf->map_point_ids[static_cast<std::size_t>(feature_index)];
+  if (point(slot) != nullptr) return false;
+  slot = point_id;
+  p->observations[keyframe_id] = feature_index;
+  return true;
+}
+
 void TrackerMap::applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe) {
   std::unordered_map<std::int64_t, Eigen::Isometry3d> correction;
   for (const auto& kv : T_world_keyframe) {

@@ -34,6 +34,19 @@ void validateDense(const TrackingOptions& o) {
   requireRange("dense_max_frame_rotation_deg", o.dense_max_frame_rotation_deg, 0.0, 180.0, true);
 }
 
+/// The fuse step's and local BA's ranges (TrackingOptions::fuse_*, local_ba_*).
+void validateLocalMapping(const TrackingOptions& o) {
+  requireRange("fuse_keyframes", o.fuse_keyframes, 0, 50);
+  requireRange("fuse_radius_px", o.fuse_radius_px, 0.0, 50.0, true);
+  requireRange("fuse_max_hamming_distance", o.fuse_max_hamming_distance, 1, 256);
+  requireRange("fuse_max_depth_ratio", o.fuse_max_depth_ratio, 0.0, 1.0, true);
+  requireRange("local_ba_keyframes", o.local_ba_keyframes, 0, 50);
+  requireRange("local_ba_iterations", o.local_ba_iterations, 1, 100);
+  requireRange("local_ba_depth_baseline_m", o.local_ba_depth_baseline_m, 0.0, 1.0);
+  requireRange("local_ba_max_fixed_keyframes", o.local_ba_max_fixed_keyframes, 1, 100);
+  requireRange("local_ba_async_frames", o.local_ba_async_frames, 0, 30);
+}
+
 }  // namespace
 
 void TrackingOptions::validate() const {
@@ -88,11 +101,7 @@ void TrackingOptions::validate() const {
   requireRange("static_check_max_frame_rotation_deg", static_check_max_frame_rotation_deg, 0.0, 180.0, true);
   validateDense(*this);
   requireRange("keyframe_cull_redundant_ratio", keyframe_cull_redundant_ratio, 0.0, 1.0);
-  requireRange("local_ba_keyframes", local_ba_keyframes, 0, 50);
-  requireRange("local_ba_iterations", local_ba_iterations, 1, 100);
-  requireRange("local_ba_depth_baseline_m", local_ba_depth_baseline_m, 0.0, 1.0);
-  requireRange("local_ba_max_fixed_keyframes", local_ba_max_fixed_keyframes, 1, 100);
-  requireRange("local_ba_async_frames", local_ba_async_frames, 0, 30);
+  validateLocalMapping(*this);
   requireRange("catch_up_frames_waiting", catch_up_frames_waiting, 0, 1000);
   requireRange("relocalization_max_keyframes", relocalization_max_keyframes, 1, 10000);
   requireRange("relocalization_min_inliers", relocalization_min_inliers, min_inliers, 10000);

@@ -130,6 +130,11 @@ class TrackerMap {
   /// `remove_id` is erased. False when either is unknown or they are equal.
   bool mergePoints(std::int64_t keep_id, std::int64_t remove_id);
 
+  /// Keyframe `keyframe_id`'s feature `feature_index` observes point `point_id` (fuse step).
+  /// False, and nothing changes, when either is unknown, the index is out of range, the feature
+  /// already has a point or the keyframe already observes this one.
+  bool addObservation(std::int64_t point_id, std::int64_t keyframe_id, int feature_index);
+
   /// Sets the keyframe poses to `T_world_keyframe` and moves every map point rigidly with the
   /// correction of its first keyframe (T_new * T_old^-1). Unknown ids are ignored.
   void applyKeyframePoses(const std::map<std::int64_t, Eigen::Isometry3d>& T_world_keyframe);

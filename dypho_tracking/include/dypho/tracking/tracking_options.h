@@ -259,6 +259,23 @@ struct TrackingOptions {
   /// (ORB-SLAM's rule; bounds the map while the camera stays in known places) [-]; default 0.9,
   /// range [0, 1]; 0 keeps every keyframe.
   double keyframe_cull_redundant_ratio = 0.9;
+  /// Fuse step after each keyframe (keyframe_point_fuser.h): its points are matched in this
+  /// many of its most covisible keyframes and theirs in it; duplicates are merged, features
+  /// without a point observe the one they match [count]; range [0, 50]; default 0 = off, by
+  /// measurement: with 10, means over the whole window, every 15th and 10 % of the frames removed
+  /// went fr1/rpy flow 4.29 -> 8.78 cm, no mask 4.45 -> 4.56, Bonn flow 1.85 -> 1.72, Bonn
+  /// detector 1.90 -> 1.97, generator fast turns 1.79 -> 1.82 cm
+  /// (docs/journal/benchmarks-2026.md section 13).
+  int fuse_keyframes = 0;
+  /// Search radius of the fuse step around a point's projection, times its level scale [px at
+  /// level 0]; default 3 (ORB-SLAM), range (0, 50].
+  double fuse_radius_px = 3.0;
+  /// Largest Hamming distance of a fused match [bits]; default 50 (ORB-SLAM's TH_LOW), range
+  /// [1, 256].
+  int fuse_max_hamming_distance = 50;
+  /// Largest difference between a feature's measured depth and the projected point's, relative
+  /// to that depth [-]; default 0.05, range (0, 1].
+  double fuse_max_depth_ratio = 0.05;
 
   // --- local bundle adjustment (LocalBundleAdjuster), synchronous after each keyframe ---
   /// Keyframes whose poses local BA optimises: the new one and its most covisible ones [count];

@@ -225,6 +225,19 @@ void visitBackEndOptions(TrackingOptions& options, Visitor&& visitor) {
           "After each keyframe, a keyframe of its local map (not the oldest) is removed when at least this fraction of "
           "its map points is seen by >= 3 other keyframes at the same or a finer scale (ORB-SLAM's rule; bounds the "
           "map while the camera stays in known places) [-]; default 0.9, range [0, 1]; 0 keeps every keyframe.");
+  visitor("fuse_keyframes", options.fuse_keyframes,
+          "Fuse step after each keyframe (keyframe_point_fuser.h): its points are matched in this many of its most "
+          "covisible keyframes and theirs in it; duplicates are merged, features without a point observe the one they "
+          "match [count]; range [0, 50]; default 0 = off: with 10 it gained on Bonn with the flow mask only and cost "
+          "on fr1/rpy (docs/journal/benchmarks-2026.md section 13).");
+  visitor("fuse_radius_px", options.fuse_radius_px,
+          "Search radius of the fuse step around a point's projection, times its level scale [px at level 0]; default "
+          "3 (ORB-SLAM), range (0, 50].");
+  visitor("fuse_max_hamming_distance", options.fuse_max_hamming_distance,
+          "Largest Hamming distance of a fused match [bits]; default 50 (ORB-SLAM's TH_LOW), range [1, 256].");
+  visitor("fuse_max_depth_ratio", options.fuse_max_depth_ratio,
+          "Largest difference between a feature's measured depth and the projected point's, relative to that depth "
+          "[-]; default 0.05, range (0, 1].");
   visitor("local_ba_keyframes", options.local_ba_keyframes,
           "Keyframes whose poses local BA optimises: the new one and its most covisible ones [count]; default 5, range "
           "[0, 50]; 0 disables local BA.");
