@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 #include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "keypoint_grid.h"
 
 namespace dypho {
 namespace tracking {
@@ -13,39 +14,10 @@ namespace {
 
 constexpr double kCellPx = 16.0;  ///< side of the feature grid's cells [px]
 
-/// The features of one keyframe by grid cell of their undistorted pixel.
-class FeatureGrid {
- public:
-  explicit FeatureGrid(const FrameFeatures& features) {
-    for (std::size_t i = 0; i < features.size(); ++i) {
-      const Eigen::Vector2d& uv = features.uv_undistorted_px[i];
-      cells_[key(cell(uv.x()), cell(uv.y()))].push_back(static_cast<int>(i));
-    }
-  }
-
-  /// Calls visit(feature index) for every feature in the cells that the square of half side
-  /// `radius_px` around `uv` touches.
-  template <typename Visit>
-  void near(const Eigen::Vector2d& uv, double radius_px, Visit&& visit) const {
-    for (long cy = cell(uv.y() - radius_px); cy <= cell(uv.y() + radius_px); ++cy) {
-      for (long cx = cell(uv.x() - radius_px); cx <= cell(uv.x() + radius_px); ++cx) {
-        const auto it = cells_.find(key(cx, cy));
-        if (it == cells_.end()) continue;
-        for (const int i : it->second) visit(i);
-      }
-    }
-  }
-
- private:
-  static long cell(double px) { return static_cast<long>(std::floor(px / kCellPx)); }
-  static long long key(long cx, long cy) { return (static_cast<long long>(cy) << 32) ^ (cx & 0xffffffffLL); }
-  std::unordered_map<long long, std::vector<int>> cells_;
-};
-
 /// The feature of `target` that matches `point`: -1 when none passes the tests (header).
-int matchInKeyframe(const MapPoint& point, const MapKeyframe& target, const FeatureGrid& grid, const Pinhole& pinhole,
-                    const TrackingOptions& options) {
-  const Eigen::Vector3d p_camera = target.T_world_camera.inverse() * point.p_world_m;
+int matchInKeyframe(const MapPoint& point, const MapKeyframe& target, const Eigen::Isometry3d& T_target_world,
+                    const KeypointGrid& grid, const Pinhole& pinhole, const TrackingOptions& options) {
+  const Eigen::Vector3d p_camera = T_target_world * point.p_world_m;
   if (!(p_camera.z() > options.min_depth_m)) return -1;
   const Eigen::Vector2d uv = pinhole.project(p_camera);
   const int level = point.keypoint.octave;
@@ -54,7 +26,7 @@ int matchInKeyframe(const MapPoint& point, const MapKeyframe& target, const Feat
   int best = -1;
   int best_distance = options.fuse_max_hamming_distance + 1;
   const FrameFeatures& features = target.features;
-  grid.near(uv, radius_px, [&](int i) {
+  grid.forEachNear(uv, radius_px, [&](int i) {
     const std::size_t f = static_cast<std::size_t>(i);
     if ((features.uv_undistorted_px[f] - uv).squaredNorm() > radius_px * radius_px) return;
     if (std::abs(features.keypoints[f].octave - level) > options.max_level_difference) return;
@@ -121,11 +93,12 @@ void fuseInto(TrackerMap* map, const std::vector<std::int64_t>& point_ids, std::
               std::vector<std::int64_t>* changed) {
   const MapKeyframe* target = map->keyframe(target_id);
   if (target == nullptr) return;
-  const FeatureGrid grid(target->features);
+  const KeypointGrid grid(target->features.uv_undistorted_px, kCellPx);
+  const Eigen::Isometry3d T_target_world = target->T_world_camera.inverse();
   for (const std::int64_t id : point_ids) {
     const MapPoint* point = map->point(id);
     if (point == nullptr || point->observations.count(target_id) > 0) continue;
-    const int feature = matchInKeyframe(*point, *target, grid, pinhole, options);
+    const int feature = matchInKeyframe(*point, *target, T_target_world, grid, pinhole, options);
     if (feature < 0) continue;
     const std::int64_t other_id = target->map_point_ids[static_cast<std::size_t>(feature)];
     const MapPoint* other = map->point(other_id);
