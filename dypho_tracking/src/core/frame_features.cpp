@@ -31,6 +31,7 @@ std::vector<Eigen::Vector2d> undistortPixels(const std::vector<cv::Point2f>& dis
 FrameFeatures makeFrameFeatures(const OrbFeatures& orb, const cv::Mat& depth_m, const CameraIntrinsics& camera,
                                 double min_depth_m, double max_depth_m) {
   FrameFeatures out;
+  out.image_rows = depth_m.rows;
   const size_t n = orb.keypoints.size();
   std::vector<int> keep;
   std::vector<float> depths;

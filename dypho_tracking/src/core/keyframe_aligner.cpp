@@ -6,6 +6,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "dypho/tracking/rolling_shutter.h"
+
 namespace dypho {
 namespace tracking {
 namespace {
@@ -67,13 +69,17 @@ std::vector<bool> verifiedMatches(const KeyframePoints& reference, const std::ve
 
 }  // namespace
 
-PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame) {
+PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame,
+                              double readout_s) {
   const auto f = static_cast<std::size_t>(match.frame_index);
   PoseObservation o;
   o.p_world_m = reference.p_world_m[static_cast<std::size_t>(match.reference_index)];
   o.uv_px = frame.uv_undistorted_px[f];
   o.level = frame.keypoints[f].octave;
   o.depth_m = frame.depth_m[f];
+  if (readout_s > 0.0 && frame.image_rows > 0) {
+    o.row_time_s = rowTimeOffsetS(frame.keypoints[f].pt.y, frame.image_rows, readout_s);
+  }
   return o;
 }
 
@@ -82,10 +88,12 @@ KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
 
 bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                              const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
-                             bool use_verified_first, AlignmentResult* result) const {
+                             bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s,
+                             AlignmentResult* result) const {
   std::vector<PoseObservation> observations;
   observations.reserve(matches.size());
-  for (const FeatureMatch& m : matches) observations.push_back(observationOf(m, reference, frame));
+  const double readout_s = options_.rolling_shutter_readout_ms * 1e-3;
+  for (const FeatureMatch& m : matches) observations.push_back(observationOf(m, reference, frame, readout_s));
   // Probation: the verified points estimate the pose first; an unverified match that disagrees
   // with it takes no part (a verdict against its point), the others join the final estimate.
   const std::vector<bool> is_verified = verifiedMatches(reference, matches);
@@ -100,12 +108,13 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
       if (is_verified[m]) verified.push_back(observations[m]);
     }
     if (use_verified_first && static_cast<int>(verified.size()) >= options_.point_probation_min_verified) {
-      const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init);
+      const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init, rate_prior_rad_s);
       if (first.success && first.num_inliers >= options_.min_inliers) {
         verified_first = true;
         T_start = first.T_camera_world;
         for (std::size_t m = 0; m < matches.size(); ++m) {
-          if (is_verified[m] || optimizer_.agrees(observations[m], pinhole, first.T_camera_world)) {
+          if (is_verified[m] ||
+              optimizer_.agrees(observations[m], pinhole, first.T_camera_world, first.omega_camera_rad_s)) {
             taking_part.push_back(m);
           } else {
             verdict[m] = -1;
@@ -119,7 +128,8 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
     used.reserve(taking_part.size());
     for (std::size_t m : taking_part) used.push_back(observations[m]);
   }
-  PoseOptimizerResult opt = optimizer_.optimize(verified_first ? used : observations, pinhole, T_start);
+  PoseOptimizerResult opt =
+      optimizer_.optimize(verified_first ? used : observations, pinhole, T_start, rate_prior_rad_s);
   if (verified_first && opt.success) {
     // Back to one entry per match: the matches that took no part are outliers.
     std::vector<bool> inliers(matches.size(), false);
@@ -138,6 +148,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
     return false;
   }
   result->T_camera_world = opt.T_camera_world;
+  result->omega_camera_rad_s = opt.omega_camera_rad_s;
   result->matches = matches;
   result->inliers = opt.inliers;
   result->num_inliers = opt.num_inliers;
@@ -150,8 +161,8 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
 
 bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px,
-                                 bool use_verified_first, std::size_t* num_guided, AlignmentResult* result,
-                                 TrackingTimesMs* times) const {
+                                 bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s,
+                                 std::size_t* num_guided, AlignmentResult* result, TrackingTimesMs* times) const {
   auto t0 = Clock::now();
   const std::vector<FeatureMatch> guided =
       matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, radius_px);
@@ -159,7 +170,8 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
   *num_guided = guided.size();
   if (static_cast<int>(guided.size()) < options_.min_inliers) return false;
   t0 = Clock::now();
-  const bool ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, result);
+  const bool ok =
+      refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, rate_prior_rad_s, result);
   times->refine += msSince(t0);
   return ok;
 }
@@ -167,7 +179,7 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
-                                       bool use_verified_first) const {
+                                       bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s) const {
   const KeyframePoints& global_ref = brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
@@ -178,10 +190,10 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   // one), guided again over a wider radius before the global search.
   std::size_t num_guided = 0;
   bool ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.search_radius_px,
-                       use_verified_first, &num_guided, &result, &t);
+                       use_verified_first, rate_prior_rad_s, &num_guided, &result, &t);
   if (!ok && options_.wide_search_radius_px > options_.search_radius_px) {
     ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.wide_search_radius_px,
-                    use_verified_first, &num_guided, &result, &t);
+                    use_verified_first, rate_prior_rad_s, &num_guided, &result, &t);
   }
   auto t0 = Clock::now();
 
@@ -208,7 +220,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     result.used_pnp = true;
     result.matches_refer_to_fallback = brute_force_reference != nullptr;
     t0 = Clock::now();
-    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, &result);
+    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, rate_prior_rad_s, &result);
     t.refine += msSince(t0);
     if (!ok) return result;
   }
@@ -221,7 +233,8 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   if (static_cast<int>(tight.size()) >= options_.min_inliers) {
     AlignmentResult second = result;
     t0 = Clock::now();
-    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, &second) &&
+    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, rate_prior_rad_s,
+               &second) &&
         second.num_inliers >= result.num_inliers / 2) {
       second.used_pnp = result.used_pnp;
       second.matches_refer_to_fallback = false;

@@ -12,6 +12,7 @@
 #include <ceres/solver.h>
 
 #include "dypho/tracking/reprojection_error.h"
+#include "dypho/tracking/rolling_shutter_error.h"
 
 namespace dypho {
 namespace tracking {
@@ -29,9 +30,17 @@ double PoseOptimizer::sigma(int level) const {
   return std::pow(options_.scale_factor, std::max(0, level));
 }
 
-bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole,
-                           const Eigen::Isometry3d& T_camera_world) const {
-  return agreesInCamera(o, T_camera_world * o.p_world_m, pinhole);
+bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
+                           const Eigen::Vector3d& omega_camera_rad_s) const {
+  return agreesInCamera(o, pointAtRowTime(omega_camera_rad_s, o.row_time_s, T_camera_world * o.p_world_m), pinhole);
+}
+
+bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observations) const {
+  if (!(options_.rolling_shutter_readout_ms > 0.0)) return false;
+  for (const PoseObservation& o : observations) {
+    if (o.row_time_s != 0.0) return true;
+  }
+  return false;
 }
 
 bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole) const {
@@ -49,14 +58,17 @@ bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector
 }
 
 std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
-    const std::vector<PoseObservation>& observations, const Pinhole& pinhole) const {
+    const std::vector<PoseObservation>& observations, const Pinhole& pinhole, bool rolling) const {
   const size_t n = observations.size();
   const double bf = options_.depth_baseline_m * pinhole.fx;
   const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
   std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
   for (size_t i = 0; i < n; ++i) {
     const PoseObservation& o = observations[i];
-    if (has_depth(o)) {
+    if (rolling) {
+      costs[i].reset(RollingShutterReprojectionError::create(o.p_world_m, o.uv_px, has_depth(o) ? o.depth_m : 0.0, bf,
+                                                             sigma(o.level), o.row_time_s, pinhole));
+    } else if (has_depth(o)) {
       costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
                                                          sigma(o.level), pinhole);
     } else {
@@ -67,11 +79,13 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
 }
 
 int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, bool accept_all_in_front,
+                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
+                            const Eigen::Vector3d& omega_rad_s, bool accept_all_in_front,
                             std::vector<bool>* inliers) const {
   int count = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
-    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+    const Eigen::Vector3d p_c =
+        pointAtRowTime(omega_rad_s, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
     const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
     (*inliers)[i] = inlier;
     count += inlier ? 1 : 0;
@@ -102,20 +116,37 @@ struct RoundSetup {
   ceres::Problem::Options problem_options;
 };
 
-/// One round: Levenberg-Marquardt on the residuals of the current inliers, from (q_cw, t_cw) in
-/// place. False, with Ceres's message, when the solution is unusable or not finite.
+/// The angular velocity of a rolling shutter as a third unknown: its block and its prior.
+struct RateUnknown {
+  Eigen::Vector3d* omega_rad_s = nullptr;  ///< null: global shutter, the costs take two blocks
+  ceres::CostFunction* prior = nullptr;    ///< AngularRatePrior, owned by the caller
+};
+
+/// One round: Levenberg-Marquardt on the residuals of the current inliers, from (q_cw, t_cw) and
+/// the rate in place. False, with Ceres's message, when the solution is unusable or not finite.
 bool solveRound(const std::vector<std::unique_ptr<ceres::CostFunction>>& costs, const std::vector<bool>& inliers,
-                RoundSetup* setup, Eigen::Quaterniond* q_cw, Eigen::Vector3d* t_cw, std::string* failure) {
+                RoundSetup* setup, Eigen::Quaterniond* q_cw, Eigen::Vector3d* t_cw, const RateUnknown& rate,
+                std::string* failure) {
   ceres::Problem problem(setup->problem_options);
   problem.AddParameterBlock(q_cw->coeffs().data(), 4, &setup->quaternion_manifold);
   problem.AddParameterBlock(t_cw->data(), 3);
+  if (rate.omega_rad_s != nullptr) {
+    problem.AddParameterBlock(rate.omega_rad_s->data(), 3);
+    problem.AddResidualBlock(rate.prior, nullptr, rate.omega_rad_s->data());
+  }
   for (size_t i = 0; i < costs.size(); ++i) {
     if (!inliers[i]) continue;
-    problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data());
+    if (rate.omega_rad_s != nullptr) {
+      problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data(),
+                               rate.omega_rad_s->data());
+    } else {
+      problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data());
+    }
   }
   ceres::Solver::Summary summary;
   ceres::Solve(setup->solver_options, &problem, &summary);
-  if (!summary.IsSolutionUsable() || !q_cw->coeffs().allFinite() || !t_cw->allFinite()) {
+  const bool rate_finite = rate.omega_rad_s == nullptr || rate.omega_rad_s->allFinite();
+  if (!summary.IsSolutionUsable() || !q_cw->coeffs().allFinite() || !t_cw->allFinite() || !rate_finite) {
     *failure = "Ceres failed: " + summary.message;
     return false;
   }
@@ -124,11 +155,13 @@ bool solveRound(const std::vector<std::unique_ptr<ceres::CostFunction>>& costs, 
 
 /// RMS reprojection error of the inliers at (q_cw, t_cw), not whitened [px]; 0 without inliers.
 double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::vector<bool>& inliers, int active,
-                   const Pinhole& pinhole, const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw) {
+                   const Pinhole& pinhole, const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
+                   const Eigen::Vector3d& omega_rad_s) {
   double sum_sq = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
     if (!inliers[i]) continue;
-    const Eigen::Vector3d p_c = q_cw * observations[i].p_world_m + t_cw;
+    const Eigen::Vector3d p_c =
+        pointAtRowTime(omega_rad_s, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
     sum_sq += (pinhole.project(p_c) - observations[i].uv_px).squaredNorm();
   }
   return active > 0 ? std::sqrt(sum_sq / active) : 0.0;
@@ -137,7 +170,8 @@ double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::
 }  // namespace
 
 PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-                                            const Eigen::Isometry3d& T_camera_world_init) const {
+                                            const Eigen::Isometry3d& T_camera_world_init,
+                                            const Eigen::Vector3d& rate_prior_rad_s) const {
   PoseOptimizerResult result;
   result.T_camera_world = T_camera_world_init;
   const size_t n = observations.size();
@@ -153,11 +187,21 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   // The residuals, the loss and the manifold are built once and shared by the rounds' problems,
   // which do not own them: a round only chooses which residuals take part. (Allocating them again
   // each round cost more than the solve on a small problem.)
-  const std::vector<std::unique_ptr<ceres::CostFunction>> costs = makeCosts(observations, pinhole);
+  const bool rolling = rollingShutter(observations);
+  const std::vector<std::unique_ptr<ceres::CostFunction>> costs = makeCosts(observations, pinhole, rolling);
   RoundSetup setup(options_.huber_px, options_.refine_iterations);
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+  std::unique_ptr<ceres::CostFunction> rate_prior;
+  RateUnknown rate;
+  if (rolling) {
+    const Eigen::Vector3d center = rate_prior_rad_s.allFinite() ? rate_prior_rad_s : Eigen::Vector3d::Zero();
+    omega = center;
+    rate_prior.reset(AngularRatePrior::create(center, options_.rolling_shutter_rate_sigma_rad_s));
+    rate = RateUnknown{&omega, rate_prior.get()};
+  }
 
   // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
-  int active = classify(observations, pinhole, q_cw, t_cw, /*accept_all_in_front=*/true, &result.inliers);
+  int active = classify(observations, pinhole, q_cw, t_cw, omega, /*accept_all_in_front=*/true, &result.inliers);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
     if (active < 3) {
       result.message =
@@ -166,14 +210,14 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
       result.num_inliers = 0;
       return result;
     }
-    if (!solveRound(costs, result.inliers, &setup, &q_cw, &t_cw, &result.message)) {
+    if (!solveRound(costs, result.inliers, &setup, &q_cw, &t_cw, rate, &result.message)) {
       result.T_camera_world = T_camera_world_init;
       result.inliers.assign(n, false);
       result.num_inliers = 0;
       return result;
     }
     q_cw.normalize();
-    active = classify(observations, pinhole, q_cw, t_cw, /*accept_all_in_front=*/false, &result.inliers);
+    active = classify(observations, pinhole, q_cw, t_cw, omega, /*accept_all_in_front=*/false, &result.inliers);
   }
 
   result.num_inliers = active;
@@ -182,7 +226,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   result.T_camera_world = Eigen::Isometry3d::Identity();
   result.T_camera_world.linear() = q_cw.toRotationMatrix();
   result.T_camera_world.translation() = t_cw;
-  result.rms_inlier_px = rmsInlierPx(observations, result.inliers, active, pinhole, q_cw, t_cw);
+  result.rms_inlier_px = rmsInlierPx(observations, result.inliers, active, pinhole, q_cw, t_cw, omega);
+  result.omega_camera_rad_s = omega;
   return result;
 }
 

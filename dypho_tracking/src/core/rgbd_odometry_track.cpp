@@ -12,6 +12,7 @@
 
 #include "dypho/tracking/pinhole.h"
 #include "dypho/tracking/rgbd_odometry.h"
+#include "dypho/tracking/rolling_shutter.h"
 #include "rgbd_odometry_frame.h"
 
 namespace dypho {
@@ -211,8 +212,15 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
     work->aligned.message = explainFewFeatures(work->frame, work->prepared->orb, work->features());
     return;
   }
+  // With a rolling shutter the refinement estimates the camera's turn rate too, about the motion
+  // model's: the last step's rotation over its time [rad/s] (zero without a velocity).
+  Eigen::Vector3d rate_prior_rad_s = Eigen::Vector3d::Zero();
+  if (options_.rolling_shutter_readout_ms > 0.0 && motion_.hasVelocity() && motion_.stepNs() > 0) {
+    const Eigen::AngleAxisd step(motion_.lastStep()->rotation());
+    rate_prior_rad_s = step.axis() * step.angle() / timestampToSeconds(motion_.stepNs());
+  }
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
-                                 &work->result.times, &own_view_, !cameraStill());
+                                 &work->result.times, &own_view_, !cameraStill(), rate_prior_rad_s);
 }
 
 double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
@@ -337,6 +345,15 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
     if (!aligned.inliers[m]) continue;
     const std::int64_t id = ref.map_point_ids[static_cast<size_t>(aligned.matches[m].reference_index)];
     if (map_.point(id) != nullptr) ids[static_cast<size_t>(aligned.matches[m].frame_index)] = id;
+  }
+  // With a rolling shutter the keyframe's points are made from its keypoints as the camera at the
+  // stamp saw them, turned by the angular velocity the pose refinement estimated.
+  const double readout_s = options_.rolling_shutter_readout_ms * 1e-3;
+  if (readout_s > 0.0 && !aligned.omega_camera_rad_s.isZero(0.0)) {
+    const FrameFeatures at_stamp = compensateRollingShutter(work->features(), work->frame.depth_m, work->frame.camera,
+                                                            aligned.omega_camera_rad_s, readout_s);
+    addKeyframe(work->frame, work->mask, at_stamp, work->T_world_camera, ids, work->pinhole, &work->result);
+    return;
   }
   addKeyframe(work->frame, work->mask, work->features(), work->T_world_camera, ids, work->pinhole, &work->result);
 }

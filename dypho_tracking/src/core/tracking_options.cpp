@@ -78,6 +78,10 @@ void TrackingOptions::validate() const {
   requireRange("chi2_threshold", chi2_threshold, 0.0, 100.0, true);
   requireRange("depth_baseline_m", depth_baseline_m, 0.0, 1.0);
   requireRange("chi2_threshold_depth", chi2_threshold_depth, 0.0, 100.0, true);
+  if (rolling_shutter_readout_ms != -1.0) {
+    requireRange("rolling_shutter_readout_ms", rolling_shutter_readout_ms, 0.0, 100.0);
+  }
+  requireRange("rolling_shutter_rate_sigma_rad_s", rolling_shutter_rate_sigma_rad_s, 0.0, 100.0, true);
   requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);
   requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);

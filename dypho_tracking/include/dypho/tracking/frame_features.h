@@ -27,6 +27,9 @@ struct FrameFeatures {
   std::vector<Eigen::Vector3d> p_camera_m;
   /// Row i = 32-byte ORB descriptor of keypoint i (CV_8UC1).
   cv::Mat descriptors;
+  /// Rows of the input image [px]; the rolling shutter's row times are relative to it. 0 = unknown
+  /// (every keypoint then counts as seen at the stamp).
+  int image_rows = 0;
 
   /// Number of keypoints.
   std::size_t size() const { return keypoints.size(); }

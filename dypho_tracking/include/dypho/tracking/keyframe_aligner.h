@@ -22,10 +22,13 @@ namespace tracking {
 struct AlignmentResult {
   bool success = false;                                              ///< pose found with >= min_inliers inliers
   Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();  ///< world -> camera
-  std::vector<FeatureMatch> matches;                                 ///< matches used for the final pose
-  std::vector<bool> inliers;                                         ///< per match: pose inlier
-  int num_inliers = 0;                                               ///< count of inliers
-  bool used_pnp = false;  ///< the PnP RANSAC fallback produced the initial pose
+  /// The camera's angular velocity during the frame with a rolling shutter (PoseOptimizerResult)
+  /// [rad/s]; zero without one.
+  Eigen::Vector3d omega_camera_rad_s = Eigen::Vector3d::Zero();
+  std::vector<FeatureMatch> matches;  ///< matches used for the final pose
+  std::vector<bool> inliers;          ///< per match: pose inlier
+  int num_inliers = 0;                ///< count of inliers
+  bool used_pnp = false;              ///< the PnP RANSAC fallback produced the initial pose
   /// `matches[].reference_index` index the `brute_force_reference` passed to align (the tight
   /// pass over the main reference did not replace the PnP result); else the main reference.
   bool matches_refer_to_fallback = false;
@@ -39,8 +42,10 @@ struct AlignmentResult {
 };
 
 /// The pose observation of `match`: its reference point in the world, the frame keypoint's
-/// undistorted pixel, pyramid level and measured depth.
-PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame);
+/// undistorted pixel, pyramid level and measured depth, and with a rolling shutter read out over
+/// `readout_s` [s] (> 0) the time of the keypoint's row (rowTimeOffsetS).
+PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame,
+                              double readout_s = 0.0);
 
 /// Frame-to-keyframe pose estimation in three steps:
 ///  1. projection-guided matching around the predicted pose (search_radius_px) and Ceres
@@ -63,20 +68,24 @@ class KeyframeAligner {
   /// with points on probation (KeyframePoints::verified), estimate the pose from the verified
   /// points first (false: every match carries the pose; the verdicts of the inliers are still
   /// given). Never throws on data.
+  /// `rate_prior_rad_s`: the camera's predicted angular velocity, for a rolling shutter
+  /// (PoseOptimizer::optimize) [rad/s].
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                         const Eigen::Isometry3d& T_camera_world_predicted, TrackingTimesMs* times,
-                        const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true) const;
+                        const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true,
+                        const Eigen::Vector3d& rate_prior_rad_s = Eigen::Vector3d::Zero()) const;
 
  private:
   /// Projection-guided matching within `radius_px` of T_camera_world_predicted, then refine();
   /// true when it found the pose. `num_guided`: the matches found.
   bool guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                   const Eigen::Isometry3d& T_camera_world_predicted, double radius_px, bool use_verified_first,
-                  std::size_t* num_guided, AlignmentResult* result, TrackingTimesMs* times) const;
+                  const Eigen::Vector3d& rate_prior_rad_s, std::size_t* num_guided, AlignmentResult* result,
+                  TrackingTimesMs* times) const;
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
               const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init, bool verified_first,
-              AlignmentResult* result) const;
+              const Eigen::Vector3d& rate_prior_rad_s, AlignmentResult* result) const;
 
   TrackingOptions options_;
   FeatureMatcher matcher_;

@@ -27,6 +27,9 @@ struct PoseObservation {
   /// Depth measured at the observation in the current frame [m]; > 0 adds the depth residual
   /// (RgbdReprojectionError) when depth_baseline_m > 0, 0 = reprojection only.
   double depth_m = 0.0;
+  /// Time its image row was exposed, relative to the frame's stamp (rowTimeOffsetS) [s]; with
+  /// rolling_shutter_readout_ms > 0 the point is projected with that row's camera. 0 = at the stamp.
+  double row_time_s = 0.0;
 };
 
 /// Result of PoseOptimizer::optimize.
@@ -37,7 +40,10 @@ struct PoseOptimizerResult {
   std::vector<bool> inliers;  ///< per observation: chi2 < chi2_threshold at the final pose
   int num_inliers = 0;        ///< count of true in `inliers`
   double rms_inlier_px = 0;   ///< RMS reprojection error of the inliers (not whitened) [px]
-  std::string message;        ///< why it failed; empty on success
+  /// The camera's angular velocity during the frame, in its optical frame, estimated with a
+  /// rolling shutter [rad/s]; zero without one (rolling_shutter_readout_ms 0 or no row times).
+  Eigen::Vector3d omega_camera_rad_s = Eigen::Vector3d::Zero();
+  std::string message;  ///< why it failed; empty on success
 };
 
 /// Minimises sum_j rho_huber(|e_j|^2 / sigma_j^2), e_j = uv_j - pi(T_camera_world P_j) (plus the
@@ -48,6 +54,10 @@ struct PoseOptimizerResult {
 /// observation in front of the camera; each of the `outlier_rounds` rounds runs up to `refine_iterations` LM steps
 /// (Huber loss) on the current inliers and then re-classifies EVERY observation by chi2 at the new
 /// pose, so an outlier can come back. The returned inliers are the last classification.
+/// With a rolling shutter (rolling_shutter_readout_ms > 0 and observations with row times) the
+/// camera's angular velocity omega is a third unknown, with a prior about the motion model's rate
+/// (rolling_shutter_rate_sigma_rad_s), and each point is projected with its row's camera
+/// (RollingShutterReprojectionError, automatic derivatives).
 class PoseOptimizer {
  public:
   /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.
@@ -55,28 +65,38 @@ class PoseOptimizer {
 
   /// Never throws on data: returns !success with a message when fewer than 3 observations are in
   /// front of the camera or Ceres fails.
+  /// `rate_prior_rad_s`: with a rolling shutter, the angular velocity the prior is centred on
+  /// and the estimate starts from (the motion model's rate; zero when none) [rad/s].
   PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-                               const Eigen::Isometry3d& T_camera_world_init) const;
+                               const Eigen::Isometry3d& T_camera_world_init,
+                               const Eigen::Vector3d& rate_prior_rad_s = Eigen::Vector3d::Zero()) const;
 
   /// True when `observation` is an inlier at `T_camera_world`: in front of the camera and its
   /// whitened chi2 under chi2_threshold (chi2_threshold_depth with the depth residual), the test
   /// optimize() classifies with.
-  bool agrees(const PoseObservation& observation, const Pinhole& pinhole,
-              const Eigen::Isometry3d& T_camera_world) const;
+  /// `omega_camera_rad_s`: the angular velocity during the frame (PoseOptimizerResult), used
+  /// with the observation's row time.
+  bool agrees(const PoseObservation& observation, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
+              const Eigen::Vector3d& omega_camera_rad_s = Eigen::Vector3d::Zero()) const;
 
  private:
   double sigma(int level) const;
-  /// agrees() with the point already in the camera frame.
+  /// agrees() with the point already in its row's camera frame.
   bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m,
                       const Pinhole& pinhole) const;
+  /// True when the rolling shutter is modelled for `observations` (a readout and row times).
+  bool rollingShutter(const std::vector<PoseObservation>& observations) const;
   /// One residual per observation: RgbdReprojectionError when it has a depth and
-  /// depth_baseline_m > 0, else ReprojectionError; whitened by sigma(level).
+  /// depth_baseline_m > 0, else ReprojectionError; RollingShutterReprojectionError when
+  /// `rolling`; whitened by sigma(level).
   std::vector<std::unique_ptr<ceres::CostFunction>> makeCosts(const std::vector<PoseObservation>& observations,
-                                                              const Pinhole& pinhole) const;
-  /// Marks each observation an inlier at (q_cw, t_cw) in `inliers` (size of `observations`): in
-  /// front of the camera when `accept_all_in_front`, else agreesInCamera; returns the count.
+                                                              const Pinhole& pinhole, bool rolling) const;
+  /// Marks each observation an inlier at (q_cw, t_cw, omega) in `inliers` (size of
+  /// `observations`): in front of its row's camera when `accept_all_in_front`, else
+  /// agreesInCamera; returns the count.
   int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole, const Eigen::Quaterniond& q_cw,
-               const Eigen::Vector3d& t_cw, bool accept_all_in_front, std::vector<bool>* inliers) const;
+               const Eigen::Vector3d& t_cw, const Eigen::Vector3d& omega_rad_s, bool accept_all_in_front,
+               std::vector<bool>* inliers) const;
 
   TrackingOptions options_;
   std::vector<double> level_sigma_;

@@ -110,6 +110,20 @@ struct TrackingOptions {
   /// chi2 threshold (3 dof) for observations with the depth residual [-]; default 7.815 (95 %),
   /// range (0, 100].
   double chi2_threshold_depth = 7.815;
+  /// Readout time of the colour camera's rolling shutter: the top row is exposed this long before
+  /// the bottom row, the middle row at the frame's stamp [ms]; default -1 = the camera's (the
+  /// dataset runner takes `rolling_shutter_readout_ms` from the camera file, config/cameras/; the
+  /// ROS nodelet has none and uses a global shutter), 0 = global shutter, range {-1} or [0, 100].
+  /// With a readout, the pose refinement also estimates the camera's angular velocity
+  /// during the frame and projects each point with the pose of its keypoint's row, and a new
+  /// keyframe's points are made from its keypoints moved to the stamp's view
+  /// (compensateRollingShutter). The TUM and Bonn camera files say 30 ms (Kinect v1 / Xtion).
+  double rolling_shutter_readout_ms = -1.0;
+  /// Prior standard deviation of the angular velocity the pose refinement estimates with a
+  /// rolling shutter, about the motion model's rate (zero without one) [rad/s]; default 0.3,
+  /// range (0, 100]. A loose prior (1-3 rad/s) let the rate absorb noise on slow frames (Bonn
+  /// every 15th frame removed: 13.4 cm with 1).
+  double rolling_shutter_rate_sigma_rad_s = 0.3;
 
   // --- keyframes (KeyframeSelector) ---
   /// New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10,

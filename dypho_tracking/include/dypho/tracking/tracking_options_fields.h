@@ -90,6 +90,14 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "/ z (ORB-SLAM RGB-D style; Kinect ~0.075 m) [m]; default 0 = reprojection only, range [0, 1]");
   visitor("chi2_threshold_depth", options.chi2_threshold_depth,
           "chi2 threshold (3 dof) for observations with the depth residual [-]; default 7.815 (95 %), range (0, 100].");
+  visitor("rolling_shutter_readout_ms", options.rolling_shutter_readout_ms,
+          "Readout time of the colour camera's rolling shutter, top row to bottom row, the middle row at the stamp "
+          "[ms]; default -1 = the camera file's (dataset runner; the ROS nodelet: global shutter), 0 = global "
+          "shutter, range {-1} or [0, 100]. With a readout the pose refinement also estimates the camera's angular "
+          "velocity and projects each point with the pose of its keypoint's row.");
+  visitor("rolling_shutter_rate_sigma_rad_s", options.rolling_shutter_rate_sigma_rad_s,
+          "Prior standard deviation, about the motion model's rate, of the angular velocity estimated with a rolling "
+          "shutter [rad/s]; default 0.3, range (0, 100].");
   visitor(
       "keyframe_translation_m", options.keyframe_translation_m,
       "New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10, range (0, 10].");
