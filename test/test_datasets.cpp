@@ -22,21 +22,29 @@
 namespace {
 
 // ATE bounds [m] (RMSE after rigid alignment of trajectory.txt, the final trajectory), default
-// settings (flow mask). Runs are deterministic for a build; fr1's bound is the measured value plus
-// about 30 % for differences in floating point between machines (fr1/rpy is sensitive to which
-// frames become keyframes). Measured (docs/journal/benchmarks-2026.md): fr1 3.12 cm (the 2 cm target is not
-// reached; 4.09 cm before the stages shared one motion model), synthetic 0.46 cm (bag: 0.45 cm).
-constexpr double DYPHO_FR1_ATE_BOUND_M = 0.04;
+// settings (flow mask). Runs are deterministic for a build; fr1's bound holds the spread of its
+// frame-removal variants (fr1/rpy is sensitive to which frames become keyframes). Measured
+// (docs/journal/benchmarks-2026.md): fr1 2.12 cm, every 15th frame removed 2.43 cm, 10 % at random
+// 2.86 cm (3.12 cm before the rolling-shutter model and the growth limit; the 2 cm target is not
+// reached), synthetic 0.46 cm (bag: 0.45 cm).
+constexpr double DYPHO_FR1_ATE_BOUND_M = 0.03;
 // Bonn crowd with the YOLOX-nano detector from ../shared/models added to the flow mask: the
-// issue's target (2 cm) is the bound; measured 1.42 cm (1.32 cm before probation of new map points).
+// issue's target (2 cm) is the bound; measured 1.40 cm (1.42 cm before the rolling-shutter model).
 constexpr double DYPHO_BONN_ATE_BOUND_M = 0.02;
+// The generator's fast hand-held turns seen through a 30 ms rolling shutter (150 frames, the
+// ground-truth mask so that only tracking is judged): measured 3.71 cm with the camera file's
+// readout, 58.6 cm with a global-shutter model. The bound is the measured value plus about a third
+// (the skewed images make the run sensitive to floating point, as fr1's); the global-shutter run
+// must stay above 20 cm so that the case keeps showing what the model is for.
+constexpr double DYPHO_ROLLING_SHUTTER_ATE_BOUND_M = 0.05;
+constexpr double DYPHO_ROLLING_SHUTTER_WITHOUT_MODEL_MIN_M = 0.20;
 // Synthetic: the issue's own target (1 cm) is the bound; measured 0.46 cm.
 constexpr double DYPHO_SYNTH_ATE_BOUND_M = 0.01;
 // Synthetic: the map at every 10th frame, novel views (expectMapViews says why 3 dB below).
 // Measured 27.36 dB (novel views, 2-core VM); the bound is about 3 dB below.
 constexpr double kSynthViewPsnrBoundDb = 24.0;
 // Bonn crowd with the flow mask only (no network): the goal (3 cm) is the bound;
-// measured 2.00 cm (1.58 cm before probation of new map points, 6.85 cm before the crowd-aware
+// measured 1.35 cm (2.00 cm before the rolling-shutter model, 6.85 cm before the crowd-aware
 // global-motion fit).
 constexpr double DYPHO_BONN_FLOW_ATE_BOUND_M = 0.03;
 // Synthetic hard cases (static camera, people in view from frame 0, flow mask only): the issue's
@@ -123,6 +131,29 @@ TEST(DatasetRun, BonnCrowdFrames200to399FlowMaskOnly) {
   const double ate = ateOf(out, gt);
   std::cout << "Bonn crowd 200-399, flow mask only: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
   EXPECT_LT(ate, DYPHO_BONN_FLOW_ATE_BOUND_M);
+}
+
+TEST(DatasetRun, RollingShutterFastTurnsAreTracked) {
+  const std::string data = std::string(DYPHO_TEST_OUT) + "/rolling_shutter";
+  const std::string make = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data +
+                           "' --frames 150 --motion fast-rpy --rolling-shutter-ms 30 --people 2 --seed 1 --no-bag > '" +
+                           std::string(DYPHO_TEST_OUT) + "/rolling_shutter_synth.txt' 2>&1";
+  ASSERT_EQ(std::system(make.c_str()), 0);
+  ASSERT_NE(readText(data + "/camera.yaml").find("rolling_shutter_readout_ms: 30"), std::string::npos);
+  const auto gt = dypho::readTumTrajectory(data + "/groundtruth.txt");
+  const std::string out = data + "_run";
+  ASSERT_EQ(runDataset(data, out, std::string(kTrajectoryOnly) + " --mask gt"), 0);
+  const double ate = ateOf(out, gt);
+  const std::string global = data + "_global_shutter";
+  ASSERT_EQ(std::system(("mkdir -p '" + global + "'").c_str()), 0);
+  std::ofstream(global + "/config.yaml") << "tracking:\n  rolling_shutter_readout_ms: 0\n";
+  ASSERT_EQ(runDataset(data, global, std::string(kTrajectoryOnly) + " --mask gt --config '" + global + "/config.yaml'"),
+            0);
+  const double ate_global = ateOf(global, gt);
+  std::cout << "fast turns, 30 ms rolling shutter: ATE RMSE " << ate * 100 << " cm with the model, " << ate_global * 100
+            << " cm with a global-shutter model\n";
+  EXPECT_LT(ate, DYPHO_ROLLING_SHUTTER_ATE_BOUND_M);
+  EXPECT_GT(ate_global, DYPHO_ROLLING_SHUTTER_WITHOUT_MODEL_MIN_M);
 }
 
 namespace {

@@ -124,7 +124,8 @@ std::unique_ptr<FrameSource> openDataset(const Args& args, const PipelineOptions
     throw std::runtime_error("--mask gt needs a mask/ folder in the dataset (written by dypho_synth)");
   }
   std::cerr << "dypho_run_dataset: " << source->description() << ", " << source->size() << " frames, camera "
-            << source->cameraName() << ", mask " << args.mask << "\n";
+            << source->cameraName() << " (rolling-shutter readout " << source->rollingShutterReadoutMs()
+            << " ms in its file), mask " << args.mask << "\n";
   for (const std::string& w : source->warnings()) std::cerr << "warning: " << w << "\n";
   return source;
 }
@@ -455,6 +456,9 @@ int run(const Args& args) {
   }
 
   const std::unique_ptr<FrameSource> source = openDataset(args, options, config_dir);
+  if (options.tracking.rolling_shutter_readout_ms < 0.0) {  // -1: the camera's
+    options.tracking.rolling_shutter_readout_ms = source->rollingShutterReadoutMs();
+  }
   installStopHandlers();
   applyRealtimePolicy(args, options);
   // Default: deterministic, the same run gives the same bits. --realtime: the graph's live policy.

@@ -20,6 +20,8 @@ namespace {
 
 const std::vector<std::string> kRequiredKeys = {"name", "width", "height",     "fx",         "fy",
                                                 "cx",   "cy",    "distortion", "depth_scale"};
+/// Keys a camera file may leave out (their defaults are in CameraConfig).
+const std::vector<std::string> kOptionalKeys = {"rolling_shutter_readout_ms"};
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -90,9 +92,10 @@ CameraConfig loadCameraConfig(const std::string& yaml_path) {
   }
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
-    if (std::find(kRequiredKeys.begin(), kRequiredKeys.end(), key) == kRequiredKeys.end()) {
-      throw std::runtime_error("camera config '" + yaml_path + "': unknown key '" + key +
-                               "' (allowed keys: " + joined(kRequiredKeys) + ")");
+    if (std::find(kRequiredKeys.begin(), kRequiredKeys.end(), key) == kRequiredKeys.end() &&
+        std::find(kOptionalKeys.begin(), kOptionalKeys.end(), key) == kOptionalKeys.end()) {
+      throw std::runtime_error("camera config '" + yaml_path + "': unknown key '" + key + "' (allowed keys: " +
+                               joined(kRequiredKeys) + "; optional: " + joined(kOptionalKeys) + ")");
     }
   }
   for (const auto& key : kRequiredKeys) {
@@ -110,6 +113,12 @@ CameraConfig loadCameraConfig(const std::string& yaml_path) {
   cfg.camera.cx = readScalar<double>(root, "cx", yaml_path);
   cfg.camera.cy = readScalar<double>(root, "cy", yaml_path);
   cfg.depth_scale = readScalar<double>(root, "depth_scale", yaml_path);
+  if (root["rolling_shutter_readout_ms"]) {
+    cfg.rolling_shutter_readout_ms = readScalar<double>(root, "rolling_shutter_readout_ms", yaml_path);
+    if (!(cfg.rolling_shutter_readout_ms >= 0.0 && cfg.rolling_shutter_readout_ms <= 100.0)) {
+      throw std::runtime_error("camera config '" + yaml_path + "': rolling_shutter_readout_ms must be in [0, 100]");
+    }
+  }
 
   const YAML::Node dist = root["distortion"];
   if (!dist.IsSequence() || dist.size() != 5) {

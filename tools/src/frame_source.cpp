@@ -22,9 +22,10 @@ std::string baseName(const std::string& path) {
 
 class FolderFrameSource : public FrameSource {
  public:
-  FolderFrameSource(TumDataset dataset, std::string camera_name)
+  FolderFrameSource(TumDataset dataset, std::string camera_name, double rolling_shutter_readout_ms)
       : dataset_(std::move(dataset)),
         camera_name_(std::move(camera_name)),
+        rolling_shutter_readout_ms_(rolling_shutter_readout_ms),
         mask_dir_(dataset_.directory() + "/mask"),
         has_masks_(isDirectory(mask_dir_)) {}
 
@@ -46,6 +47,7 @@ class FolderFrameSource : public FrameSource {
 
   const std::vector<StampedPose>& groundtruth() const override { return dataset_.groundtruth(); }
   std::string cameraName() const override { return camera_name_; }
+  double rollingShutterReadoutMs() const override { return rolling_shutter_readout_ms_; }
   bool hasMasks() const override { return has_masks_; }
   std::string description() const override { return "folder " + dataset_.directory(); }
   std::vector<std::string> warnings() const override { return dataset_.skippedLines(); }
@@ -53,6 +55,7 @@ class FolderFrameSource : public FrameSource {
  private:
   TumDataset dataset_;
   std::string camera_name_;
+  double rolling_shutter_readout_ms_;
   std::string mask_dir_;
   bool has_masks_;
 };
@@ -81,7 +84,8 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& path, const std:
   }
   const CameraConfig config = loadCameraConfig(resolveCameraConfig(camera_name, config_dir));
   return std::make_unique<FolderFrameSource>(TumDataset::open(path, config),
-                                             config.name.empty() ? camera_name : config.name);
+                                             config.name.empty() ? camera_name : config.name,
+                                             config.rolling_shutter_readout_ms);
 }
 
 }  // namespace dypho::tools

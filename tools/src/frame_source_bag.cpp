@@ -30,6 +30,7 @@ class BagFrameSource : public FrameSource {
 
   const std::vector<StampedPose>& groundtruth() const override { return groundtruth_; }
   std::string cameraName() const override { return camera_ ? camera_->name : "camera_info"; }
+  double rollingShutterReadoutMs() const override { return camera_ ? camera_->rolling_shutter_readout_ms : 0.0; }
   bool hasMasks() const override { return false; }
   std::string description() const override { return "bag " + path_; }
 

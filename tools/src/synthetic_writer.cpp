@@ -137,7 +137,7 @@ std::string readme(const SynthOptions& o, const SynthWriteOptions& w, const Synt
 
 }  // namespace
 
-std::string synthCameraYaml(const CameraIntrinsics& c, double depth_scale) {
+std::string synthCameraYaml(const CameraIntrinsics& c, double depth_scale, double rolling_shutter_readout_ms) {
   std::ostringstream ss;
   ss << std::setprecision(12);
   ss << "# Synthetic pinhole camera written by dypho_synth (registered depth, no distortion).\n"
@@ -147,6 +147,7 @@ std::string synthCameraYaml(const CameraIntrinsics& c, double depth_scale) {
      << "distortion: [" << c.distortion[0] << ", " << c.distortion[1] << ", " << c.distortion[2] << ", "
      << c.distortion[3] << ", " << c.distortion[4] << "]\n"
      << "depth_scale: " << depth_scale << "\n";
+  if (rolling_shutter_readout_ms > 0.0) ss << "rolling_shutter_readout_ms: " << rolling_shutter_readout_ms << "\n";
   return ss.str();
 }
 
@@ -206,7 +207,7 @@ SynthWriteSummary writeSyntheticDataset(const SynthOptions& options, const std::
   writeText("depth.txt", depth_txt.str());
   writeText("mask.txt", mask_txt.str());
   writeText("groundtruth.txt", gt_txt.str());
-  writeText("camera.yaml", synthCameraYaml(options.camera, kDepthScale));
+  writeText("camera.yaml", synthCameraYaml(options.camera, kDepthScale, 1000.0 * options.rolling_shutter_s));
   writeText("README.txt", readme(options, write_options, summary));
   return summary;
 }

@@ -73,6 +73,9 @@ TEST(CameraConfig, ParsesEveryField) {
   EXPECT_DOUBLE_EQ(c.camera.distortion[3], 0.002);
   EXPECT_DOUBLE_EQ(c.camera.distortion[4], 0.3);
   EXPECT_DOUBLE_EQ(c.depth_scale, 1000.0);
+  EXPECT_DOUBLE_EQ(c.rolling_shutter_readout_ms, 0.0);  // optional key left out: global shutter
+  writeText(dir / "rolling.yaml", kValidYaml + "rolling_shutter_readout_ms: 22.5\n");
+  EXPECT_DOUBLE_EQ(loadCameraConfig((dir / "rolling.yaml").string()).rolling_shutter_readout_ms, 22.5);
   fs::remove_all(dir);
 }
 
@@ -109,6 +112,9 @@ TEST(CameraConfig, PublishedCalibrations) {
   EXPECT_DOUBLE_EQ(bonn.camera.fx, 542.822841);
   EXPECT_DOUBLE_EQ(bonn.camera.cx, 315.593520);
   EXPECT_FALSE(bonn.camera.distorted());
+  // The Kinect-class cameras' rolling shutter (measured on fr1 and Bonn, docs/journal).
+  EXPECT_DOUBLE_EQ(fr1.rolling_shutter_readout_ms, 30.0);
+  EXPECT_DOUBLE_EQ(bonn.rolling_shutter_readout_ms, 30.0);
 }
 
 TEST(CameraConfig, Errors) {
@@ -119,6 +125,8 @@ TEST(CameraConfig, Errors) {
   expectLoadError(replaced(kValidYaml, "fx: 300.5", "fx: -1"), {"fx", "> 0"});
   expectLoadError(replaced(kValidYaml, "width: 320", "width: 320.5"), {"width"});
   expectLoadError(replaced(kValidYaml, "[0.1, -0.2, 0.001, 0.002, 0.3]", "[0.1, 0.2]"), {"distortion", "5"});
+  expectLoadError(kValidYaml + "rolling_shutter_readout_ms: -5\n", {"rolling_shutter_readout_ms", "[0, 100]"});
+  expectLoadError(kValidYaml + "rolling_shutter_readout_ms: abc\n", {"rolling_shutter_readout_ms"});
   expectLoadError("- 1\n- 2\n", {"map"});
   expectLoadError("name: [unclosed\n", {"not valid YAML"});
   EXPECT_THROW(loadCameraConfig("/nonexistent/cam.yaml"), std::runtime_error);

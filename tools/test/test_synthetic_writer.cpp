@@ -121,6 +121,7 @@ TEST(SyntheticWriter, TumDatasetReadsTheFolderBack) {
   EXPECT_DOUBLE_EQ(cfg.camera.fx, o.camera.fx);
   EXPECT_DOUBLE_EQ(cfg.camera.cy, o.camera.cy);
   EXPECT_DOUBLE_EQ(cfg.depth_scale, 5000.0);
+  EXPECT_DOUBLE_EQ(cfg.rolling_shutter_readout_ms, 0.0);  // a global shutter unless asked for
   const auto ds = dypho::tools::TumDataset::open(dir.string(), cfg);
   ASSERT_EQ(ds.size(), static_cast<std::size_t>(o.frames));
   ASSERT_EQ(ds.groundtruth().size(), static_cast<std::size_t>(o.frames));
@@ -136,6 +137,12 @@ TEST(SyntheticWriter, TumDatasetReadsTheFolderBack) {
   fs::remove_all(dir);
 }
 #endif
+
+TEST(SyntheticWriter, CameraFileCarriesTheRollingShutter) {
+  const std::string yaml = dypho::tools::synthCameraYaml(smallOptions().camera, 5000.0, 30.0);
+  EXPECT_NE(yaml.find("rolling_shutter_readout_ms: 30\n"), std::string::npos) << yaml;
+  EXPECT_EQ(dypho::tools::synthCameraYaml(smallOptions().camera).find("rolling_shutter"), std::string::npos);
+}
 
 TEST(SyntheticWriter, ReadmeRecordsThePeopleOptions) {
   SynthOptions o = smallOptions();

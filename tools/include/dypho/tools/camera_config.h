@@ -14,12 +14,16 @@ namespace dypho::tools {
 struct CameraConfig {
   CameraIntrinsics camera;      ///< pinhole intrinsics [px] and plumb_bob distortion of the colour image
   double depth_scale = 5000.0;  ///< raw uint16 depth value per metre: depth_m = raw / depth_scale
-  std::string name;             ///< identifier, e.g. "tum_fr1"
+  /// Readout time of the colour camera's rolling shutter, top row to bottom row [ms]; optional
+  /// key, 0 (the default) = global shutter. Tracking takes it when its own
+  /// rolling_shutter_readout_ms is -1 (the default).
+  double rolling_shutter_readout_ms = 0.0;
+  std::string name;  ///< identifier, e.g. "tum_fr1"
 };
 
-/// Reads a camera YAML (keys: name, width, height, fx, fy, cx, cy, distortion[5], depth_scale).
-/// Every key is required; unknown keys, wrong types and implausible values (non-positive focal
-/// length, size or depth scale) throw std::runtime_error naming the file and the key.
+/// Reads a camera YAML (keys: name, width, height, fx, fy, cx, cy, distortion[5], depth_scale;
+/// optional: rolling_shutter_readout_ms). Every other key is required; unknown keys, wrong types and implausible values
+/// (non-positive focal length, size or depth scale) throw std::runtime_error naming the file and the key.
 CameraConfig loadCameraConfig(const std::string& yaml_path);
 
 /// Folder holding `cameras/*.yaml`: the environment variable DYPHO_CONFIG_DIR when set, else the

@@ -28,6 +28,8 @@ class FrameSource {
   virtual const std::vector<StampedPose>& groundtruth() const = 0;
   /// Camera name as in config/cameras (or the YAML path, or "camera_info" for bags).
   virtual std::string cameraName() const = 0;
+  /// The camera file's rolling-shutter readout [ms]; 0 = global shutter or not known.
+  virtual double rollingShutterReadoutMs() const { return 0.0; }
   virtual bool hasMasks() const = 0;
   /// For logs: what is being read.
   virtual std::string description() const = 0;

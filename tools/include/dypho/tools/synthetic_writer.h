@@ -41,8 +41,9 @@ struct SynthWriteSummary {
 SynthWriteSummary writeSyntheticDataset(const SynthOptions& options, const std::string& out_dir,
                                         const SynthWriteOptions& write_options = {});
 
-/// The camera YAML text (keys name, width, height, fx, fy, cx, cy, distortion, depth_scale) that
-/// writeSyntheticDataset() stores as camera.yaml.
-std::string synthCameraYaml(const CameraIntrinsics& camera, double depth_scale = 5000.0);
+/// The camera YAML text (keys name, width, height, fx, fy, cx, cy, distortion, depth_scale, and
+/// rolling_shutter_readout_ms when it is > 0 [ms]) that writeSyntheticDataset() stores as camera.yaml.
+std::string synthCameraYaml(const CameraIntrinsics& camera, double depth_scale = 5000.0,
+                            double rolling_shutter_readout_ms = 0.0);
 
 }  // namespace dypho::tools
