@@ -85,13 +85,12 @@ struct BackgroundOptions {
   /// It lies on a surface reaching far beyond it, not on an object: on a fast turn before the
   /// background has a value, a flow region on a desk grew over the whole desk (TUM fr1/rpy: 4 %
   /// of the view flagged, 58 % masked). Slower, the growth is not limited: people whose flow
-  /// found only their outline are filled. 8 is the value measured. Default 0 (off): with 8 the
-  /// runner at 1x on TUM fr1/rpy (150 frames) gave 5.5-6.6 cm against 5.8-12.3 cm, and offline
-  /// the mean over the whole window, every 15th frame removed and 10 % removed at random went
-  /// 4.29 -> 4.06 cm (Bonn crowd, flow: 1.85 -> 1.76 cm), but the whole fr1 window alone went
-  /// 3.12 -> 4.49 cm, over the 4 cm that the dataset test holds
-  /// (docs/journal/2026-11-28-precision.md).
-  double grow_max_ratio = 0.0;
+  /// found only their outline are filled. Default 8, >= 0 (0 = no limit): with 8 the ROS graph at
+  /// 1x on TUM fr1/rpy (150 frames) answered every frame (6.6-6.7 cm) against 106-115 of 150
+  /// (13.5-22.8 cm) without; offline, with the rolling-shutter model, the mean over the whole
+  /// window, every 15th frame removed and 10 % removed at random went 4.00 -> 2.47 cm
+  /// (docs/journal/benchmarks-2026.md, sections 13 and 14).
+  double grow_max_ratio = 8.0;
   /// Flow regions that the background explains (same depth as B, no consistency pixel) are
   /// dropped only after this many updates of B since the start or reset(), >= 0: B starts as D
   /// minus a raw mask that may miss most of a person, and vetoing against that B erases the

@@ -132,8 +132,8 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
       "While the view moves fast (median flow 6 px per frame or more), a flow region grows in depth to at most "
       "this many times its own area, >= 0 (0 = no limit); one that would grow further is not grown at all: it lies "
       "on a surface reaching far beyond it (a desk on a fast turn before the background has a value), not on an "
-      "object. Slower, the growth is not limited. 8 is the measured value; default 0 (off): with 8 fr1/rpy at 1x "
-      "improved but its whole 150-frame window offline went 3.12 -> 4.49 cm (docs/journal/2026-11-28-precision.md).");
+      "object. Slower, the growth is not limited. Default 8 (measured: docs/journal/benchmarks-2026.md, sections 13 "
+      "and 14).");
   visitor(
       "veto_after_updates", options.veto_after_updates,
       "Flow regions that the background explains (same depth, no consistency pixel) are dropped only after this many "
