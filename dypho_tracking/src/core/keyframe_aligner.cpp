@@ -88,8 +88,7 @@ KeyframeAligner::KeyframeAligner(const TrackingOptions& options)
 
 bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                              const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init,
-                             bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s,
-                             AlignmentResult* result) const {
+                             bool use_verified_first, const CameraRates& rates_prior, AlignmentResult* result) const {
   std::vector<PoseObservation> observations;
   observations.reserve(matches.size());
   const double readout_s = options_.rolling_shutter_readout_ms * 1e-3;
@@ -108,13 +107,12 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
       if (is_verified[m]) verified.push_back(observations[m]);
     }
     if (use_verified_first && static_cast<int>(verified.size()) >= options_.point_probation_min_verified) {
-      const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init, rate_prior_rad_s);
+      const PoseOptimizerResult first = optimizer_.optimize(verified, pinhole, T_init, rates_prior);
       if (first.success && first.num_inliers >= options_.min_inliers) {
         verified_first = true;
         T_start = first.T_camera_world;
         for (std::size_t m = 0; m < matches.size(); ++m) {
-          if (is_verified[m] ||
-              optimizer_.agrees(observations[m], pinhole, first.T_camera_world, first.omega_camera_rad_s)) {
+          if (is_verified[m] || optimizer_.agrees(observations[m], pinhole, first.T_camera_world, first.rates)) {
             taking_part.push_back(m);
           } else {
             verdict[m] = -1;
@@ -128,8 +126,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
     used.reserve(taking_part.size());
     for (std::size_t m : taking_part) used.push_back(observations[m]);
   }
-  PoseOptimizerResult opt =
-      optimizer_.optimize(verified_first ? used : observations, pinhole, T_start, rate_prior_rad_s);
+  PoseOptimizerResult opt = optimizer_.optimize(verified_first ? used : observations, pinhole, T_start, rates_prior);
   if (verified_first && opt.success) {
     // Back to one entry per match: the matches that took no part are outliers.
     std::vector<bool> inliers(matches.size(), false);
@@ -148,7 +145,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
     return false;
   }
   result->T_camera_world = opt.T_camera_world;
-  result->omega_camera_rad_s = opt.omega_camera_rad_s;
+  result->rates = opt.rates;
   result->matches = matches;
   result->inliers = opt.inliers;
   result->num_inliers = opt.num_inliers;
@@ -161,8 +158,8 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
 
 bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px,
-                                 bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s,
-                                 std::size_t* num_guided, AlignmentResult* result, TrackingTimesMs* times) const {
+                                 bool use_verified_first, const CameraRates& rates_prior, std::size_t* num_guided,
+                                 AlignmentResult* result, TrackingTimesMs* times) const {
   auto t0 = Clock::now();
   const std::vector<FeatureMatch> guided =
       matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, radius_px);
@@ -171,7 +168,7 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
   if (static_cast<int>(guided.size()) < options_.min_inliers) return false;
   t0 = Clock::now();
   const bool ok =
-      refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, rate_prior_rad_s, result);
+      refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, rates_prior, result);
   times->refine += msSince(t0);
   return ok;
 }
@@ -179,7 +176,7 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
-                                       bool use_verified_first, const Eigen::Vector3d& rate_prior_rad_s) const {
+                                       bool use_verified_first, const CameraRates& rates_prior) const {
   const KeyframePoints& global_ref = brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
@@ -190,10 +187,10 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   // one), guided again over a wider radius before the global search.
   std::size_t num_guided = 0;
   bool ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.search_radius_px,
-                       use_verified_first, rate_prior_rad_s, &num_guided, &result, &t);
+                       use_verified_first, rates_prior, &num_guided, &result, &t);
   if (!ok && options_.wide_search_radius_px > options_.search_radius_px) {
     ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.wide_search_radius_px,
-                    use_verified_first, rate_prior_rad_s, &num_guided, &result, &t);
+                    use_verified_first, rates_prior, &num_guided, &result, &t);
   }
   auto t0 = Clock::now();
 
@@ -220,7 +217,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     result.used_pnp = true;
     result.matches_refer_to_fallback = brute_force_reference != nullptr;
     t0 = Clock::now();
-    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, rate_prior_rad_s, &result);
+    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, rates_prior, &result);
     t.refine += msSince(t0);
     if (!ok) return result;
   }
@@ -233,8 +230,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   if (static_cast<int>(tight.size()) >= options_.min_inliers) {
     AlignmentResult second = result;
     t0 = Clock::now();
-    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, rate_prior_rad_s,
-               &second) &&
+    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, rates_prior, &second) &&
         second.num_inliers >= result.num_inliers / 2) {
       second.used_pnp = result.used_pnp;
       second.matches_refer_to_fallback = false;

@@ -12,7 +12,6 @@
 #include <ceres/solver.h>
 
 #include "dypho/tracking/reprojection_error.h"
-#include "dypho/tracking/rolling_shutter_error.h"
 
 namespace dypho {
 namespace tracking {
@@ -31,8 +30,8 @@ double PoseOptimizer::sigma(int level) const {
 }
 
 bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
-                           const Eigen::Vector3d& omega_camera_rad_s) const {
-  return agreesInCamera(o, pointAtRowTime(omega_camera_rad_s, o.row_time_s, T_camera_world * o.p_world_m), pinhole);
+                           const CameraRates& rates) const {
+  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m), pinhole);
 }
 
 bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observations) const {
@@ -79,13 +78,12 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
 }
 
 int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
-                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
-                            const Eigen::Vector3d& omega_rad_s, bool accept_all_in_front,
-                            std::vector<bool>* inliers) const {
+                            const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, const CameraRates& rates,
+                            bool accept_all_in_front, std::vector<bool>* inliers) const {
   int count = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
     const Eigen::Vector3d p_c =
-        pointAtRowTime(omega_rad_s, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
+        pointAtRowTime(rates, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
     const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
     (*inliers)[i] = inlier;
     count += inlier ? 1 : 0;
@@ -116,10 +114,11 @@ struct RoundSetup {
   ceres::Problem::Options problem_options;
 };
 
-/// The angular velocity of a rolling shutter as a third unknown: its block and its prior.
+/// The velocities of a rolling shutter as unknowns: their blocks and their priors.
 struct RateUnknown {
-  Eigen::Vector3d* omega_rad_s = nullptr;  ///< null: global shutter, the costs take two blocks
-  ceres::CostFunction* prior = nullptr;    ///< AngularRatePrior, owned by the caller
+  CameraRates* rates = nullptr;                ///< null: global shutter, the costs take two blocks
+  ceres::CostFunction* omega_prior = nullptr;  ///< RatePrior, owned by the caller
+  ceres::CostFunction* velocity_prior = nullptr;
 };
 
 /// One round: Levenberg-Marquardt on the residuals of the current inliers, from (q_cw, t_cw) and
@@ -130,22 +129,26 @@ bool solveRound(const std::vector<std::unique_ptr<ceres::CostFunction>>& costs, 
   ceres::Problem problem(setup->problem_options);
   problem.AddParameterBlock(q_cw->coeffs().data(), 4, &setup->quaternion_manifold);
   problem.AddParameterBlock(t_cw->data(), 3);
-  if (rate.omega_rad_s != nullptr) {
-    problem.AddParameterBlock(rate.omega_rad_s->data(), 3);
-    problem.AddResidualBlock(rate.prior, nullptr, rate.omega_rad_s->data());
+  double* omega = rate.rates != nullptr ? rate.rates->omega_rad_s.data() : nullptr;
+  double* velocity = rate.rates != nullptr ? rate.rates->velocity_m_s.data() : nullptr;
+  if (rate.rates != nullptr) {
+    problem.AddParameterBlock(omega, 3);
+    problem.AddParameterBlock(velocity, 3);
+    problem.AddResidualBlock(rate.omega_prior, nullptr, omega);
+    problem.AddResidualBlock(rate.velocity_prior, nullptr, velocity);
   }
   for (size_t i = 0; i < costs.size(); ++i) {
     if (!inliers[i]) continue;
-    if (rate.omega_rad_s != nullptr) {
-      problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data(),
-                               rate.omega_rad_s->data());
+    if (rate.rates != nullptr) {
+      problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data(), omega, velocity);
     } else {
       problem.AddResidualBlock(costs[i].get(), &setup->loss, q_cw->coeffs().data(), t_cw->data());
     }
   }
   ceres::Solver::Summary summary;
   ceres::Solve(setup->solver_options, &problem, &summary);
-  const bool rate_finite = rate.omega_rad_s == nullptr || rate.omega_rad_s->allFinite();
+  const bool rate_finite =
+      rate.rates == nullptr || (rate.rates->omega_rad_s.allFinite() && rate.rates->velocity_m_s.allFinite());
   if (!summary.IsSolutionUsable() || !q_cw->coeffs().allFinite() || !t_cw->allFinite() || !rate_finite) {
     *failure = "Ceres failed: " + summary.message;
     return false;
@@ -156,12 +159,12 @@ bool solveRound(const std::vector<std::unique_ptr<ceres::CostFunction>>& costs, 
 /// RMS reprojection error of the inliers at (q_cw, t_cw), not whitened [px]; 0 without inliers.
 double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::vector<bool>& inliers, int active,
                    const Pinhole& pinhole, const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw,
-                   const Eigen::Vector3d& omega_rad_s) {
+                   const CameraRates& rates) {
   double sum_sq = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
     if (!inliers[i]) continue;
     const Eigen::Vector3d p_c =
-        pointAtRowTime(omega_rad_s, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
+        pointAtRowTime(rates, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
     sum_sq += (pinhole.project(p_c) - observations[i].uv_px).squaredNorm();
   }
   return active > 0 ? std::sqrt(sum_sq / active) : 0.0;
@@ -171,7 +174,7 @@ double rmsInlierPx(const std::vector<PoseObservation>& observations, const std::
 
 PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                                             const Eigen::Isometry3d& T_camera_world_init,
-                                            const Eigen::Vector3d& rate_prior_rad_s) const {
+                                            const CameraRates& rates_prior) const {
   PoseOptimizerResult result;
   result.T_camera_world = T_camera_world_init;
   const size_t n = observations.size();
@@ -190,18 +193,19 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   const bool rolling = rollingShutter(observations);
   const std::vector<std::unique_ptr<ceres::CostFunction>> costs = makeCosts(observations, pinhole, rolling);
   RoundSetup setup(options_.huber_px, options_.refine_iterations);
-  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
-  std::unique_ptr<ceres::CostFunction> rate_prior;
+  CameraRates rates;
+  std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
   if (rolling) {
-    const Eigen::Vector3d center = rate_prior_rad_s.allFinite() ? rate_prior_rad_s : Eigen::Vector3d::Zero();
-    omega = center;
-    rate_prior.reset(AngularRatePrior::create(center, options_.rolling_shutter_rate_sigma_rad_s));
-    rate = RateUnknown{&omega, rate_prior.get()};
+    if (rates_prior.omega_rad_s.allFinite()) rates.omega_rad_s = rates_prior.omega_rad_s;
+    if (rates_prior.velocity_m_s.allFinite()) rates.velocity_m_s = rates_prior.velocity_m_s;
+    omega_prior.reset(RatePrior::create(rates.omega_rad_s, options_.rolling_shutter_rate_sigma_rad_s));
+    velocity_prior.reset(RatePrior::create(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s));
+    rate = RateUnknown{&rates, omega_prior.get(), velocity_prior.get()};
   }
 
   // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
-  int active = classify(observations, pinhole, q_cw, t_cw, omega, /*accept_all_in_front=*/true, &result.inliers);
+  int active = classify(observations, pinhole, q_cw, t_cw, rates, /*accept_all_in_front=*/true, &result.inliers);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
     if (active < 3) {
       result.message =
@@ -217,7 +221,7 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
       return result;
     }
     q_cw.normalize();
-    active = classify(observations, pinhole, q_cw, t_cw, omega, /*accept_all_in_front=*/false, &result.inliers);
+    active = classify(observations, pinhole, q_cw, t_cw, rates, /*accept_all_in_front=*/false, &result.inliers);
   }
 
   result.num_inliers = active;
@@ -226,8 +230,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   result.T_camera_world = Eigen::Isometry3d::Identity();
   result.T_camera_world.linear() = q_cw.toRotationMatrix();
   result.T_camera_world.translation() = t_cw;
-  result.rms_inlier_px = rmsInlierPx(observations, result.inliers, active, pinhole, q_cw, t_cw, omega);
-  result.omega_camera_rad_s = omega;
+  result.rms_inlier_px = rmsInlierPx(observations, result.inliers, active, pinhole, q_cw, t_cw, rates);
+  result.rates = rates;
   return result;
 }
 

@@ -212,15 +212,18 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
     work->aligned.message = explainFewFeatures(work->frame, work->prepared->orb, work->features());
     return;
   }
-  // With a rolling shutter the refinement estimates the camera's turn rate too, about the motion
-  // model's: the last step's rotation over its time [rad/s] (zero without a velocity).
-  Eigen::Vector3d rate_prior_rad_s = Eigen::Vector3d::Zero();
+  // With a rolling shutter the refinement estimates the camera's velocities too, about the motion
+  // model's: the last step T_prev_last over its time, in the last camera's frame (zero without one).
+  CameraRates rates_prior;
   if (options_.rolling_shutter_readout_ms > 0.0 && motion_.hasVelocity() && motion_.stepNs() > 0) {
-    const Eigen::AngleAxisd step(motion_.lastStep()->rotation());
-    rate_prior_rad_s = step.axis() * step.angle() / timestampToSeconds(motion_.stepNs());
+    const Eigen::Isometry3d& step = *motion_.lastStep();
+    const double dt_s = timestampToSeconds(motion_.stepNs());
+    const Eigen::AngleAxisd turn(step.rotation());
+    rates_prior.omega_rad_s = turn.axis() * turn.angle() / dt_s;
+    rates_prior.velocity_m_s = step.rotation().transpose() * step.translation() / dt_s;
   }
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
-                                 &work->result.times, &own_view_, !cameraStill(), rate_prior_rad_s);
+                                 &work->result.times, &own_view_, !cameraStill(), rates_prior);
 }
 
 double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
@@ -349,9 +352,10 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
   // With a rolling shutter the keyframe's points are made from its keypoints as the camera at the
   // stamp saw them, turned by the angular velocity the pose refinement estimated.
   const double readout_s = options_.rolling_shutter_readout_ms * 1e-3;
-  if (readout_s > 0.0 && !aligned.omega_camera_rad_s.isZero(0.0)) {
-    const FrameFeatures at_stamp = compensateRollingShutter(work->features(), work->frame.depth_m, work->frame.camera,
-                                                            aligned.omega_camera_rad_s, readout_s);
+  if (readout_s > 0.0 && !(aligned.rates.omega_rad_s.isZero(0.0) && aligned.rates.velocity_m_s.isZero(0.0))) {
+    const FrameFeatures at_stamp =
+        compensateRollingShutter(work->features(), work->frame.depth_m, work->frame.camera, aligned.rates.omega_rad_s,
+                                 readout_s, aligned.rates.velocity_m_s);
     addKeyframe(work->frame, work->mask, at_stamp, work->T_world_camera, ids, work->pinhole, &work->result);
     return;
   }

@@ -12,9 +12,9 @@ namespace tracking {
 
 FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::Mat& depth_m,
                                        const CameraIntrinsics& camera, const Eigen::Vector3d& omega_camera_rad_s,
-                                       double readout_s) {
+                                       double readout_s, const Eigen::Vector3d& velocity_camera_m_s) {
   FrameFeatures out = features;
-  if (!(readout_s > 0.0) || !omega_camera_rad_s.allFinite()) return out;
+  if (!(readout_s > 0.0) || !omega_camera_rad_s.allFinite() || !velocity_camera_m_s.allFinite()) return out;
   const Pinhole pinhole = Pinhole::fromIntrinsics(camera);
   const int rows = depth_m.rows > 0 ? depth_m.rows : camera.height;
   for (std::size_t i = 0; i < out.size(); ++i) {
@@ -22,11 +22,12 @@ FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::
     const double dt_s = rowTimeOffsetS(pt.y, rows, readout_s);
     const Eigen::Vector3d rotation = omega_camera_rad_s * dt_s;
     const double angle = rotation.norm();
-    if (angle < 1e-12) continue;
+    const Eigen::Matrix3d turn =
+        angle < 1e-12 ? Eigen::Matrix3d::Identity() : Eigen::AngleAxisd(angle, rotation / angle).toRotationMatrix();
     // Seen at the row's time, in the camera of that time; the camera at the stamp sees the same
     // direction rotated by the turn in between: b_stamp = R(omega dt) b_row.
     const Eigen::Vector2d& uv = out.uv_undistorted_px[i];
-    const Eigen::Vector3d bearing = Eigen::AngleAxisd(angle, rotation / angle) * pinhole.backProject(uv, 1.0);
+    const Eigen::Vector3d bearing = turn * pinhole.backProject(uv, 1.0);
     if (bearing.z() < 1e-6) continue;
     const Eigen::Vector2d uv_stamp = pinhole.project(bearing);
     // The depth image holds the scene at the stamp: read it where the keypoint moved to (the
@@ -39,6 +40,12 @@ FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::
     }
     out.uv_undistorted_px[i] = uv_stamp;
     out.p_camera_m[i] = pinhole.backProject(uv_stamp, out.depth_m[i]);
+    // The camera moved by v dt between the row's time and the stamp: p_stamp = p + v dt.
+    const Eigen::Vector3d p_stamp = out.p_camera_m[i] + velocity_camera_m_s * dt_s;
+    if (p_stamp.z() < 1e-6 || p_stamp == out.p_camera_m[i]) continue;
+    out.p_camera_m[i] = p_stamp;
+    out.uv_undistorted_px[i] = pinhole.project(p_stamp);
+    out.depth_m[i] = static_cast<float>(p_stamp.z());
   }
   return out;
 }

@@ -22,9 +22,9 @@ namespace tracking {
 struct AlignmentResult {
   bool success = false;                                              ///< pose found with >= min_inliers inliers
   Eigen::Isometry3d T_camera_world = Eigen::Isometry3d::Identity();  ///< world -> camera
-  /// The camera's angular velocity during the frame with a rolling shutter (PoseOptimizerResult)
-  /// [rad/s]; zero without one.
-  Eigen::Vector3d omega_camera_rad_s = Eigen::Vector3d::Zero();
+  /// The camera's velocities during the frame with a rolling shutter (PoseOptimizerResult); zero
+  /// without one.
+  CameraRates rates;
   std::vector<FeatureMatch> matches;  ///< matches used for the final pose
   std::vector<bool> inliers;          ///< per match: pose inlier
   int num_inliers = 0;                ///< count of inliers
@@ -68,24 +68,24 @@ class KeyframeAligner {
   /// with points on probation (KeyframePoints::verified), estimate the pose from the verified
   /// points first (false: every match carries the pose; the verdicts of the inliers are still
   /// given). Never throws on data.
-  /// `rate_prior_rad_s`: the camera's predicted angular velocity, for a rolling shutter
-  /// (PoseOptimizer::optimize) [rad/s].
+  /// `rates_prior`: the camera's predicted velocities, for a rolling shutter
+  /// (PoseOptimizer::optimize).
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                         const Eigen::Isometry3d& T_camera_world_predicted, TrackingTimesMs* times,
                         const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true,
-                        const Eigen::Vector3d& rate_prior_rad_s = Eigen::Vector3d::Zero()) const;
+                        const CameraRates& rates_prior = CameraRates()) const;
 
  private:
   /// Projection-guided matching within `radius_px` of T_camera_world_predicted, then refine();
   /// true when it found the pose. `num_guided`: the matches found.
   bool guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                   const Eigen::Isometry3d& T_camera_world_predicted, double radius_px, bool use_verified_first,
-                  const Eigen::Vector3d& rate_prior_rad_s, std::size_t* num_guided, AlignmentResult* result,
+                  const CameraRates& rates_prior, std::size_t* num_guided, AlignmentResult* result,
                   TrackingTimesMs* times) const;
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
               const std::vector<FeatureMatch>& matches, const Eigen::Isometry3d& T_init, bool verified_first,
-              const Eigen::Vector3d& rate_prior_rad_s, AlignmentResult* result) const;
+              const CameraRates& rates_prior, AlignmentResult* result) const;
 
   TrackingOptions options_;
   FeatureMatcher matcher_;

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/rolling_shutter_error.h"
 #include "dypho/tracking/tracking_options.h"
 
 namespace ceres {
@@ -40,9 +41,9 @@ struct PoseOptimizerResult {
   std::vector<bool> inliers;  ///< per observation: chi2 < chi2_threshold at the final pose
   int num_inliers = 0;        ///< count of true in `inliers`
   double rms_inlier_px = 0;   ///< RMS reprojection error of the inliers (not whitened) [px]
-  /// The camera's angular velocity during the frame, in its optical frame, estimated with a
-  /// rolling shutter [rad/s]; zero without one (rolling_shutter_readout_ms 0 or no row times).
-  Eigen::Vector3d omega_camera_rad_s = Eigen::Vector3d::Zero();
+  /// The camera's angular and linear velocity during the frame, estimated with a rolling
+  /// shutter; zero without one (rolling_shutter_readout_ms <= 0 or no row times).
+  CameraRates rates;
   std::string message;  ///< why it failed; empty on success
 };
 
@@ -55,9 +56,9 @@ struct PoseOptimizerResult {
 /// (Huber loss) on the current inliers and then re-classifies EVERY observation by chi2 at the new
 /// pose, so an outlier can come back. The returned inliers are the last classification.
 /// With a rolling shutter (rolling_shutter_readout_ms > 0 and observations with row times) the
-/// camera's angular velocity omega is a third unknown, with a prior about the motion model's rate
-/// (rolling_shutter_rate_sigma_rad_s), and each point is projected with its row's camera
-/// (RollingShutterReprojectionError, automatic derivatives).
+/// camera's angular and linear velocity are unknowns too, with priors about the motion model's
+/// (rolling_shutter_rate_sigma_rad_s, rolling_shutter_velocity_sigma_m_s), and each point is
+/// projected with its row's camera (RollingShutterReprojectionError, automatic derivatives).
 class PoseOptimizer {
  public:
   /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.
@@ -65,19 +66,19 @@ class PoseOptimizer {
 
   /// Never throws on data: returns !success with a message when fewer than 3 observations are in
   /// front of the camera or Ceres fails.
-  /// `rate_prior_rad_s`: with a rolling shutter, the angular velocity the prior is centred on
-  /// and the estimate starts from (the motion model's rate; zero when none) [rad/s].
+  /// `rates_prior`: with a rolling shutter, the velocities the priors are centred on and the
+  /// estimate starts from (the motion model's; zero when none).
   PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                                const Eigen::Isometry3d& T_camera_world_init,
-                               const Eigen::Vector3d& rate_prior_rad_s = Eigen::Vector3d::Zero()) const;
+                               const CameraRates& rates_prior = CameraRates()) const;
 
   /// True when `observation` is an inlier at `T_camera_world`: in front of the camera and its
   /// whitened chi2 under chi2_threshold (chi2_threshold_depth with the depth residual), the test
   /// optimize() classifies with.
-  /// `omega_camera_rad_s`: the angular velocity during the frame (PoseOptimizerResult), used
-  /// with the observation's row time.
+  /// `rates`: the camera's velocities during the frame (PoseOptimizerResult), used with the
+  /// observation's row time.
   bool agrees(const PoseObservation& observation, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
-              const Eigen::Vector3d& omega_camera_rad_s = Eigen::Vector3d::Zero()) const;
+              const CameraRates& rates = CameraRates()) const;
 
  private:
   double sigma(int level) const;
@@ -91,11 +92,11 @@ class PoseOptimizer {
   /// `rolling`; whitened by sigma(level).
   std::vector<std::unique_ptr<ceres::CostFunction>> makeCosts(const std::vector<PoseObservation>& observations,
                                                               const Pinhole& pinhole, bool rolling) const;
-  /// Marks each observation an inlier at (q_cw, t_cw, omega) in `inliers` (size of
+  /// Marks each observation an inlier at (q_cw, t_cw, rates) in `inliers` (size of
   /// `observations`): in front of its row's camera when `accept_all_in_front`, else
   /// agreesInCamera; returns the count.
   int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole, const Eigen::Quaterniond& q_cw,
-               const Eigen::Vector3d& t_cw, const Eigen::Vector3d& omega_rad_s, bool accept_all_in_front,
+               const Eigen::Vector3d& t_cw, const CameraRates& rates, bool accept_all_in_front,
                std::vector<bool>* inliers) const;
 
   TrackingOptions options_;

@@ -3,8 +3,7 @@
 /// First-order rolling-shutter compensation of a frame's keypoints: each image row is exposed at
 /// its own time, so under a fast turn the image is skewed. A keypoint seen at row v is moved to
 /// where the camera at the frame's stamp would have seen it, by the rotation the camera made in
-/// between (its angular velocity from the motion model). Translation during the readout is
-/// neglected (millimetres for a hand-held camera).
+/// between, and moved by the camera's translation in between when a linear velocity is given.
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -23,11 +22,14 @@ inline double rowTimeOffsetS(double row, int rows, double readout_s) { return ((
 /// undistorted position is rotated by exp(omega * dt(row)) (omega_camera_rad_s: the camera's
 /// angular velocity in its own optical frame [rad/s]; rows read out over readout_s [s]), its depth
 /// read again from `depth_m` (registered to the input image, captured at the stamp) where it
-/// moved to, and its 3D point made from both. A keypoint whose new depth is missing keeps its old
-/// one. Identity for readout_s <= 0.
+/// moved to, and its 3D point made from both; then, with `velocity_camera_m_s` (the camera's
+/// linear velocity in its optical frame [m/s]), the point is moved by the camera's translation
+/// between its row's time and the stamp and projected again. A keypoint whose new depth is
+/// missing keeps its old one. Identity for readout_s <= 0.
 FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::Mat& depth_m,
                                        const CameraIntrinsics& camera, const Eigen::Vector3d& omega_camera_rad_s,
-                                       double readout_s);
+                                       double readout_s,
+                                       const Eigen::Vector3d& velocity_camera_m_s = Eigen::Vector3d::Zero());
 
 }  // namespace tracking
 }  // namespace dypho

@@ -1,11 +1,11 @@
 #pragma once
 /// \file rolling_shutter_error.h
 /// Motion-only refinement with a rolling shutter: each image row is exposed at its own time, so a
-/// point is projected with the camera of its keypoint's row. Within the frame the camera turns at
-/// a constant angular velocity omega (its own optical frame, [rad/s]); translation during the
-/// readout is neglected (millimetres for a hand-held camera). A row read out `row_time_s` after
-/// the stamp sees the point p_stamp (camera at the stamp) at p_row = exp(-omega row_time_s) p_stamp,
-/// the inverse of compensateRollingShutter's turn.
+/// point is projected with the camera of its keypoint's row. Within the frame the camera moves at
+/// a constant angular velocity omega [rad/s] and linear velocity v [m/s], both in its optical
+/// frame at the stamp: the camera of a row read out `row_time_s` = tau after the stamp is the
+/// stamp's moved by (exp(omega tau), v tau), so it sees the point p_stamp (camera at the stamp) at
+/// p_row = exp(-omega tau) (p_stamp - v tau), the inverse of compensateRollingShutter's motion.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -17,25 +17,34 @@
 namespace dypho {
 namespace tracking {
 
-/// p_row = exp(-omega row_time_s) p_stamp (see the file comment); T = double or a Ceres Jet.
+/// The camera's motion during one frame, in its optical frame at the stamp.
+struct CameraRates {
+  Eigen::Vector3d omega_rad_s = Eigen::Vector3d::Zero();   ///< angular velocity [rad/s]
+  Eigen::Vector3d velocity_m_s = Eigen::Vector3d::Zero();  ///< linear velocity [m/s]
+};
+
+/// p_row = exp(-omega tau) (p_stamp - v tau), tau = row_time_s (see the file comment); T = double
+/// or a Ceres Jet.
 template <typename T>
-void pointAtRowTime(const T* omega_rad_s, double row_time_s, const T* p_stamp, T* p_row) {
+void pointAtRowTime(const T* omega_rad_s, const T* velocity_m_s, double row_time_s, const T* p_stamp, T* p_row) {
   const T angle_axis[3] = {-omega_rad_s[0] * row_time_s, -omega_rad_s[1] * row_time_s, -omega_rad_s[2] * row_time_s};
-  ceres::AngleAxisRotatePoint(angle_axis, p_stamp, p_row);
+  const T moved[3] = {p_stamp[0] - velocity_m_s[0] * row_time_s, p_stamp[1] - velocity_m_s[1] * row_time_s,
+                      p_stamp[2] - velocity_m_s[2] * row_time_s};
+  ceres::AngleAxisRotatePoint(angle_axis, moved, p_row);
 }
 
 /// pointAtRowTime for Eigen vectors.
-inline Eigen::Vector3d pointAtRowTime(const Eigen::Vector3d& omega_rad_s, double row_time_s,
-                                      const Eigen::Vector3d& p_stamp) {
+inline Eigen::Vector3d pointAtRowTime(const CameraRates& rates, double row_time_s, const Eigen::Vector3d& p_stamp) {
   Eigen::Vector3d p_row;
-  pointAtRowTime(omega_rad_s.data(), row_time_s, p_stamp.data(), p_row.data());
+  pointAtRowTime(rates.omega_rad_s.data(), rates.velocity_m_s.data(), row_time_s, p_stamp.data(), p_row.data());
   return p_row;
 }
 
 /// Residual of one observation seen at `row_time_s` from the stamp: the whitened pixel error of
 /// the point projected with its row's camera, and, when the observation has a depth, the virtual
 /// right column's error as in RgbdReprojectionError (else 0). Parameters: the quaternion of
-/// T_camera_world [x, y, z, w] (EigenQuaternionManifold), its translation [m], omega [rad/s].
+/// T_camera_world [x, y, z, w] (EigenQuaternionManifold), its translation [m], omega [rad/s], v
+/// [m/s].
 struct RollingShutterReprojectionError {
   RollingShutterReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
                                   double bf_px_m, double sigma_px, double row_time_s, const Pinhole& pinhole)
@@ -48,11 +57,11 @@ struct RollingShutterReprojectionError {
         pinhole(pinhole) {}
 
   template <typename T>
-  bool operator()(const T* q_cw, const T* t_cw, const T* omega_rad_s, T* residuals) const {
+  bool operator()(const T* q_cw, const T* t_cw, const T* omega_rad_s, const T* velocity_m_s, T* residuals) const {
     const Eigen::Map<const Eigen::Quaternion<T>> q(q_cw);
     const Eigen::Matrix<T, 3, 1> p_stamp = q * p_world_m.cast<T>() + Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t_cw);
     T p_row[3];
-    pointAtRowTime(omega_rad_s, row_time_s, p_stamp.data(), p_row);
+    pointAtRowTime(omega_rad_s, velocity_m_s, row_time_s, p_stamp.data(), p_row);
     if (!(p_row[2] > T(1e-6))) return false;
     const T inv_z = T(1.0) / p_row[2];
     const T u = T(pinhole.fx) * p_row[0] * inv_z + T(pinhole.cx);
@@ -62,10 +71,10 @@ struct RollingShutterReprojectionError {
     return true;
   }
 
-  /// The Ceres cost (3 residuals; parameter blocks 4, 3, 3).
+  /// The Ceres cost (3 residuals; parameter blocks 4, 3, 3, 3).
   static ceres::CostFunction* create(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
                                      double bf_px_m, double sigma_px, double row_time_s, const Pinhole& pinhole) {
-    return new ceres::AutoDiffCostFunction<RollingShutterReprojectionError, 3, 4, 3, 3>(
+    return new ceres::AutoDiffCostFunction<RollingShutterReprojectionError, 3, 4, 3, 3, 3>(
         new RollingShutterReprojectionError(p_world_m, uv_px, depth_m, bf_px_m, sigma_px, row_time_s, pinhole));
   }
 
@@ -78,21 +87,20 @@ struct RollingShutterReprojectionError {
   Pinhole pinhole;
 };
 
-/// Prior on the angular velocity about `center` (the motion model's rate):
-/// r = (omega - center) / sigma (3 residuals, one block of 3).
-struct AngularRatePrior {
-  AngularRatePrior(const Eigen::Vector3d& center_rad_s, double sigma_rad_s)
-      : center(center_rad_s), inv_sigma(1.0 / sigma_rad_s) {}
+/// Prior on a rate (the angular or the linear velocity) about `center` (the motion model's):
+/// r = (rate - center) / sigma (3 residuals, one block of 3).
+struct RatePrior {
+  RatePrior(const Eigen::Vector3d& center, double sigma) : center(center), inv_sigma(1.0 / sigma) {}
 
   template <typename T>
-  bool operator()(const T* omega_rad_s, T* residuals) const {
-    for (int i = 0; i < 3; ++i) residuals[i] = (omega_rad_s[i] - T(center[i])) * inv_sigma;
+  bool operator()(const T* rate, T* residuals) const {
+    for (int i = 0; i < 3; ++i) residuals[i] = (rate[i] - T(center[i])) * inv_sigma;
     return true;
   }
 
   /// The Ceres cost.
-  static ceres::CostFunction* create(const Eigen::Vector3d& center_rad_s, double sigma_rad_s) {
-    return new ceres::AutoDiffCostFunction<AngularRatePrior, 3, 3>(new AngularRatePrior(center_rad_s, sigma_rad_s));
+  static ceres::CostFunction* create(const Eigen::Vector3d& center, double sigma) {
+    return new ceres::AutoDiffCostFunction<RatePrior, 3, 3>(new RatePrior(center, sigma));
   }
 
   Eigen::Vector3d center;

@@ -120,10 +120,15 @@ struct TrackingOptions {
   /// (compensateRollingShutter). The TUM and Bonn camera files say 30 ms (Kinect v1 / Xtion).
   double rolling_shutter_readout_ms = -1.0;
   /// Prior standard deviation of the angular velocity the pose refinement estimates with a
-  /// rolling shutter, about the motion model's rate (zero without one) [rad/s]; default 0.3,
-  /// range (0, 100]. A loose prior (1-3 rad/s) let the rate absorb noise on slow frames (Bonn
-  /// every 15th frame removed: 13.4 cm with 1).
-  double rolling_shutter_rate_sigma_rad_s = 0.3;
+  /// rolling shutter, about the motion model's rate (zero without one) [rad/s]; default 0.15,
+  /// range (0, 100]. A loose prior lets the rate absorb noise on slow frames and the keyframes
+  /// made with it (Bonn every 15th frame removed: 13.4 cm with 1; the generator's slow loop with a
+  /// rolling shutter: 5.4 cm with 0.3 against 1.6 cm with 0.15); a tight one misses fast turns
+  /// (docs/journal/benchmarks-2026.md, section 14).
+  double rolling_shutter_rate_sigma_rad_s = 0.15;
+  /// Prior standard deviation of the linear velocity estimated with a rolling shutter, about the
+  /// motion model's [m/s]; default 0.1, range (0, 100].
+  double rolling_shutter_velocity_sigma_m_s = 0.1;
 
   // --- keyframes (KeyframeSelector) ---
   /// New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10,

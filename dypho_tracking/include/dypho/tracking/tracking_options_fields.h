@@ -97,7 +97,10 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "velocity and projects each point with the pose of its keypoint's row.");
   visitor("rolling_shutter_rate_sigma_rad_s", options.rolling_shutter_rate_sigma_rad_s,
           "Prior standard deviation, about the motion model's rate, of the angular velocity estimated with a rolling "
-          "shutter [rad/s]; default 0.3, range (0, 100].");
+          "shutter [rad/s]; default 0.15, range (0, 100].");
+  visitor("rolling_shutter_velocity_sigma_m_s", options.rolling_shutter_velocity_sigma_m_s,
+          "Prior standard deviation, about the motion model's, of the linear velocity estimated with a rolling "
+          "shutter [m/s]; default 0.1, range (0, 100].");
   visitor(
       "keyframe_translation_m", options.keyframe_translation_m,
       "New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10, range (0, 10].");
