@@ -134,6 +134,10 @@ graph() {  # name label data mask: the bag through tum_bag.launch at rate 1.0
   [ -f "$bag" ] || "$BIN/dypho_dataset_to_bag" --dataset "$data" --out "$bag" > /dev/null
   [ "$mask" = "detector" ] && det=(--detector "$MODEL")
   [ "$data" = "$BONN" ] && extra=(--bonn-correction)
+  # The TUM and Bonn cameras' rolling shutter, as their camera files say for the runner.
+  local readout=()
+  [ "$data" != "$SYNTH" ] && readout=(--launch-arg rolling_shutter_readout_ms:=30)
+  extra+=("${readout[@]}")
   : > "$OUT/$name.runs"
   for ((k = 1; k <= REPEATS; ++k)); do
     echo "results.sh: $name, run $k of $REPEATS"
@@ -144,7 +148,7 @@ graph() {  # name label data mask: the bag through tum_bag.launch at rate 1.0
       "$(field "$s" '^map views:\s*all\s*[0-9]+ views: PSNR') $(field "$s" '^map views:.*coverage')" >> "$OUT/$name.runs"
   done
   record "$name" "$label" "graph 1x" "$mask" \
-    "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx}" "$OUT/$name.runs"
+    "bench/realtime_graph.sh $(basename "$bag") ${det[*]:+--detector yolox_nano.onnx} ${readout[*]}" "$OUT/$name.runs"
 }
 
 [ -x "$BIN/dypho_run_dataset" ] || { echo "results.sh: build first (bash scripts/build.sh): no $BIN/dypho_run_dataset" >&2; exit 1; }
