@@ -87,8 +87,8 @@ struct BackgroundOptions {
   /// of the view flagged, 58 % masked). Slower, the growth is not limited: people whose flow
   /// found only their outline are filled. Default 8, >= 0 (0 = no limit): with 8 the ROS graph at
   /// 1x on TUM fr1/rpy (150 frames) answered every frame (6.6-6.7 cm) against 106-115 of 150
-  /// (13.5-22.8 cm) without; offline, with the rolling-shutter model, the mean over the whole
-  /// window, every 15th frame removed and 10 % removed at random went 4.00 -> 2.47 cm
+  /// (13.5-22.8 cm) without; offline, with the rolling-shutter model (rate prior 0.3 rad/s), the
+  /// mean over the whole window, every 15th frame removed and 10 % at random went 4.00 -> 2.47 cm
   /// (docs/journal/benchmarks-2026.md, sections 13 and 14).
   double grow_max_ratio = 8.0;
   /// Flow regions that the background explains (same depth as B, no consistency pixel) are
