@@ -113,12 +113,13 @@ TEST(PoseOptimizer, TooFewObservationsFailWithMessage) {
 /// zero (no motion model yet).
 ///
 /// Bounds: the rolling-shutter model has the noise-limited errors of the global-shutter test above
-/// (~1 mm, ~0.004 deg expected; 5 mm / 0.1 deg bounds). The rate is seen through the skew: with
-/// row times spread over +-15 ms, the expected error is about 0.5 px / (525 px * 15 ms *
-/// sqrt(300)) ~ 0.004 rad/s per axis; 0.1 rad/s leaves a wide margin and fails at once if the
-/// sign of the row time or of the turn were wrong (error ~5 rad/s). The global-shutter model on
-/// the same observations must be worse than 1 cm: without that, the case would not show what the
-/// model is for.
+/// (~1 mm, ~0.004 deg expected; 5 mm / 0.1 deg bounds; measured 0.21 mm, 0.020 deg). The rate is
+/// seen through the skew, which the linear velocity (also free, prior 0.1 m/s) can partly take:
+/// a velocity of 0.1 m/s over +-15 ms moves points 1-5 m away as a rate of 0.02-0.1 rad/s would,
+/// so the rate is known to about 0.1 rad/s (measured error 0.075 rad/s). 0.2 rad/s bounds it and
+/// still fails at once if the sign of the row time or of the turn were wrong (error ~5 rad/s).
+/// The global-shutter model on the same observations must be worse than 1 cm (measured 1.7 cm,
+/// 37 of 300 inliers): without that, the case would not show what the model is for.
 TEST(PoseOptimizer, RollingShutterFastTurnRecoversPoseAndRate) {
   const double readout_s = 0.030;
   const Eigen::Vector3d omega_true(0.4, 2.5, -0.6);
@@ -157,7 +158,7 @@ TEST(PoseOptimizer, RollingShutterFastTurnRecoversPoseAndRate) {
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_LT(position_error_m(r), 0.005);
   EXPECT_LT(rotationErrorDeg(r.T_camera_world, T_cw_true), 0.1);
-  EXPECT_LT((r.rates.omega_rad_s - omega_true).norm(), 0.1) << r.rates.omega_rad_s.transpose();
+  EXPECT_LT((r.rates.omega_rad_s - omega_true).norm(), 0.2) << r.rates.omega_rad_s.transpose();
   EXPECT_GT(r.num_inliers, 280);
 
   const PoseOptimizerResult global = PoseOptimizer(TrackingOptions()).optimize(obs, kPinhole, T_init);
