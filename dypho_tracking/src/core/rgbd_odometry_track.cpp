@@ -352,14 +352,15 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
   // With a rolling shutter the keyframe's points are made from its keypoints as the camera at the
   // stamp saw them, turned by the angular velocity the pose refinement estimated.
   const double readout_s = options_.rolling_shutter_readout_ms * 1e-3;
-  if (readout_s > 0.0 && !(aligned.rates.omega_rad_s.isZero(0.0) && aligned.rates.velocity_m_s.isZero(0.0))) {
-    const FrameFeatures at_stamp =
-        compensateRollingShutter(work->features(), work->frame.depth_m, work->frame.camera, aligned.rates.omega_rad_s,
-                                 readout_s, aligned.rates.velocity_m_s);
-    addKeyframe(work->frame, work->mask, at_stamp, work->T_world_camera, ids, work->pinhole, &work->result);
-    return;
+  const bool moved =
+      readout_s > 0.0 && !(aligned.rates.omega_rad_s.isZero(0.0) && aligned.rates.velocity_m_s.isZero(0.0));
+  FrameFeatures at_stamp;
+  if (moved) {
+    at_stamp = compensateRollingShutter(work->features(), work->frame.depth_m, work->frame.camera,
+                                        aligned.rates.omega_rad_s, readout_s, aligned.rates.velocity_m_s);
   }
-  addKeyframe(work->frame, work->mask, work->features(), work->T_world_camera, ids, work->pinhole, &work->result);
+  addKeyframe(work->frame, work->mask, moved ? at_stamp : work->features(), work->T_world_camera, ids, work->pinhole,
+              &work->result);
 }
 
 void RgbdOdometry::followMap(const TrackingFrame& work) {
