@@ -233,6 +233,37 @@ TEST(FlowMotionMasker, MovingSquareOverShiftedBackgroundIsMasked) {
   }
 }
 
+TEST(FlowMotionMasker, StaticMedianFlowIsTheCameraMotionWhenMoversFillMostOfTheView) {
+  // The camera pans (3, 1) px per frame (3.16 px); four textured squares of 200 x 200 px, 52 % of
+  // the view together, each move 12 px per frame their own way. Each is smaller than the
+  // background, so the ego-motion fit follows the background; the median of all flow lengths is
+  // a mover's, the median over the samples the ego-motion explains is the pan's.
+  FlowMaskOptions options;
+  options.max_masked_fraction = 0.9;  // over half the view moves: not a degraded frame here,
+  options.min_inlier_ratio = 0.2;     // and the background's 48 % give 28 % of the fit's samples
+  FlowMotionMasker masker(options);
+  const cv::Mat bg = makeTexture(kSize, 11);
+  const cv::Point origins[4] = {{20, 20}, {420, 20}, {20, 260}, {420, 260}};
+  const cv::Point velocities[4] = {{12, 0}, {-12, 0}, {0, 12}, {0, -12}};
+  FlowMaskResult r;
+  for (int k = 0; k < 2; ++k) {
+    const cv::Matx23d shift(1, 0, 3.0 * k, 0, 1, 1.0 * k);
+    cv::Mat frame;
+    cv::warpAffine(bg, frame, cv::Mat(shift), kSize, cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    for (int i = 0; i < 4; ++i) {
+      const cv::Mat texture = makeTexture(cv::Size(200, 200), 20 + static_cast<std::uint64_t>(i));
+      texture.copyTo(frame(cv::Rect(origins[i] + k * velocities[i], cv::Size(200, 200))));
+    }
+    r = masker.compute(frameOf(frame));
+  }
+  ASSERT_FALSE(r.degraded) << r.message << " (masked " << r.masked_fraction << ", inliers " << r.inlier_ratio << ")";
+  // 0.5 px: the flow is measured at 1/4 resolution (1 flow px = 4 px) and sub-pixel refined.
+  EXPECT_NEAR(r.static_median_flow_px, std::hypot(3.0, 1.0), 0.5);
+  EXPECT_GT(r.median_flow_px, 6.0);  // the plain median is a mover's (12 px), not the camera's
+  std::printf("[ report ] movers over 52 %%: median flow %.2f px, static median %.2f px\n", r.median_flow_px,
+              r.static_median_flow_px);
+}
+
 TEST(FlowMotionMasker, TooMuchMaskedWithoutHistoryIsDegradedAndEmpty) {
   FlowMaskOptions options;
   options.max_masked_fraction = 0.01;  // the square alone covers ~5 % of the image

@@ -145,21 +145,25 @@ const std::string& nearest(const std::vector<std::pair<double, std::string>>& en
   return best->second;
 }
 
-TEST(DynamicMaskRealData, TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns) {
-  // fr1/rpy turns fast from its first frame (up to 4 deg per frame) over a static desk. On the
-  // first frames the background model has no value yet; without a growth limit a flow region of
-  // a few per cent on the desk grew over the whole depth-connected desk and stayed there while
-  // nothing was learnt under it: 25-58 % of the static view was masked on frames 1-13 (at 1x the
-  // mask ran away to 80 %). With background_grow_max_ratio 8 and the ground-truth relative pose
-  // as the prediction (what tracking hands over at best), the mask stays under 10 % on each of
-  // the first 40 frames (measured: at most 9.6 %, mean 2.7 %). Bounds: 20 % on any frame, 8 % on
-  // average (every masked pixel of this scene is a false positive).
+/// Masked fractions of the whole dynamic mask on a static scene (every masked pixel is a false
+/// positive) and of its depth-consistency part alone, over frames 1..frames-1.
+struct StaticSceneMask {
+  double mean = 0.0, max = 0.0;
+  double consistency_mean = 0.0, consistency_max = 0.0;
+  bool found = false;  ///< false: the data is absent
+};
+
+/// Runs DynamicMasker with `options` on the first `frames` frames of TUM fr1/rpy (a static desk
+/// under fast hand-held turns), the ground-truth relative pose as the prediction (what tracking
+/// hands over at best).
+StaticSceneMask maskFr1Rpy(const DynamicMaskOptions& options, std::size_t frames) {
+  StaticSceneMask out;
   const std::string folder = std::string(DYPHO_SHARED_DIR) + "/data/tum_fr1_rpy_first150";
   const auto colour = listStamped(folder, "rgb.txt");
   const auto depth = listStamped(folder, "depth.txt");
   const auto truth = readGroundTruth(folder);
-  if (colour.size() < 40 || depth.size() < 40 || truth.empty())
-    GTEST_SKIP() << "TUM fr1/rpy data not found in " << folder;
+  if (colour.size() < frames || depth.size() < frames || truth.empty()) return out;
+  out.found = true;
   const auto poseAt = [&](double stamp_s) {
     auto it = truth.lower_bound(stamp_s);
     if (it == truth.end()) --it;
@@ -173,17 +177,14 @@ TEST(DynamicMaskRealData, TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns) {
   camera.width = 640;
   camera.height = 480;
   camera.distortion = {0.262383, -0.953104, -0.005358, 0.002628, 1.163314};
-  const DynamicMaskOptions options;  // the defaults: background_grow_max_ratio 8
-  ASSERT_EQ(options.background.grow_max_ratio, 8.0);
   DynamicMasker masker(options);
-  double sum = 0.0, worst = 0.0;
-  int frames = 0;
-  for (std::size_t i = 0; i < 40; ++i) {
+  for (std::size_t i = 0; i < frames; ++i) {
     RgbdFrame frame;
     frame.stamp_ns = static_cast<Timestamp>(colour[i].first * 1e9);
     frame.bgr = cv::imread(colour[i].second, cv::IMREAD_COLOR);
     const cv::Mat raw = cv::imread(nearest(depth, colour[i].first), cv::IMREAD_UNCHANGED);
-    ASSERT_FALSE(frame.bgr.empty() || raw.empty()) << "cannot read frame " << i;
+    EXPECT_FALSE(frame.bgr.empty() || raw.empty()) << "cannot read frame " << i;
+    if (frame.bgr.empty() || raw.empty()) return out;
     raw.convertTo(frame.depth_m, CV_32F, 1.0 / 5000.0);
     frame.camera = camera;
     MaskPrior prior;
@@ -191,13 +192,59 @@ TEST(DynamicMaskRealData, TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns) {
     const MaskResult result = masker.compute(frame, prior);
     if (i == 0) continue;
     EXPECT_LE(result.masked_fraction, 0.20) << "frame " << i;
-    sum += result.masked_fraction;
-    worst = std::max(worst, result.masked_fraction);
-    ++frames;
+    const double consistency =
+        result.consistency_mask.empty()
+            ? 0.0
+            : static_cast<double>(cv::countNonZero(result.consistency_mask)) / result.consistency_mask.total();
+    out.mean += result.masked_fraction;
+    out.max = std::max(out.max, result.masked_fraction);
+    out.consistency_mean += consistency;
+    out.consistency_max = std::max(out.consistency_max, consistency);
   }
-  std::printf("[ report ] tum fr1/rpy static desk, dynamic mask frames 1-39: mean %.4f max %.4f\n", sum / frames,
-              worst);
-  EXPECT_LE(sum / frames, 0.08);
+  out.mean /= static_cast<double>(frames - 1);
+  out.consistency_mean /= static_cast<double>(frames - 1);
+  std::printf(
+      "[ report ] tum fr1/rpy static desk, frames 1-%zu: mask mean %.4f max %.4f, consistency mean %.4f max %.4f\n",
+      frames - 1, out.mean, out.max, out.consistency_mean, out.consistency_max);
+  return out;
+}
+
+TEST(DynamicMaskRealData, TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns) {
+  // fr1/rpy turns fast from its first frame (up to 4 deg per frame) over a static desk. On the
+  // first frames the background model has no value yet; without a growth limit a flow region of
+  // a few per cent on the desk grew over the whole depth-connected desk and stayed there while
+  // nothing was learnt under it: 25-58 % of the static view was masked on frames 1-13 (at 1x the
+  // mask ran away to 80 %). With background_grow_max_ratio 8 and the ground-truth relative pose
+  // as the prediction (what tracking hands over at best), the mask stays under 10 % on each of
+  // the first 40 frames (measured: at most 9.6 %, mean 2.7 %; mean 1.6 % with
+  // background_motion_tolerance, see the next test). Bounds: 20 % on any frame, 8 % on
+  // average (every masked pixel of this scene is a false positive).
+  const DynamicMaskOptions options;  // the defaults: background_grow_max_ratio 8
+  ASSERT_EQ(options.background.grow_max_ratio, 8.0);
+  const StaticSceneMask mask = maskFr1Rpy(options, 40);
+  if (!mask.found) GTEST_SKIP() << "TUM fr1/rpy data not found in " << DYPHO_SHARED_DIR << "/data";
+  EXPECT_LE(mask.mean, 0.08);
+}
+
+TEST(DynamicMaskRealData, TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns) {
+  // On fr1/rpy's fast turns (up to 37 px of median flow per frame) the carried background puts the
+  // desk's and the furniture's depth edges a few pixels off, and the static surface in front of
+  // each edge was "in front of the background": with the paper's per-pixel test the consistency
+  // mask alone held 2.5 % of the static view on average over the 150 frames (12.8 % on the worst
+  // frame), with the ground-truth pose; the whole mask 3.5 %. With the tolerance
+  // (background_motion_tolerance 0.25 of the median flow): 1.1 % (8.4 %) and 2.3 %. Bounds, with
+  // room for another machine's flow: the tolerance removes at least 40 % of the consistency mask
+  // and 20 % of the whole mask (measured 57 % and 34 %); every masked pixel here is a false
+  // positive.
+  DynamicMaskOptions per_pixel;
+  per_pixel.background.motion_tolerance = 0.0;
+  const DynamicMaskOptions tolerant;  // the defaults
+  ASSERT_GT(tolerant.background.motion_tolerance, 0.0);
+  const StaticSceneMask off = maskFr1Rpy(per_pixel, 150);
+  if (!off.found) GTEST_SKIP() << "TUM fr1/rpy data not found in " << DYPHO_SHARED_DIR << "/data";
+  const StaticSceneMask on = maskFr1Rpy(tolerant, 150);
+  EXPECT_LE(on.consistency_mean, 0.6 * off.consistency_mean);
+  EXPECT_LE(on.mean, 0.8 * off.mean);
 }
 
 }  // namespace

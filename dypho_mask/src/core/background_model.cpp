@@ -1,5 +1,6 @@
 #include "dypho/mask/background_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -54,6 +55,23 @@ void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camer
     float* o = depth_cur_m.ptr<float>(y);
     for (int x = 0; x < w; ++x) o[x] = std::isfinite(z[x]) ? z[x] : (c[x] && std::isfinite(f[x]) ? f[x] : 0.f);
   }
+}
+
+void nearestWithin(const cv::Mat& depth_m, int radius_px, cv::Mat& nearest_m) {
+  CV_Assert(depth_m.type() == CV_32FC1 && radius_px >= 0);
+  if (radius_px == 0) {
+    depth_m.copyTo(nearest_m);
+    return;
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  cv::Mat have, lifted;
+  cv::compare(depth_m, 0.f, have, cv::CMP_GT);  // false for NaN
+  lifted.create(depth_m.size(), CV_32FC1);
+  lifted.setTo(inf);
+  depth_m.copyTo(lifted, have);
+  const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius_px + 1, 2 * radius_px + 1));
+  cv::erode(lifted, nearest_m, disc, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(inf));
+  nearest_m.setTo(0.f, ~have);
 }
 
 void depthConsistencyMask(const cv::Mat& background_m, const cv::Mat& depth_m, double sigma_m, int window,
@@ -142,9 +160,10 @@ BackgroundModel::BackgroundModel(const BackgroundOptions& options) : options_((o
 
 void BackgroundModel::process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic, const cv::Mat& rendered_depth_m,
                               const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur,
-                              cv::Mat& dynamic) {
+                              cv::Mat& dynamic, double image_motion_px) {
   CV_Assert(raw_dynamic.type() == CV_8UC1 && raw_dynamic.size() == depth_m.size());
   test(depth_m, rendered_depth_m, camera, T_prev_cur, dynamic);
+  retest(depth_m, image_motion_px, dynamic);
   cv::bitwise_or(raw_dynamic, dynamic, excluded_);
   update(depth_m, rendered_depth_m, excluded_);
 }
@@ -185,6 +204,17 @@ void BackgroundModel::test(const cv::Mat& depth_m, const cv::Mat& rendered_depth
     }
   }
   depthConsistencyMask(prior_, depth_m, options_.sigma_m, options_.window_px, options_.min_agreeing, dynamic);
+}
+
+bool BackgroundModel::retest(const cv::Mat& depth_m, double image_motion_px, cv::Mat& dynamic) {
+  // A depth edge of the carried prior may be off by a share of the frame's image motion.
+  // (NaN or negative motion: none; more than the image is no more tolerant than the image.)
+  const double motion_px = std::clamp(std::isfinite(image_motion_px) ? image_motion_px : 0.0, 0.0, 1e4);
+  const int radius_px = static_cast<int>(std::lround(options_.motion_tolerance * motion_px));
+  if (radius_px == 0 || prior_.empty() || prior_.size() != depth_m.size()) return false;
+  nearestWithin(prior_, radius_px, tested_);
+  depthConsistencyMask(tested_, depth_m, options_.sigma_m, options_.window_px, options_.min_agreeing, dynamic);
+  return true;
 }
 
 void BackgroundModel::update(const cv::Mat& depth_m, const cv::Mat& rendered_depth_m, const cv::Mat& excluded) {

@@ -72,6 +72,8 @@ void BackgroundOptions::validate() const {
       tau + rho < 1.0,
       "background_tau + background_rho must be < 1 (the weight of B_{i-1} is 1 - tau - rho), got " + num(tau + rho));
   require(std::isfinite(sigma_m) && sigma_m > 0.0, "background_sigma_m must be > 0, got " + num(sigma_m));
+  require(std::isfinite(motion_tolerance) && motion_tolerance >= 0.0 && motion_tolerance <= 2.0,
+          "background_motion_tolerance must be in [0, 2], got " + num(motion_tolerance));
   require(window_px >= 3 && window_px % 2 == 1,
           "background_window_px must be odd and >= 3, got " + std::to_string(window_px));
   require(min_agreeing >= 0 && min_agreeing < window_px * window_px,

@@ -268,6 +268,9 @@ bool DynamicMasker::startsAllDynamic(const FrameState& f, MaskResult& result) {
 }
 
 void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
+  // The consistency test ran beside the flow; now that the flow measured the static scene's image
+  // motion, a depth edge of B may be that share of it off (BackgroundOptions::motion_tolerance).
+  background_.retest(depth_small_, f.flow.static_median_flow_px * options_.background.scale, consistency_small_);
   cutRawMaskAtBackground(f);
   if (background_updates_ == 0 && f.flow.raw_flow_mask.empty() && f.seg.mask.empty()) {
     // No raw mask yet (first frame): B_1 must not absorb the moving objects; wait a frame (the

@@ -385,26 +385,35 @@ void FlowMotionMasker::accumulateResidual(double still_weight) {
 }
 
 void FlowMotionMasker::flowStatistics(FlowMaskResult& result) const {
-  // Over a sparse grid of the textured pixels: the median flow length [full-res px] and the
-  // share of samples that move less than kQuietFlowPx.
+  // Over a sparse grid of the textured pixels: the median flow length [full-res px], the share of
+  // samples that move less than kQuietFlowPx, and the median flow length of the samples the
+  // ego-motion explains (residual under the threshold: the static scene, without the movers).
   constexpr float kQuietFlowPx = 0.5f;
   const float to_full = static_cast<float>(1.0 / options_.flow_scale);
-  std::vector<float> lengths;
+  const float threshold = static_cast<float>(options_.residual_threshold_px);
+  std::vector<float> lengths, static_lengths;
   lengths.reserve(static_cast<size_t>(flow_.total() / 16 + 1));
+  static_lengths.reserve(lengths.capacity());
   int quiet = 0;
   for (int y = 2; y < flow_.rows; y += 4) {
     const cv::Vec2f* f = flow_.ptr<cv::Vec2f>(y);
     const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
+    const float* r = residual_.ptr<float>(y);
     for (int x = 2; x < flow_.cols; x += 4) {
       if (t != nullptr && t[x] == 0) continue;
       lengths.push_back(std::hypot(f[x][0], f[x][1]) * to_full);
       quiet += lengths.back() < kQuietFlowPx;
+      if (r[x] < threshold) static_lengths.push_back(lengths.back());
     }
   }
   if (lengths.empty()) return;
-  std::nth_element(lengths.begin(), lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2), lengths.end());
-  result.median_flow_px = lengths[lengths.size() / 2];
+  const auto median = [](std::vector<float>& v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return static_cast<double>(v[v.size() / 2]);
+  };
+  result.median_flow_px = median(lengths);
   result.quiet_flow_share = static_cast<double>(quiet) / static_cast<double>(lengths.size());
+  if (!static_lengths.empty()) result.static_median_flow_px = median(static_lengths);
 }
 
 bool FlowMotionMasker::followsCarried() const {

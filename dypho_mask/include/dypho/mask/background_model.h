@@ -18,6 +18,14 @@
 ///    only something IN FRONT of the background is dynamic. A pixel is dynamic when at most n_m
 ///    of its valid neighbours agree (paper: static when more than n_m agree); with n_m or fewer
 ///    valid neighbours it is undecided (not dynamic here; the raw masks decide).
+///  - The carried B is only as good as the predicted pose and the depth's registration to it: on a
+///    fast turn a depth edge lands a few pixels off (the depth is not read out at the colour
+///    image's instant, the prediction has its own error), and the static surface in front of the
+///    edge would be "in front of the background". `retest` therefore compares each pixel with the
+///    nearest background depth within a radius that grows with the frame's image motion as the
+///    flow measured it (BackgroundOptions::motion_tolerance, `nearestWithin`); a person standing in
+///    front of a wall is still in front of all of it. The flow's measure, not the predicted pose's:
+///    people who drag the tracked pose of a still camera must not loosen the test.
 ///  - Where D_i is farther than Q + sigma_m (background revealed behind an object that left, or a
 ///    person absorbed into B before it moved), B_i takes D_i directly instead of blending slowly.
 ///  - D_i enters only where neither the raw mask nor this frame's consistency mask is dynamic.
@@ -47,6 +55,10 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
                              double sigma_m, double min_consistent_share, double min_checked_share,
                              cv::Mat& raw_dynamic);
 
+/// `nearest_m` = the minimum of the valid (> 0) depths of `depth_m` within a disc of `radius_px`
+/// around each pixel, at the pixels where `depth_m` itself is valid (0 elsewhere). radius 0 copies.
+void nearestWithin(const cv::Mat& depth_m, int radius_px, cv::Mat& nearest_m);
+
 /// One-sided neighbourhood consistency. `dynamic` (CV_8UC1, 255 = dynamic) for each pixel x with
 /// background_m(x) > 0: among the window x window neighbours q with depth_m(q) > 0, count those
 /// with depth_m(q) >= background_m(x) - sigma_m; dynamic when there are more than `min_agreeing`
@@ -64,16 +76,24 @@ class BackgroundModel {
   /// One step = test() then update() with `raw_dynamic | dynamic` as the exclusion. All images at
   /// the model resolution: `depth_m` CV_32FC1 [m] (0/NaN = none), `raw_dynamic` CV_8UC1 (non-zero
   /// = dynamic by the raw masks), `rendered_depth_m` CV_32FC1 or empty; `camera` the intrinsics at
-  /// this resolution; `T_prev_cur` the predicted relative pose (nullopt = camera still). Writes the
-  /// consistency mask (CV_8UC1, 255 = dynamic) and updates B. A size change restarts the model.
+  /// this resolution; `T_prev_cur` the predicted relative pose (nullopt = camera still);
+  /// `image_motion_px` the frame's measured image motion at this resolution (see retest()). Writes
+  /// the consistency mask (CV_8UC1, 255 = dynamic) and updates B. A size change restarts the model.
   void process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic, const cv::Mat& rendered_depth_m,
-               const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur, cv::Mat& dynamic);
+               const CameraIntrinsics& camera, const std::optional<Eigen::Isometry3d>& T_prev_cur, cv::Mat& dynamic,
+               double image_motion_px = 0.0);
 
   /// First half of a step: carries B_{i-1} into the current view, forms the prior Q (see prior())
   /// and writes the consistency mask of `depth_m` against it (CV_8UC1, 255 = dynamic). Arguments
   /// as for process(). B itself is not changed until update().
   void test(const cv::Mat& depth_m, const cv::Mat& rendered_depth_m, const CameraIntrinsics& camera,
             const std::optional<Eigen::Isometry3d>& T_prev_cur, cv::Mat& dynamic);
+
+  /// Between test() and update(), once the frame's image motion is known [px at this resolution,
+  /// e.g. the flow's median]: the consistency mask again, each pixel against the nearest prior
+  /// depth within BackgroundOptions::motion_tolerance times that motion (file comment). Returns
+  /// false and leaves `dynamic` as test() wrote it when the radius rounds to 0.
+  bool retest(const cv::Mat& depth_m, double image_motion_px, cv::Mat& dynamic);
 
   /// Second half: B_i from the carried B_{i-1}, the rendered depth and D_i where `excluded` (CV_8UC1,
   /// non-zero = do not learn this pixel: raw, consistency or grown dynamic) is zero. Must follow
@@ -92,6 +112,7 @@ class BackgroundModel {
   BackgroundOptions options_;
   cv::Mat background_;
   cv::Mat prior_;
+  cv::Mat tested_;  ///< prior_ as the consistency test reads it (nearestWithin the motion's tolerance)
   cv::Mat warped_;
   bool warped_valid_ = false;  ///< test() carried B into warped_ (else B is used as is)
   cv::Mat excluded_;

@@ -79,6 +79,10 @@ struct FlowMaskResult {
   /// Median flow length of the textured pixels [full-res px] behind still_camera_weight (0 when
   /// there was no flow).
   double median_flow_px = 0.0;
+  /// Median flow length of the textured pixels the ego-motion explains (residual under
+  /// residual_threshold_px) [full-res px]: the image motion of the static scene, which people
+  /// filling the view do not change. 0 when there are none or no fit.
+  double static_median_flow_px = 0.0;
   /// Share of the textured pixels whose flow is under 0.5 px per frame (full-res), in [0, 1]: the
   /// part of the view that does not move at all (0 when there was no flow).
   double quiet_flow_share = 0.0;
