@@ -76,7 +76,8 @@ struct BackgroundOptions {
   /// Side of the square neighbourhood [model px], odd >= 3 (5: 25 neighbours). Default 5.
   int window_px = 5;
   /// The consistency test forgives a depth edge this far off, as a fraction of the frame's image
-  /// motion (the median flow of the textured pixels, FlowMaskResult::median_flow_px): a pixel is
+  /// motion (the median flow of the pixels the ego-motion explains,
+  /// FlowMaskResult::static_median_flow_px): a pixel is
   /// in front of the background only when it is in front of every background depth within that
   /// radius (BackgroundModel::retest). In [0, 2]; 0 = the pixel's own background (the paper).
   /// Default 0.25, a quarter of a frame's motion (the order of a Kinect's depth-to-colour readout

@@ -123,12 +123,12 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
           "n_m: a pixel is static when more than this many neighbours agree, >= 0. Default 9 (paper).");
   visitor("window_px", options.window_px,
           "Side of the square neighbourhood [background px], odd >= 3. Default 5 (25 neighbours).");
-  visitor(
-      "motion_tolerance", options.motion_tolerance,
-      "The consistency test forgives a depth edge this far off, as a fraction of the frame's image motion "
-      "(median flow): a pixel is in front of the background only when it is in front of every background depth within "
-      "that radius (a fast turn puts depth edges a few pixels off), in [0, 2]; 0 = the pixel's own background "
-      "(the paper). Default 0.25 (measured: docs/journal/benchmarks-2026.md, section 15).");
+  visitor("motion_tolerance", options.motion_tolerance,
+          "The consistency test forgives a depth edge this far off, as a fraction of the frame's image motion "
+          "(the static scene's median flow): a pixel is in front of the background only when it is in front of every "
+          "background depth within "
+          "that radius (a fast turn puts depth edges a few pixels off), in [0, 2]; 0 = the pixel's own background "
+          "(the paper). Default 0.25 (measured: docs/journal/benchmarks-2026.md, section 15).");
   visitor("grow_in_depth", options.grow_in_depth,
           "Grow the dynamic regions over their depth-connected surface where the background has no value or lies "
           "behind (fills the textureless inside of a person the flow outlined; grown pixels are not learnt into the "
