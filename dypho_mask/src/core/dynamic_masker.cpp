@@ -109,7 +109,10 @@ struct DynamicMasker::FrameState {
   bool rendered_ignored = false;  ///< R_d was given at an unusable type or size
   double test_ms = 0.0;           ///< the consistency test's wall time, beside the flow [ms]
   FlowMaskResult flow;            ///< this frame's motion mask
-  SegmentStep seg;                ///< this frame's segment mask
+  /// The relative pose B is warped with: the flow's fitted one (FlowMaskOptions::fit_rigid_motion)
+  /// when it has one, else the prior's.
+  std::optional<Eigen::Isometry3d> T_prev_cur;
+  SegmentStep seg;  ///< this frame's segment mask
 };
 
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
@@ -156,6 +159,18 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
   // accuracy (Bonn crowd with YOLOX-nano: 1.45 cm without, 1.7-2.7 cm with them). A network
   // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
   f.network = segment_->ready() && network_mask_in_use_;
+  f.T_prev_cur = f.prior.T_prev_cur;
+  if (options_.flow.fit_rigid_motion) {
+    // The background is warped with the motion fitted to the flow, so the test waits for it: a
+    // prediction made from older poses (a live graph's mask runs before tracking has posed the
+    // previous frame) or none at all (the first frames, after a loss) puts B's depth edges off
+    // and the static view in front of them fails the test.
+    flow_.setResidualMemoryEnabled(!f.network);
+    f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_);
+    if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
+    if (f.run_background) testAgainstBackground(f);
+    return;
+  }
   cv::parallel_for_(
       cv::Range(0, 2),
       [&](const cv::Range& range) {
@@ -195,7 +210,7 @@ void DynamicMasker::testAgainstBackground(FrameState& f) {
     }
   }
   background_.test(depth_small_, rendered_small_, scaled(f.frame.camera, f.small, options_.background.scale),
-                   f.prior.T_prev_cur, consistency_small_);
+                   f.T_prev_cur, consistency_small_);
   f.test_ms = msSince(t);
 }
 

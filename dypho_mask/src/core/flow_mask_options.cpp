@@ -47,8 +47,8 @@ std::string FlowMaskOptions::toString() const {
     << " sample_step_px=" << sample_step_px << " ransac_threshold_px=" << ransac_threshold_px
     << " ransac_max_iterations=" << ransac_max_iterations << " min_inlier_ratio=" << min_inlier_ratio
     << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
-    << " residual_memory=" << residual_memory << " ultrafast=" << (ultrafast ? "true" : "false")
-    << " dis_refinement_iterations=" << dis_refinement_iterations;
+    << " residual_memory=" << residual_memory << " fit_rigid_motion=" << (fit_rigid_motion ? "true" : "false")
+    << " ultrafast=" << (ultrafast ? "true" : "false") << " dis_refinement_iterations=" << dis_refinement_iterations;
   return s.str();
 }
 

@@ -60,6 +60,13 @@ struct FlowMaskOptions {
   /// (full-res). Not used while a segmentation network runs (it finds slow people by itself).
   /// 0 = frame to frame only. Default 0.7.
   double residual_memory = 0.7;
+  /// The camera's motion between the two frames is fitted to the flow and the depth (robust
+  /// Gauss-Newton over the static cells, from the predicted pose, or from no motion without
+  /// one) before the residual is taken; the prediction is kept when it explains more cells. A
+  /// prediction made from older poses (a live graph's mask runs before tracking has posed the
+  /// previous frame) or across a gap misses the hand's jerks, and its translation error leaves
+  /// depth-dependent residuals on the whole static view. Default true.
+  bool fit_rigid_motion = true;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;
   /// Variational refinement iterations of DIS on every pyramid level, >= 0; replaces the

@@ -8,6 +8,9 @@
 /// residual flow: the motion is fitted robustly to the flow field (RANSAC on a grid of flow
 /// samples), from depth and the tracked pose where they exist (ego_motion.h), else as a
 /// homography, exact for a rotating camera and close for small translations or distant scenes.
+/// With depth, the relative pose itself is first fitted to the flow (fit_rigid_motion), so that
+/// a stale prediction or none (a live graph, a start) does not leave the camera's translation in
+/// the residual.
 /// The YOLO segment mask and the background model B_i are fused with this mask by DynamicMasker.
 ///
 /// Pipeline per frame: grey -> resize by flow_scale -> DIS flow current->previous (so the mask
@@ -64,6 +67,9 @@ struct FlowMaskResult {
   /// refined by a homography for rotation errors of the prediction); false when the global
   /// homography alone was used (no pose, no depth, no valid camera, or the pose did not fit).
   bool ego_motion_from_pose = false;
+  /// The relative pose (current camera in the previous one) behind the rigid prediction when
+  /// ego_motion_from_pose: fitted to the flow (FlowMaskOptions::fit_rigid_motion) or as given.
+  std::optional<Eigen::Isometry3d> T_prev_cur;
   /// True when the global motion was found only without the previous frame's dynamic pixels
   /// (the plain fit had too few inliers; see compute()).
   bool fit_excluded_previous_mask = false;
@@ -162,6 +168,13 @@ class FlowMotionMasker {
   /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
   /// usable_ = textured cells that have one.
   void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
+  /// The relative pose fitted to the flow and depth from `T_prev_cur` (identity without one);
+  /// `T_prev_cur` when the fit explains fewer cells than it, empty when there is neither.
+  std::optional<Eigen::Isometry3d> fitRigid(const RgbdFrame& frame, const cv::Size& small_size,
+                                            const std::optional<Eigen::Isometry3d>& T_prev_cur);
+  /// The camera's turn implied by the homography of the flow over rigid_usable_ (identity when
+  /// none fits): fitRigid's start without a prediction.
+  Eigen::Isometry3d rotationOfHomography(const CameraIntrinsics& camera);
   /// One global-motion fit, from the pose prediction first when `with_pose`, then from the grid;
   /// without the carried pixels when `exclude_previous`. `from_pose`: which one was fitted last.
   GlobalMotionFit fitOnce(bool with_pose, bool exclude_previous, bool& from_pose);
@@ -224,6 +237,7 @@ class FlowMotionMasker {
   cv::Mat memory_gate_;         ///< pixels that move too little now to keep their memory
   bool memory_enabled_ = true;  ///< see setResidualMemoryEnabled()
   cv::Mat fit_usable_;          ///< usable cells outside carried_ (the retried fit's samples)
+  cv::Mat rigid_usable_;        ///< textured cells outside carried_ (fitRigid's samples)
   cv::Mat empty_;
   bool last_flow_valid_ = false;
   cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow

@@ -59,6 +59,14 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
           "model's own repeated errors, which grow with the camera's image motion: it is used in full while the median "
           "flow is below 2 px per frame and fades out up to 6 px (full-res). Not used while a segmentation network "
           "runs (it finds slow people by itself). 0 = frame to frame only. Default 0.7.");
+  visitor(
+      "fit_rigid_motion", options.fit_rigid_motion,
+      "The camera's motion between the two frames is fitted to the flow and the depth (robust Gauss-Newton over the "
+      "static cells, from the predicted pose, or from no motion without one) before the residual is taken, and the "
+      "background model is warped with it; the prediction is kept when it explains more cells. A prediction made "
+      "from older poses (a live graph's mask runs before tracking has posed the previous frame) or across a gap "
+      "misses the hand's jerks: its translation error leaves depth-dependent residuals and puts the background's "
+      "depth edges off. Default true.");
   visitor("ultrafast", options.ultrafast,
           "Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.");
   visitor("dis_refinement_iterations", options.dis_refinement_iterations,
