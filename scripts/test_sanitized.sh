@@ -48,8 +48,22 @@ REALTIME='RealtimeRunner.*'
 #  - SlamPipeline.RepeatableToTheBitWithRenderedDepth: the pipeline run twice to compare bits;
 #    each run is what SlamPipeline.LocalBaCorrectionsReachTheGaussianMap runs here;
 #  - MissingFrames.DroppedFramesDoNotMoveTheTrajectory: 150 frames tracked three times.
+# and the long runs on the shared real sequences, whose code shorter real-data tests run here
+# (under ASan they took about 5 of the phase's 22 minutes of test time on 2 cores):
+#  - DynamicMaskRealData.TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns and
+#    TumRpyStaticDeskNeedsNoFreshPose: the mask on fr1's 150 frames two and three times over
+#    (TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns runs the same masker on 40 of them, and
+#    DynamicMasker.UnjudgedFirstFrameIsAllDynamicWhenAsked a frame without a predicted pose);
+#  - RgbdOdometryRealData.BonnCrowdRough: the tracker on 200 Bonn frames (TumFr1RpyAccuracy runs
+#    it on 150 fr1 frames);
+#  - SessionStore.ResumedRunRelocalisesAndStaysInTheSameFrame: a run saved and resumed through
+#    the pipeline (SessionStore.RoundTripThroughAFreshPipeline saves and loads one, and
+#    TrackerSessionResume.FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap relocalises in it).
 OPTIMISED_ONLY='GaussianMapper.SyntheticSequenceHasNoGhosts:SyntheticTracking.RedundantKeyframesAreRemovedOnRepeatedPasses'
 OPTIMISED_ONLY+=':SlamPipeline.RepeatableToTheBitWithRenderedDepth:MissingFrames.DroppedFramesDoNotMoveTheTrajectory'
+OPTIMISED_ONLY+=':DynamicMaskRealData.TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns'
+OPTIMISED_ONLY+=':DynamicMaskRealData.TumRpyStaticDeskNeedsNoFreshPose:RgbdOdometryRealData.BonnCrowdRough'
+OPTIMISED_ONLY+=':SessionStore.ResumedRunRelocalisesAndStaysInTheSameFrame'
 echo "test_sanitized.sh: not run under the sanitizers (optimised build only): $OPTIMISED_ONLY"
 status=0
 GTEST_FILTER="-$REALTIME:$OPTIMISED_ONLY" ctest --output-on-failure -j "$JOBS" --timeout 4800 -E "^test_datasets$" || status=1
