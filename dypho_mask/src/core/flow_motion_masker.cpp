@@ -242,9 +242,6 @@ std::optional<Eigen::Isometry3d> FlowMotionMasker::fitRigid(const RgbdFrame& fra
   const double threshold = options_.residual_threshold_px;
   const int fitted =
       countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, fit.T_prev_cur, threshold, 1);
-  std::fprintf(stderr, "fit samples %d fitted %d of %d t %.4f %.4f %.4f angle %.4f\n", fit.samples, fitted,
-               cv::countNonZero(rigid_usable_), fit.T_prev_cur.translation().x(), fit.T_prev_cur.translation().y(),
-               fit.T_prev_cur.translation().z(), Eigen::AngleAxisd(fit.T_prev_cur.linear()).angle());
   if (T_prev_cur) {
     const int predicted =
         countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, *T_prev_cur, threshold, 1);
