@@ -49,7 +49,7 @@ REALTIME='RealtimeRunner.*'
 #    each run is what SlamPipeline.LocalBaCorrectionsReachTheGaussianMap runs here;
 #  - MissingFrames.DroppedFramesDoNotMoveTheTrajectory: 150 frames tracked three times.
 # and the long runs on the shared real sequences, whose code shorter real-data tests run here
-# (under ASan they took about 5 of the phase's 22 minutes of test time on 2 cores):
+# (3-13 s each optimised, 4-20 times that under ASan):
 #  - DynamicMaskRealData.TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns and
 #    TumRpyStaticDeskNeedsNoFreshPose: the mask on fr1's 150 frames two and three times over
 #    (TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns runs the same masker on 40 of them, and
