@@ -160,13 +160,13 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
   // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
   f.network = segment_->ready() && network_mask_in_use_;
   f.T_prev_cur = f.prior.T_prev_cur;
-  if (options_.flow.fit_rigid_motion) {
+  if (options_.flow.fit_rigid_motion && f.prior.T_prev_cur && !f.prior.prediction_fresh) {
     // The background is warped with the motion fitted to the flow, so the test waits for it: a
     // prediction made from older poses (a live graph's mask runs before tracking has posed the
     // previous frame) or none at all (the first frames, after a loss) puts B's depth edges off
     // and the static view in front of them fails the test.
     flow_.setResidualMemoryEnabled(!f.network);
-    f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_);
+    f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_, true);
     if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
     if (f.run_background) testAgainstBackground(f);
     return;

@@ -93,7 +93,7 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
 }
 
 FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur,
-                                         const cv::Mat& previous_dynamic) {
+                                         const cv::Mat& previous_dynamic, bool fit_motion) {
   const auto t0 = Clock::now();
   last_flow_valid_ = false;
   FlowMaskResult result;
@@ -111,7 +111,7 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::opti
   computeFlow(result);
   computeCorrespondences(size, small, frame.camera);
   carryPrevious(previous_dynamic);
-  if (!fitEgoMotion(frame, small, T_prev_cur, result)) {
+  if (!fitEgoMotion(frame, small, T_prev_cur, fit_motion, result)) {
     result.total_ms = msSince(t0);
     return result;
   }
@@ -182,7 +182,8 @@ void FlowMotionMasker::computeCorrespondences(const cv::Size& input_size, const 
 }
 
 bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& small,
-                                    const std::optional<Eigen::Isometry3d>& T_prev_cur, FlowMaskResult& result) {
+                                    const std::optional<Eigen::Isometry3d>& T_prev_cur, bool fit_motion,
+                                    FlowMaskResult& result) {
   // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
   // plain homography. It is tried again without the previous frame's dynamic pixels when it
   // fails (people fill the view) or when it follows them (their pixels agree with it better than
@@ -191,7 +192,7 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   // would stay masked).
   const bool has_depth = frame.camera.valid() && !frame.depth_m.empty();
   std::optional<Eigen::Isometry3d> T_used = has_depth ? T_prev_cur : std::nullopt;
-  if (has_depth && options_.fit_rigid_motion) T_used = fitRigid(frame, small, T_prev_cur);
+  if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, T_prev_cur);
   const bool with_pose = T_used.has_value();
   if (with_pose) predictFromPose(frame, small, *T_used);
   const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
@@ -221,6 +222,10 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   return true;
 }
 
+/// Share of the fit's samples the fitted motion must explain beyond the prediction (or a still
+/// camera without one) to replace it.
+constexpr double kFitMustExplainMore = 0.1;
+
 std::optional<Eigen::Isometry3d> FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::Size& small,
                                                             const std::optional<Eigen::Isometry3d>& T_prev_cur) {
   // The camera's motion between the two images, fitted to the flow of the static scene (textured
@@ -242,18 +247,16 @@ std::optional<Eigen::Isometry3d> FlowMotionMasker::fitRigid(const RgbdFrame& fra
   const double threshold = options_.residual_threshold_px;
   const int fitted =
       countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, fit.T_prev_cur, threshold, 1);
-  if (T_prev_cur) {
-    const int predicted =
-        countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, *T_prev_cur, threshold, 1);
-    return fitted >= predicted ? fit.T_prev_cur : *T_prev_cur;
-  }
-  // Without a prediction a still camera is the other candidate: people in view of a still camera
-  // could otherwise drag the fit along a direction the static scene hardly constrains.
-  const int still = countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera,
-                                      Eigen::Isometry3d::Identity(), threshold, 1);
+  // The fit replaces the prediction (without one: a still camera, as before) only when it explains clearly
+  // more cells: people in view, most of all of a still camera, can drag a fit a little along a
+  // direction the static scene hardly constrains, and gain it a few per cent of the cells (their
+  // own). A stale prediction explains a small share of what the fit does.
   const int samples = cv::countNonZero(rigid_usable_);
-  if (fitted < options_.min_inlier_ratio * samples) return std::nullopt;
-  return fitted > still ? fit.T_prev_cur : Eigen::Isometry3d::Identity();
+  const double margin = kFitMustExplainMore * samples;
+  const Eigen::Isometry3d reference = T_prev_cur.value_or(Eigen::Isometry3d::Identity());
+  const int explained =
+      countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, reference, threshold, 1);
+  return fitted >= explained + margin ? std::optional<Eigen::Isometry3d>(fit.T_prev_cur) : T_prev_cur;
 }
 
 Eigen::Isometry3d FlowMotionMasker::rotationOfHomography(const CameraIntrinsics& camera) {

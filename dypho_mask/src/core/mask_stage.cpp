@@ -68,6 +68,10 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
       const std::optional<Eigen::Isometry3d> T_world_prev = poseAt(*previous_frame_ns_);
       const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
       if (T_world_prev && T_world_cur) prior.T_prev_cur = T_world_prev->inverse() * *T_world_cur;
+      // Fresh: the previous frame was tracked, and this frame is one interval after it.
+      const Timestamp interval_ns = motion_.frameIntervalNs();
+      prior.prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && interval_ns > 0 &&
+                               frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
     }
     if (!rendered_depth_m_.empty()) {
       const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));

@@ -46,6 +46,11 @@ struct MaskPrior {
   /// Predicted pose of the current camera in the previous camera frame (constant velocity from
   /// tracking): p_prev = T_prev_cur * p_cur.
   std::optional<Eigen::Isometry3d> T_prev_cur;
+  /// `T_prev_cur` extrapolates the previous frame's own tracked pose by one frame interval (what
+  /// a caller that tracks every frame before masking the next hands over): it is used as is.
+  /// Otherwise (poses older than the previous frame, as in a live graph whose mask runs ahead of
+  /// tracking; a gap) it is fitted to the flow first (FlowMaskOptions::fit_rigid_motion).
+  bool prediction_fresh = false;
   /// R_d(G, T_{i-1} delta T): CV_32FC1 depth [m] rendered from the map at the predicted current
   /// pose, at the input size or at workingSize() (no resampling then); empty = none (0/NaN
   /// pixels = no value).

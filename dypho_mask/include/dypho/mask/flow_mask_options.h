@@ -60,12 +60,12 @@ struct FlowMaskOptions {
   /// (full-res). Not used while a segmentation network runs (it finds slow people by itself).
   /// 0 = frame to frame only. Default 0.7.
   double residual_memory = 0.7;
-  /// The camera's motion between the two frames is fitted to the flow and the depth (robust
-  /// Gauss-Newton over the static cells, from the predicted pose, or from no motion without
-  /// one) before the residual is taken; the prediction is kept when it explains more cells. A
-  /// prediction made from older poses (a live graph's mask runs before tracking has posed the
-  /// previous frame) or across a gap misses the hand's jerks, and its translation error leaves
-  /// depth-dependent residuals on the whole static view. Default true.
+  /// When the relative pose handed to the mask is predicted from poses older than the previous
+  /// frame's (a live graph's mask runs before tracking has posed the previous frame; a gap), it
+  /// is first fitted to the flow and the depth (robust Gauss-Newton over the static cells, a
+  /// prior on the prediction) and the background model is warped with the fit; the prediction is
+  /// kept unless the fit explains clearly more cells. Such a prediction misses the hand's jerks:
+  /// its translation error puts the background's depth edges off. Default true.
   bool fit_rigid_motion = true;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;

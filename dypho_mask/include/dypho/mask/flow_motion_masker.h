@@ -130,8 +130,11 @@ class FlowMotionMasker {
   /// When the fit fails all the same, the result is degraded but its mask is the carried previous
   /// mask (shrunk by the margin, which the caller grows again) instead of an empty one: an empty
   /// mask would hand every person to the tracker.
+  ///
+  /// `fit_motion`: the relative pose `T_prev_cur` (when given) is first fitted to the flow and
+  /// the depth (FlowMaskOptions::fit_rigid_motion decides in DynamicMasker when).
   FlowMaskResult compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
-                         const cv::Mat& previous_dynamic = cv::Mat());
+                         const cv::Mat& previous_dynamic = cv::Mat(), bool fit_motion = false);
 
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
   /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
@@ -164,7 +167,7 @@ class FlowMotionMasker {
   /// The camera's own motion: the fit (pose + depth, else homography; retried without the carried
   /// pixels) and its residual_. False (result degraded, carried mask) when no fit was found.
   bool fitEgoMotion(const RgbdFrame& frame, const cv::Size& small_size,
-                    const std::optional<Eigen::Isometry3d>& T_prev_cur, FlowMaskResult& result);
+                    const std::optional<Eigen::Isometry3d>& T_prev_cur, bool fit_motion, FlowMaskResult& result);
   /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
   /// usable_ = textured cells that have one.
   void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);

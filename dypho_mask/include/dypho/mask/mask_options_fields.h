@@ -61,12 +61,12 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
           "runs (it finds slow people by itself). 0 = frame to frame only. Default 0.7.");
   visitor(
       "fit_rigid_motion", options.fit_rigid_motion,
-      "The camera's motion between the two frames is fitted to the flow and the depth (robust Gauss-Newton over the "
-      "static cells, from the predicted pose, or from no motion without one) before the residual is taken, and the "
-      "background model is warped with it; the prediction is kept when it explains more cells. A prediction made "
-      "from older poses (a live graph's mask runs before tracking has posed the previous frame) or across a gap "
-      "misses the hand's jerks: its translation error leaves depth-dependent residuals and puts the background's "
-      "depth edges off. Default true.");
+      "When the relative pose handed to the mask is predicted from poses older than the previous frame's (a live "
+      "graph's mask runs before tracking has posed the previous frame; a gap), it is first fitted to the flow and "
+      "the depth (robust Gauss-Newton over the static cells, a prior on the prediction) and the background model is "
+      "warped with the fit; the prediction is kept unless the fit explains clearly more cells. Such a prediction "
+      "misses the hand's jerks: its translation error puts the background's depth edges off (TUM fr1/rpy with poses "
+      "3 frames old: 11.4 % of the static view masked, 2.0 % fitted). Default true.");
   visitor("ultrafast", options.ultrafast,
           "Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.");
   visitor("dis_refinement_iterations", options.dis_refinement_iterations,
