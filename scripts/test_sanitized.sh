@@ -51,9 +51,9 @@ REALTIME='RealtimeRunner.*'
 # and the long runs on the shared real sequences, whose code shorter real-data tests run here
 # (3-13 s each optimised, 4-20 times that under ASan):
 #  - DynamicMaskRealData.TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns and
-#    TumRpyStaticDeskNeedsNoFreshPose: the mask on fr1's 150 frames two and three times over
-#    (TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns runs the same masker on 40 of them, and
-#    DynamicMasker.UnjudgedFirstFrameIsAllDynamicWhenAsked a frame without a predicted pose);
+#    TumRpyStaticDeskNeedsNoFreshPose: the mask on fr1's 150 frames twice over
+#    (TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns and TumRpyFirstFastTurnsWithPosesThreeFramesOld
+#    run the same masker on 40 of them, with the true and with stale poses);
 #  - RgbdOdometryRealData.BonnCrowdRough: the tracker on 200 Bonn frames (TumFr1RpyAccuracy runs
 #    it on 150 fr1 frames);
 #  - SessionStore.ResumedRunRelocalisesAndStaysInTheSameFrame: a run saved and resumed through

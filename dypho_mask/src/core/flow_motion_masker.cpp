@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -192,7 +191,7 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   // would stay masked).
   const bool has_depth = frame.camera.valid() && !frame.depth_m.empty();
   std::optional<Eigen::Isometry3d> T_used = has_depth ? T_prev_cur : std::nullopt;
-  if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, T_prev_cur);
+  if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, *T_prev_cur);
   const bool with_pose = T_used.has_value();
   if (with_pose) predictFromPose(frame, small, *T_used);
   const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
@@ -222,17 +221,16 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   return true;
 }
 
-/// Share of the fit's samples the fitted motion must explain beyond the prediction (or a still
-/// camera without one) to replace it.
+/// Share of the fit's samples the fitted motion must explain beyond the prediction to replace it.
 constexpr double kFitMustExplainMore = 0.1;
 
-std::optional<Eigen::Isometry3d> FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::Size& small,
-                                                            const std::optional<Eigen::Isometry3d>& T_prev_cur) {
+Eigen::Isometry3d FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::Size& small,
+                                             const Eigen::Isometry3d& T_prev_cur) {
   // The camera's motion between the two images, fitted to the flow of the static scene (textured
-  // cells with depth, outside the previous frame's movers), from the prediction when there is
-  // one. A prediction made a few frames ahead (a live graph's mask runs before tracking has the
-  // previous frame) misses the hand's jerks; its translation error leaves depth-dependent
-  // residuals that no homography absorbs, on the whole static view.
+  // cells with depth, outside the previous frame's movers) from the prediction. A prediction made
+  // a few frames ahead (a live graph's mask runs before tracking has the previous frame) misses
+  // the hand's jerks; its translation error leaves depth-dependent residuals that no homography
+  // absorbs, on the whole static view.
   cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
   if (textured_.empty()) {
     rigid_usable_ = cv::Mat(small, CV_8UC1, cv::Scalar(255));
@@ -240,43 +238,19 @@ std::optional<Eigen::Isometry3d> FlowMotionMasker::fitRigid(const RgbdFrame& fra
     textured_.copyTo(rigid_usable_);
   }
   if (!carried_.empty()) rigid_usable_.setTo(0, carried_);
-  RigidFitSettings settings;
-  const Eigen::Isometry3d start = T_prev_cur ? *T_prev_cur : rotationOfHomography(frame.camera);
-  const RigidFit fit = fitRigidMotion(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, start, settings);
+  const RigidFit fit = fitRigidMotion(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, T_prev_cur);
   if (!fit.ok) return T_prev_cur;
+  // The fit replaces the prediction only when it explains clearly more cells: people in view,
+  // most of all of a still camera, can drag a fit a little along a direction the static scene
+  // hardly constrains, and gain it a few per cent of the cells (their own). A stale prediction
+  // explains a small share of what the fit does.
   const double threshold = options_.residual_threshold_px;
   const int fitted =
       countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, fit.T_prev_cur, threshold, 1);
-  // The fit replaces the prediction (without one: a still camera, as before) only when it explains clearly
-  // more cells: people in view, most of all of a still camera, can drag a fit a little along a
-  // direction the static scene hardly constrains, and gain it a few per cent of the cells (their
-  // own). A stale prediction explains a small share of what the fit does.
-  const int samples = cv::countNonZero(rigid_usable_);
-  const double margin = kFitMustExplainMore * samples;
-  const Eigen::Isometry3d reference = T_prev_cur.value_or(Eigen::Isometry3d::Identity());
-  const int explained =
-      countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, reference, threshold, 1);
-  return fitted >= explained + margin ? std::optional<Eigen::Isometry3d>(fit.T_prev_cur) : T_prev_cur;
-}
-
-Eigen::Isometry3d FlowMotionMasker::rotationOfHomography(const CameraIntrinsics& camera) {
-  // Without a prediction the fit starts from the turn that the flow's dominant homography
-  // implies (RANSAC: a group of people cannot carry it, the static majority does), K^-1 H K for a
-  // camera that turns; its prior then holds the direction the flow hardly sees (a turn and a
-  // sideways move look alike on a distant wall) there rather than at no motion.
-  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
-  const GlobalMotionFit fit = global_motion_.fit(grid_px_, prev_px_, rigid_usable_);
-  if (!fit.ok) return start;
-  Eigen::Matrix3d H, K;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) H(r, c) = fit.H_prev_cur(r, c);
-  K << camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0;
-  const Eigen::Matrix3d M = K.inverse() * H * K;
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d R = svd.matrixU() * svd.matrixV().transpose();
-  if (R.determinant() < 0.0) return start;  // a reflection: not a camera's turn
-  if (R.allFinite()) start.linear() = R;
-  return start;
+  const int predicted =
+      countRigidInliers(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, T_prev_cur, threshold, 1);
+  const double margin = kFitMustExplainMore * cv::countNonZero(rigid_usable_);
+  return fitted >= predicted + margin ? fit.T_prev_cur : T_prev_cur;
 }
 
 void FlowMotionMasker::predictFromPose(const RgbdFrame& frame, const cv::Size& small,

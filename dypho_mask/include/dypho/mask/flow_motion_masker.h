@@ -8,9 +8,9 @@
 /// residual flow: the motion is fitted robustly to the flow field (RANSAC on a grid of flow
 /// samples), from depth and the tracked pose where they exist (ego_motion.h), else as a
 /// homography, exact for a rotating camera and close for small translations or distant scenes.
-/// With depth, the relative pose itself is first fitted to the flow (fit_rigid_motion), so that
-/// a stale prediction or none (a live graph, a start) does not leave the camera's translation in
-/// the residual.
+/// With depth and a stale prediction (`compute`'s fit_motion), the relative pose itself is first
+/// fitted to the flow (fit_rigid_motion), so that the prediction's translation error does not
+/// stay in the residual.
 /// The YOLO segment mask and the background model B_i are fused with this mask by DynamicMasker.
 ///
 /// Pipeline per frame: grey -> resize by flow_scale -> DIS flow current->previous (so the mask
@@ -171,13 +171,9 @@ class FlowMotionMasker {
   /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
   /// usable_ = textured cells that have one.
   void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
-  /// The relative pose fitted to the flow and depth from `T_prev_cur` (identity without one);
-  /// `T_prev_cur` when the fit explains fewer cells than it, empty when there is neither.
-  std::optional<Eigen::Isometry3d> fitRigid(const RgbdFrame& frame, const cv::Size& small_size,
-                                            const std::optional<Eigen::Isometry3d>& T_prev_cur);
-  /// The camera's turn implied by the homography of the flow over rigid_usable_ (identity when
-  /// none fits): fitRigid's start without a prediction.
-  Eigen::Isometry3d rotationOfHomography(const CameraIntrinsics& camera);
+  /// The relative pose fitted to the flow and depth from `T_prev_cur`; `T_prev_cur` unless the
+  /// fit explains clearly more cells.
+  Eigen::Isometry3d fitRigid(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
   /// One global-motion fit, from the pose prediction first when `with_pose`, then from the grid;
   /// without the carried pixels when `exclude_previous`. `from_pose`: which one was fitted last.
   GlobalMotionFit fitOnce(bool with_pose, bool exclude_previous, bool& from_pose);
