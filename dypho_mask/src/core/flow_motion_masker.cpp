@@ -191,6 +191,8 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   // would stay masked).
   const bool has_depth = frame.camera.valid() && !frame.depth_m.empty();
   std::optional<Eigen::Isometry3d> T_used = has_depth ? T_prev_cur : std::nullopt;
+  // Depth at flow resolution, once, for the fit and the rigid prediction.
+  if (has_depth && T_prev_cur) cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
   if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, *T_prev_cur);
   const bool with_pose = T_used.has_value();
   if (with_pose) predictFromPose(frame, small, *T_used);
@@ -231,7 +233,6 @@ Eigen::Isometry3d FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::S
   // a few frames ahead (a live graph's mask runs before tracking has the previous frame) misses
   // the hand's jerks; its translation error leaves depth-dependent residuals that no homography
   // absorbs, on the whole static view.
-  cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
   if (textured_.empty()) {
     rigid_usable_ = cv::Mat(small, CV_8UC1, cv::Scalar(255));
   } else {
@@ -255,7 +256,6 @@ Eigen::Isometry3d FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::S
 
 void FlowMotionMasker::predictFromPose(const RgbdFrame& frame, const cv::Size& small,
                                        const Eigen::Isometry3d& T_prev_cur) {
-  cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
   predictRigidPrevious(grid_px_, depth_small_, frame.camera, T_prev_cur, predicted_px_);
   cv::Mat channels[2];
   cv::split(predicted_px_, channels);

@@ -168,7 +168,8 @@ class FlowMotionMasker {
   /// pixels) and its residual_. False (result degraded, carried mask) when no fit was found.
   bool fitEgoMotion(const RgbdFrame& frame, const cv::Size& small_size,
                     const std::optional<Eigen::Isometry3d>& T_prev_cur, bool fit_motion, FlowMaskResult& result);
-  /// predicted_px_ = rigid prediction of the previous positions from depth and `T_prev_cur`;
+  /// predicted_px_ = rigid prediction of the previous positions from depth_small_ (fitEgoMotion
+  /// reduces the depth once per frame) and `T_prev_cur`;
   /// usable_ = textured cells that have one.
   void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
   /// The relative pose fitted to the flow and depth from `T_prev_cur`; `T_prev_cur` unless the
