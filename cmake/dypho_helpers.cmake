@@ -6,7 +6,7 @@ function(dypho_set_warnings target)
     $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wno-deprecated-copy>)
 endfunction()
 
-# dypho_add_gtest(<name> SOURCES <files...> LIBS <targets...> [TIMEOUT <s>] [COST <s>] [WHOLE_SYSTEM]
+# dypho_add_gtest(<name> SOURCES <files...> LIBS <targets...> [TIMEOUT <s>] [COST <s>] [SHARDS <n>] [WHOLE_SYSTEM]
 #                 [ALL_CORES])
 # A gtest executable linking only core libraries, registered with CTest through
 # scripts/run_gtest.sh: a test that skips itself (GTEST_SKIP) makes ctest report the executable as
@@ -15,11 +15,14 @@ endfunction()
 # COST: about how long the test runs (seconds, ASan build, 2 cores); `ctest -j` starts the
 # costliest first on a build with no timing history, so the long tests do not end up last.
 # WHOLE_SYSTEM: runs the tools on whole sequences; not part of `unit_tests` (plain CMake builds).
+# SHARDS <n>: the executable runs as n gtest shards side by side (scripts/run_gtest.sh --shards),
+# for whole-system tests whose runs keep about one core each busy while `ctest -j 1` runs the
+# suite (test_datasets: 142 % CPU on 2 cores as one process).
 # ALL_CORES: the test keeps several threads busy; `ctest -j` never runs two such tests at once
 # (under ASan on 2 cores the mapper and pipeline tests took 521 and 439 s side by side; 329 s
 # beside a single-threaded test and 254 s alone).
 function(dypho_add_gtest name)
-  cmake_parse_arguments(ARG "WHOLE_SYSTEM;ALL_CORES" "TIMEOUT;COST" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "WHOLE_SYSTEM;ALL_CORES" "TIMEOUT;COST;SHARDS" "SOURCES;LIBS" ${ARGN})
   if(NOT DYPHO_TESTING)
     return()
   endif()
@@ -43,7 +46,10 @@ function(dypho_add_gtest name)
   if(TARGET unit_tests AND NOT ARG_WHOLE_SYSTEM)
     add_dependencies(unit_tests ${name})
   endif()
-  add_test(NAME ${name} COMMAND bash ${DYPHO_REAL_SOURCE_DIR}/scripts/run_gtest.sh $<TARGET_FILE:${name}>
+  if(NOT ARG_SHARDS)
+    set(ARG_SHARDS 1)
+  endif()
+  add_test(NAME ${name} COMMAND bash ${DYPHO_REAL_SOURCE_DIR}/scripts/run_gtest.sh --shards ${ARG_SHARDS} $<TARGET_FILE:${name}>
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} SKIP_RETURN_CODE 77)
   if(ARG_COST)
