@@ -5,7 +5,10 @@
 # line per run: sequence, frames, configuration, ATE of the final trajectory [cm], its max [cm],
 # median tracking and dense-refinement ms per frame.
 # Usage: bench/precision_ablation.sh [BUILD_DIR] [OUT_DIR]
-#   DYPHO_ABLATION_CONFIGS: configurations to run (default: all below), e.g. "features dense"
+#   DYPHO_ABLATION_CONFIGS: configurations to run (default: features wide dense_only dense_all
+#     dense), e.g. "features dense"; the others below: global_ba, fuse, global_shutter (the
+#     rolling-shutter model off), no_fit and no_motion_tolerance (the mask's parts that serve
+#     tracking off)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
@@ -22,13 +25,21 @@ BONN="$SHARED/data/rgbd_bonn_crowd_frames200to399"
 MODEL="$SHARED/models/yolox_nano.onnx"
 mkdir -p "$OUT"
 
-# name -> tracking options (YAML lines under tracking:)
+# name -> tracking options (YAML lines under tracking:); `features` is the defaults.
 declare -A CONFIG=(
   [features]=''
   [wide]=$'  wide_search_radius_px: 45'
   [dense_only]=$'  dense_refinement: true\n  dense_feature_prior_weight: 0'
   [dense_all]=$'  dense_refinement: true\n  dense_max_frame_rotation_deg: 180'
   [dense]=$'  dense_refinement: true'
+  [global_ba]=$'  global_ba_at_end: true'
+  [fuse]=$'  fuse_keyframes: 10'
+  [global_shutter]=$'  rolling_shutter_readout_ms: 0'
+)
+# name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
+declare -A MASK_CONFIG=(
+  [no_fit]=$'  flow_fit_rigid_motion: false'
+  [no_motion_tolerance]=$'  background_motion_tolerance: 0'
 )
 CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense_all dense})
 DROPS=(${DYPHO_ABLATION_DROPS:-whole every15 random10})
@@ -73,8 +84,9 @@ for seq in "${SEQUENCES[@]}"; do
     mask=flow; [ "$seq" = fr1_none ] && mask=none
     for cfg in "${CONFIGS[@]}"; do
       name="${seq}_${drop}_${cfg}"
-      { if [ "$seq" = bonn_detector ]; then printf 'mask:\n  yolo_model_path: "%s"\n' "$MODEL"; fi
-        printf 'tracking:\n%s\n' "${CONFIG[$cfg]}"; } > "$OUT/$name.yaml"
+      { printf 'mask:\n'
+        if [ "$seq" = bonn_detector ]; then printf '  yolo_model_path: "%s"\n' "$MODEL"; fi
+        printf '%s\ntracking:\n%s\n' "${MASK_CONFIG[$cfg]:-}" "${CONFIG[$cfg]:-}"; } > "$OUT/$name.yaml"
       "$BIN/dypho_run_dataset" --dataset "$data" --out "$OUT/$name" --quiet --no-map --mask "$mask" \
         --config "$OUT/$name.yaml" > "$OUT/$name.log" 2>&1 || { echo "$name: failed (see $OUT/$name.log)"; continue; }
       ate=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/^ATE RMSE: *([0-9.]+) cm.*/\1/')
