@@ -115,7 +115,8 @@ TEST(KeyframePointFuser, MergesDuplicatesAndAddsMissingObservations) {
 
 TEST(KeyframePointFuser, OffChangesNothingAndAddObservationRefusesATakenFeature) {
   const Scene scene;
-  TrackingOptions options;  // fuse_keyframes = 0
+  TrackingOptions options;
+  options.fuse_keyframes = 0;
   TrackerMap map(options);
   const auto first_ids = map.addKeyframe(makeKeyframe(0, Eigen::Isometry3d::Identity(), scene, range(0, 40)));
   MapKeyframe second = makeKeyframe(1, Eigen::Isometry3d::Identity(), scene, range(0, 40));
