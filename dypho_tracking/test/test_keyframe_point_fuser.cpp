@@ -1,6 +1,7 @@
 /// The fuse step (keyframe_point_fuser.h): duplicates of one scene point made by two keyframes are
 /// merged, a feature without a point observes the point it matches, and a feature whose depth
-/// disagrees with the point is left alone.
+/// disagrees with the point is left alone; points on probation or seen on a moving surface are
+/// not fused.
 
 #include <random>
 #include <set>
@@ -64,6 +65,7 @@ TEST(KeyframePointFuser, MergesDuplicatesAndAddsMissingObservations) {
   const Scene scene;
   TrackingOptions options;
   options.fuse_keyframes = 10;
+  options.point_probation_frames = 0;  // every point trusted at once (the next test covers probation)
   TrackerMap map(options);
   // Keyframe 0 sees points 0-59; the points of its features 55-59 were removed since (they had
   // been seen on people), so those features have none.
@@ -111,6 +113,49 @@ TEST(KeyframePointFuser, MergesDuplicatesAndAddsMissingObservations) {
   const FuseStats again = fuseKeyframePoints(&map, 1, kPinhole, options);
   EXPECT_EQ(again.merged, 0);
   EXPECT_EQ(again.added, 0);
+}
+
+TEST(KeyframePointFuser, PointsOnProbationOrSeenOnAMovingSurfaceAreNotFused) {
+  const Scene scene;
+  TrackingOptions options;
+  options.fuse_keyframes = 10;
+  options.point_probation_frames = 3;
+  TrackerMap map(options);
+  // Keyframe 0 sees points 0-59. Points 0-39 agreed with the pose on three frames (verified),
+  // 40-59 are still on probation; 25-29 were seen once on a person (kept: min_hits 100).
+  const std::vector<std::int64_t> first_ids =
+      map.addKeyframe(makeKeyframe(0, Eigen::Isometry3d::Identity(), scene, range(0, 60)));
+  const std::vector<std::int64_t> verified(first_ids.begin(), first_ids.begin() + 40);
+  for (int frame = 0; frame < 3; ++frame) ASSERT_TRUE(map.updateProbation(verified, {}).empty());
+  const std::vector<std::int64_t> on_person(first_ids.begin() + 25, first_ids.begin() + 30);
+  ASSERT_TRUE(map.cullMovingPoints(on_person, 100).empty());
+  ASSERT_TRUE(map.isVerified(first_ids[0]));
+  ASSERT_FALSE(map.isVerified(first_ids[40]));
+
+  // Keyframe 1, 10 cm to the right, sees 0-59: tracking matched 0-19, it made its own copies of
+  // 20-59 (on probation); its copy of 35 was seen on a person.
+  Eigen::Isometry3d T_world_second = Eigen::Isometry3d::Identity();
+  T_world_second.translation() = Eigen::Vector3d(0.1, 0.0, 0.0);
+  MapKeyframe second = makeKeyframe(1, T_world_second, scene, range(0, 60));
+  for (int f = 0; f < 20; ++f)
+    second.map_point_ids[static_cast<std::size_t>(f)] = first_ids[static_cast<std::size_t>(f)];
+  const std::vector<std::int64_t> second_ids = map.addKeyframe(second);
+  ASSERT_TRUE(map.cullMovingPoints({second_ids[35]}, 100).empty());
+
+  const FuseStats stats = fuseKeyframePoints(&map, 1, kPinhole, options);
+  EXPECT_EQ(stats.merged, 14);  // 20-39 but 25-29 and 35
+  EXPECT_EQ(stats.added, 0);
+  for (int i = 20; i < 60; ++i) {
+    const std::int64_t id0 = map.keyframe(0)->map_point_ids[static_cast<std::size_t>(i)];
+    const std::int64_t id1 = map.keyframe(1)->map_point_ids[static_cast<std::size_t>(i)];
+    const bool fused = i < 40 && (i < 25 || i >= 30) && i != 35;
+    EXPECT_EQ(id0 == id1, fused) << "scene point " << i;
+    // The trusted point stays: keyframe 0's, still verified.
+    if (fused) {
+      EXPECT_EQ(id0, first_ids[static_cast<std::size_t>(i)]);
+      EXPECT_TRUE(map.isVerified(id0));
+    }
+  }
 }
 
 TEST(KeyframePointFuser, OffChangesNothingAndAddObservationRefusesATakenFeature) {

@@ -86,8 +86,16 @@ void refreshDescriptor(TrackerMap* map, std::int64_t point_id) {
   point->reference_distance_m = (point->p_world_m - view.keyframe->T_world_camera.translation()).norm();
 }
 
-/// Matches each of `point_ids` in keyframe `target_id`: merges it with the feature's point or
-/// adds the feature's observation of it. The points that gained views go into `changed`.
+/// True when the point may be moved between keyframes (header): past probation and never seen
+/// on a moving surface.
+bool isTrusted(const TrackerMap& map, std::int64_t id) {
+  const MapPoint* point = map.point(id);
+  return point != nullptr && point->num_on_dynamic == 0 && map.isVerified(id);
+}
+
+/// Matches each trusted one of `point_ids` in keyframe `target_id`: merges it with the
+/// feature's point (unless that one was seen on a moving surface) or adds the feature's
+/// observation of it. The points that gained views go into `changed`.
 void fuseInto(TrackerMap* map, const std::vector<std::int64_t>& point_ids, std::int64_t target_id,
               const Pinhole& pinhole, const TrackingOptions& options, FuseStats* stats,
               std::vector<std::int64_t>* changed) {
@@ -97,7 +105,7 @@ void fuseInto(TrackerMap* map, const std::vector<std::int64_t>& point_ids, std::
   const Eigen::Isometry3d T_target_world = target->T_world_camera.inverse();
   for (const std::int64_t id : point_ids) {
     const MapPoint* point = map->point(id);
-    if (point == nullptr || point->observations.count(target_id) > 0) continue;
+    if (point == nullptr || point->observations.count(target_id) > 0 || !isTrusted(*map, id)) continue;
     const int feature = matchInKeyframe(*point, *target, T_target_world, grid, pinhole, options);
     if (feature < 0) continue;
     const std::int64_t other_id = target->map_point_ids[static_cast<std::size_t>(feature)];
@@ -109,8 +117,10 @@ void fuseInto(TrackerMap* map, const std::vector<std::int64_t>& point_ids, std::
       }
       continue;
     }
-    // The better observed point stays (the older on a tie): it has the better position.
-    const bool keep_this = point->observations.size() > other->observations.size() ||
+    if (other->num_on_dynamic > 0) continue;
+    // A point on probation gives way to the trusted one; else the better observed point stays
+    // (the older on a tie): it has the better position.
+    const bool keep_this = !map->isVerified(other_id) || point->observations.size() > other->observations.size() ||
                            (point->observations.size() == other->observations.size() && id < other_id);
     const std::int64_t keep_id = keep_this ? id : other_id;
     if (map->mergePoints(keep_id, keep_this ? other_id : id)) {

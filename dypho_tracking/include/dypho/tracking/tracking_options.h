@@ -284,7 +284,10 @@ struct TrackingOptions {
   /// measurement: with 10, means over the whole window, every 15th and 10 % of the frames removed
   /// went fr1/rpy flow 4.29 -> 8.78 cm, no mask 4.45 -> 4.56, Bonn flow 1.85 -> 1.72, Bonn
   /// detector 1.90 -> 1.97, generator fast turns 1.79 -> 1.82 cm
-  /// (docs/journal/benchmarks-2026.md section 13).
+  /// (docs/journal/benchmarks-2026.md section 13). Only trusted points are fused (past probation,
+  /// never on a moving surface); means of fifteen frame-removal inputs with 10: fr1/rpy 2.30 ->
+  /// 1.96, Bonn flow 1.39 -> 1.37, detector 1.35 -> 1.33, but whole windows fr1 1.61 -> 1.76 and
+  /// Bonn flow 1.31 -> 1.66 cm, and two of the generator's tests fail (section 18).
   int fuse_keyframes = 0;
   /// Search radius of the fuse step around a point's projection, times its level scale [px at
   /// level 0]; default 3 (ORB-SLAM), range (0, 50].
