@@ -195,7 +195,7 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   if (has_depth && T_prev_cur) cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
   if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, *T_prev_cur);
   const bool with_pose = T_used.has_value();
-  if (with_pose) predictFromPose(frame, small, *T_used);
+  if (with_pose) predictFromPose(frame, *T_used);
   const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
   bool from_pose = false;
   GlobalMotionFit fit = fitOnce(with_pose, false, from_pose);
@@ -254,8 +254,7 @@ Eigen::Isometry3d FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::S
   return fitted >= predicted + margin ? fit.T_prev_cur : T_prev_cur;
 }
 
-void FlowMotionMasker::predictFromPose(const RgbdFrame& frame, const cv::Size& small,
-                                       const Eigen::Isometry3d& T_prev_cur) {
+void FlowMotionMasker::predictFromPose(const RgbdFrame& frame, const Eigen::Isometry3d& T_prev_cur) {
   predictRigidPrevious(grid_px_, depth_small_, frame.camera, T_prev_cur, predicted_px_);
   cv::Mat channels[2];
   cv::split(predicted_px_, channels);

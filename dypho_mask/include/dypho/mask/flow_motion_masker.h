@@ -171,7 +171,7 @@ class FlowMotionMasker {
   /// predicted_px_ = rigid prediction of the previous positions from depth_small_ (fitEgoMotion
   /// reduces the depth once per frame) and `T_prev_cur`;
   /// usable_ = textured cells that have one.
-  void predictFromPose(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
+  void predictFromPose(const RgbdFrame& frame, const Eigen::Isometry3d& T_prev_cur);
   /// The relative pose fitted to the flow and depth from `T_prev_cur`; `T_prev_cur` unless the
   /// fit explains clearly more cells.
   Eigen::Isometry3d fitRigid(const RgbdFrame& frame, const cv::Size& small_size, const Eigen::Isometry3d& T_prev_cur);
