@@ -13,20 +13,35 @@ mkdir -p "$OUT"
 CC=clang CXX=clang++ cmake -S "$ROOT/fuzz" -B "$OUT" -DCMAKE_BUILD_TYPE=None > "$OUT/configure.log" 2>&1 \
   || { cat "$OUT/configure.log"; exit 1; }
 cmake --build "$OUT" -j "${DYPHO_JOBS:-$(nproc)}"
+JOBS="${DYPHO_JOBS:-$(nproc)}"
+# One target: fuzzes its corpus copy for SECONDS_PER_TARGET (one core); its summary goes to
+# $OUT/<target>.result, its log to $OUT/<target>.log.
+fuzz_one() {
+  local target="fuzz_${1%%:*}" corpus="$OUT/corpus_${1##*:}"
+  rm -rf "$corpus" && cp -r "$ROOT/fuzz/corpus/${1##*:}" "$corpus"
+  if (cd "$OUT" && "./$target" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 -timeout=10 \
+        -print_final_stats=1 "$corpus" > "$OUT/$target.log" 2>&1); then
+    echo "fuzz.sh: $target for ${SECONDS_PER_TARGET} s: $(grep -E "^stat::number_of_executed_units|^Done" \
+      "$OUT/$target.log" | tr '\n' ' ')" > "$OUT/$target.result"
+  else
+    echo "fuzz.sh: $target FOUND A PROBLEM (input saved in $OUT, log $OUT/$target.log)" > "$OUT/$target.result"
+  fi
+}
+# The targets are single-threaded: JOBS of them run side by side, each for the full time.
+PAIRS=(gaussian_ply:ply tum_lists:tum_lists camera_yaml:camera_yaml options_yaml:options_yaml
+       tracker_session:tracker_session)
+rm -f "$OUT"/fuzz_*.result
+for ((i = 0; i < ${#PAIRS[@]}; i += JOBS)); do
+  for pair in "${PAIRS[@]:i:JOBS}"; do fuzz_one "$pair" & done
+  wait
+done
 status=0
-for pair in gaussian_ply:ply tum_lists:tum_lists camera_yaml:camera_yaml options_yaml:options_yaml \
-            tracker_session:tracker_session; do
+for pair in "${PAIRS[@]}"; do
   target="fuzz_${pair%%:*}"
-  corpus="$OUT/corpus_${pair##*:}"
-  rm -rf "$corpus" && cp -r "$ROOT/fuzz/corpus/${pair##*:}" "$corpus"
-  echo "fuzz.sh: $target for ${SECONDS_PER_TARGET} s"
-  if ! (cd "$OUT" && "./$target" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 -timeout=10 \
-          -print_final_stats=1 "$corpus" > "$OUT/$target.log" 2>&1); then
-    echo "fuzz.sh: $target FOUND A PROBLEM (input saved in $OUT, log $OUT/$target.log):" >&2
+  cat "$OUT/$target.result"
+  if grep -q "FOUND A PROBLEM" "$OUT/$target.result"; then
     tail -40 "$OUT/$target.log" >&2
     status=1
-  else
-    grep -E "^stat::number_of_executed_units|^Done" "$OUT/$target.log" | tr '\n' ' '; echo
   fi
 done
 exit "$status"
