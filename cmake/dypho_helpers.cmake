@@ -18,6 +18,9 @@ endfunction()
 # SHARDS <n>: the executable runs as n gtest shards side by side (scripts/run_gtest.sh --shards),
 # for whole-system tests whose runs keep about one core each busy while `ctest -j 1` runs the
 # suite (test_datasets: 142 % CPU on 2 cores as one process).
+# DYPHO_TEST_COMPILE_OPTIONS (cache list, default empty): extra compile options of the test
+# executables' own files only, not of the libraries they test (scripts/test_sanitized.sh compiles
+# the test files without UBSan: -fno-sanitize=undefined).
 # ALL_CORES: the test keeps several threads busy; `ctest -j` never runs two such tests at once
 # (under ASan on 2 cores the mapper and pipeline tests took 521 and 439 s side by side; 329 s
 # beside a single-threaded test and 254 s alone).
@@ -70,6 +73,7 @@ function(dypho_add_gtest name)
     DYPHO_SOURCE_DIR="${DYPHO_REAL_SOURCE_DIR}"
     DYPHO_SHARED_DIR="${DYPHO_SHARED_DIR}")
   dypho_set_warnings(${name})
+  target_compile_options(${name} PRIVATE ${DYPHO_TEST_COMPILE_OPTIONS})
 endfunction()
 
 # dypho_add_test_executable(<name> <sources...>): a gtest executable (catkin, gtest linked) that is

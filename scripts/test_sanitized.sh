@@ -13,9 +13,15 @@ JOBS="${DYPHO_JOBS:-$(nproc)}"
 # -g1: line tables and function names, all a sanitizer report's stack needs; full -g (types,
 # locals) made the compiles about 30 % slower and the objects 3.5 times larger.
 FLAGS="-O1 -g1 -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
+# The test executables' own files (the tests, not the code they test) are compiled with ASan
+# only: UBSan made them 1.3-1.9 times slower to compile (gtest, Eigen and OpenCV templates) and
+# they were 543 of the build's 968 compile-seconds. The cores and tools keep both sanitizers;
+# header code that a test file instantiates may lose its UBSan checks where the linker keeps the
+# test file's copy.
+TEST_FLAGS="-fno-sanitize=undefined"
 mkdir -p "$BUILD"
 cmake -S "$ROOT" -B "$BUILD" -DDYPHO_WITH_ROS=OFF -DDYPHO_WITH_CUDA=OFF -DCMAKE_BUILD_TYPE=None \
-      -DDYPHO_TEST_TIMEOUT_SCALE=4 \
+      -DDYPHO_TEST_TIMEOUT_SCALE=4 -DDYPHO_TEST_COMPILE_OPTIONS="$TEST_FLAGS" \
       -DCMAKE_CXX_FLAGS="$FLAGS" -DCMAKE_C_FLAGS="$FLAGS" \
       -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
       -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" > "$BUILD/configure.log" 2>&1 \
