@@ -300,8 +300,8 @@ TEST(BagLayout, RealSenseWritesMillimetresWithZeroForNoDepth) {
   const RgbdFrame back = r.load(0);
   EXPECT_EQ(back.stamp_ns, f.stamp_ns);
   EXPECT_EQ(cv::norm(back.bgr, f.bgr, cv::NORM_INF), 0.0);
-  cv::Mat valid = f.depth_m > 0.f & f.depth_m < 65.5f;  // NaN compares false
-  valid.row(47).setTo(0);                               // the edge cases, checked above
+  cv::Mat valid = (f.depth_m > 0.f) & (f.depth_m < 65.5f);  // NaN compares false
+  valid.row(47).setTo(0);                                   // the edge cases, checked above
   cv::Mat diff;
   cv::absdiff(back.depth_m, f.depth_m, diff);
   double max_diff = 0;
