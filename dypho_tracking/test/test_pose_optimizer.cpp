@@ -1,9 +1,11 @@
 #include <cmath>
+#include <iostream>
 #include <random>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
+#include "dypho/tracking/motion_blur.h"
 #include "dypho/tracking/pose_optimizer.h"
 #include "dypho/tracking/rolling_shutter.h"
 #include "dypho/tracking/rolling_shutter_error.h"
@@ -188,6 +190,96 @@ TEST(PoseOptimizer, RollingShutterWithoutRowTimesIsTheGlobalShutterRefinement) {
   ASSERT_TRUE(a.success && b.success);
   EXPECT_TRUE(a.T_camera_world.matrix() == b.T_camera_world.matrix());
   EXPECT_TRUE(a.rates.omega_rad_s.isZero(0.0));
+}
+
+/// The streak of a camera turning at 2 rad/s about its y axis, for a point at the image centre
+/// 2 m away, is horizontal: dp/dt = -omega x p = (-4, 0, 0) m/s, so du/dt = fx * -4 / 2 =
+/// -1050 px/s, 15.75 px in 15 ms. Along it the standard deviation is sqrt(1 + 15.75^2 / 12) =
+/// 4.65 px (W = 0.215), across it the keypoint's 1 px. Without an exposure or a motion, W = I /
+/// sigma. A camera moving sideways at 1 m/s blurs a point 1 m away twice as long as one 2 m away.
+TEST(MotionBlur, StreakFollowsTheImageMotionAndOnlyLoosensAlongIt) {
+  const CameraRates turn{Eigen::Vector3d(0.0, 2.0, 0.0), Eigen::Vector3d::Zero()};
+  const Eigen::Vector3d centre(0.0, 0.0, 2.0);
+  EXPECT_NEAR(imageVelocityPxS(centre, turn, kPinhole).x(), -1050.0, 1e-9);
+  EXPECT_NEAR(imageVelocityPxS(centre, turn, kPinhole).y(), 0.0, 1e-9);
+  const Eigen::Matrix2d W = blurSqrtInformation(centre, turn, kPinhole, 0.015, 1.0);
+  EXPECT_NEAR(W(0, 0), 1.0 / std::sqrt(1.0 + 15.75 * 15.75 / 12.0), 1e-12);
+  EXPECT_NEAR(W(1, 1), 1.0, 1e-12);
+  EXPECT_NEAR(W(0, 1), 0.0, 1e-12);
+  EXPECT_TRUE(blurSqrtInformation(centre, turn, kPinhole, 0.0, 2.0).isApprox(Eigen::Matrix2d::Identity() / 2.0));
+  EXPECT_TRUE(
+      blurSqrtInformation(centre, CameraRates(), kPinhole, 0.015, 2.0).isApprox(Eigen::Matrix2d::Identity() / 2.0));
+  const CameraRates sideways{Eigen::Vector3d::Zero(), Eigen::Vector3d(1.0, 0.0, 0.0)};
+  EXPECT_NEAR(imageVelocityPxS(Eigen::Vector3d(0, 0, 1), sideways, kPinhole).norm(),
+              2.0 * imageVelocityPxS(Eigen::Vector3d(0, 0, 2), sideways, kPinhole).norm(), 1e-9);
+}
+
+/// The inlier test weighs an observation as the refinement does: 4 px off along the streak of
+/// the turn above is chi2 = 16 without the exposure (an outlier at 5.991) and 16 * 0.0462 = 0.74
+/// with it (an inlier); 4 px off across the streak stays an outlier.
+TEST(PoseOptimizer, BlurredKeypointIsJudgedAlongItsStreak) {
+  const CameraRates turn{Eigen::Vector3d(0.0, 2.0, 0.0), Eigen::Vector3d::Zero()};
+  PoseObservation along;
+  along.p_world_m = Eigen::Vector3d(0.0, 0.0, 2.0);
+  along.uv_px = kPinhole.project(along.p_world_m) + Eigen::Vector2d(4.0, 0.0);
+  PoseObservation across = along;
+  across.uv_px = kPinhole.project(across.p_world_m) + Eigen::Vector2d(0.0, 4.0);
+  TrackingOptions blurred;
+  blurred.motion_blur_exposure_ms = 15.0;
+  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  EXPECT_FALSE(PoseOptimizer(TrackingOptions()).agrees(along, kPinhole, T, turn));
+  EXPECT_TRUE(PoseOptimizer(blurred).agrees(along, kPinhole, T, turn));
+  EXPECT_FALSE(PoseOptimizer(blurred).agrees(across, kPinhole, T, turn));
+}
+
+/// A frame taken during a 3 rad/s turn with a 15 ms exposure (a streak of about 24 px): each
+/// keypoint lies anywhere on its streak (uniform) plus 0.5 px noise. Weighted by its streak, the
+/// refinement keeps every observation and trusts each only across its streak; unweighted, the
+/// outlier test throws most of them away and the rest pull the pose along their streaks.
+/// Bound: over 5 seeds the weighted mean position error must be under half the unweighted
+/// (measured 0.19 against 0.64 cm, with 300 against 59 inliers per frame; weighted least squares
+/// with the true covariance is the best linear estimator, so a weighting that did not help would
+/// fail here, and without it the two runs are the same).
+TEST(PoseOptimizer, MotionBlurWeightsRecoverTheCameraOfABlurredFrame) {
+  const CameraRates turn{Eigen::Vector3d(0.5, 3.0, -0.4), Eigen::Vector3d::Zero()};
+  const double exposure_s = 0.015;
+  const Eigen::Isometry3d T_cw_true = truePose();
+  double error_weighted_m = 0.0, error_plain_m = 0.0;
+  int inliers_weighted = 0, inliers_plain = 0;
+  for (int seed = 1; seed <= 5; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    std::normal_distribution<double> noise(0.0, 0.5);
+    std::vector<PoseObservation> obs;
+    for (int i = 0; i < 300; ++i) {
+      const Eigen::Vector3d p_c =
+          kPinhole.backProject(Eigen::Vector2d(20 + 600 * u01(rng), 20 + 440 * u01(rng)), 1.0 + 4.0 * u01(rng));
+      const Eigen::Vector2d streak_px = imageVelocityPxS(p_c, turn, kPinhole) * exposure_s;
+      PoseObservation o;
+      o.p_world_m = T_cw_true.inverse() * p_c;
+      o.uv_px = kPinhole.project(p_c) + (u01(rng) - 0.5) * streak_px + Eigen::Vector2d(noise(rng), noise(rng));
+      obs.push_back(o);
+    }
+    Eigen::Isometry3d T_init = T_cw_true;
+    T_init.translation() += Eigen::Vector3d(0.02, -0.02, 0.01);
+    const auto position_error_m = [&](const PoseOptimizerResult& r) {
+      return (r.T_camera_world.inverse().translation() - T_cw_true.inverse().translation()).norm();
+    };
+    TrackingOptions blurred;
+    blurred.motion_blur_exposure_ms = 1e3 * exposure_s;
+    const PoseOptimizerResult weighted = PoseOptimizer(blurred).optimize(obs, kPinhole, T_init, turn);
+    const PoseOptimizerResult plain = PoseOptimizer(TrackingOptions()).optimize(obs, kPinhole, T_init, turn);
+    ASSERT_TRUE(weighted.success && plain.success) << weighted.message << plain.message;
+    error_weighted_m += position_error_m(weighted) / 5.0;
+    error_plain_m += position_error_m(plain) / 5.0;
+    inliers_weighted += weighted.num_inliers;
+    inliers_plain += plain.num_inliers;
+  }
+  std::cout << "blurred frame: mean position error " << 100.0 * error_weighted_m << " cm weighted ("
+            << inliers_weighted / 5 << " inliers), " << 100.0 * error_plain_m << " cm unweighted (" << inliers_plain / 5
+            << ")\n";
+  EXPECT_LT(error_weighted_m, 0.5 * error_plain_m);
+  EXPECT_GT(inliers_weighted, 5 * 280);
 }
 
 }  // namespace

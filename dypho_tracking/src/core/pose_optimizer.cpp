@@ -11,6 +11,7 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include "dypho/tracking/motion_blur.h"
 #include "dypho/tracking/reprojection_error.h"
 
 namespace dypho {
@@ -31,7 +32,7 @@ double PoseOptimizer::sigma(int level) const {
 
 bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
                            const CameraRates& rates) const {
-  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m), pinhole);
+  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m), pinhole, rates);
 }
 
 bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observations) const {
@@ -42,36 +43,43 @@ bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observati
   return false;
 }
 
-bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole) const {
+double PoseOptimizer::exposureS() const { return std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3; }
+
+bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
+                                   const CameraRates& rates) const {
   if (!(p_c.z() > 1e-6)) return false;
   const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
-  double chi2 = e.squaredNorm();
+  const double sigma_px = sigma(o.level);
+  double chi2 = (blurSqrtInformation(p_c, rates, pinhole, exposureS(), sigma_px) * e).squaredNorm();
   const double bf = options_.depth_baseline_m * pinhole.fx;
   const bool with_depth = bf > 0.0 && o.depth_m > 0.0;
   if (with_depth) {
     const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
-    chi2 += e_right * e_right;
+    chi2 += e_right * e_right / (sigma_px * sigma_px);
   }
-  chi2 /= sigma(o.level) * sigma(o.level);
   return chi2 < (with_depth ? options_.chi2_threshold_depth : options_.chi2_threshold);
 }
 
 std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
-    const std::vector<PoseObservation>& observations, const Pinhole& pinhole, bool rolling) const {
+    const std::vector<PoseObservation>& observations, const Pinhole& pinhole, bool rolling,
+    const Eigen::Isometry3d& T_camera_world_init, const CameraRates& rates_init) const {
   const size_t n = observations.size();
   const double bf = options_.depth_baseline_m * pinhole.fx;
   const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
   std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
   for (size_t i = 0; i < n; ++i) {
     const PoseObservation& o = observations[i];
+    // The blur's weight is fixed for the solve, from the start (the motion model's velocities).
+    const Eigen::Vector3d p_c = pointAtRowTime(rates_init, o.row_time_s, T_camera_world_init * o.p_world_m);
+    const Eigen::Matrix2d sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposureS(), sigma(o.level));
     if (rolling) {
       costs[i].reset(RollingShutterReprojectionError::create(o.p_world_m, o.uv_px, has_depth(o) ? o.depth_m : 0.0, bf,
-                                                             sigma(o.level), o.row_time_s, pinhole));
+                                                             sigma(o.level), sqrt_information, o.row_time_s, pinhole));
     } else if (has_depth(o)) {
       costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
                                                          sigma(o.level), pinhole);
     } else {
-      costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sigma(o.level), pinhole);
+      costs[i] = std::make_unique<ReprojectionError>(o.p_world_m, o.uv_px, sqrt_information, pinhole);
     }
   }
   return costs;
@@ -84,7 +92,7 @@ int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, co
   for (size_t i = 0; i < observations.size(); ++i) {
     const Eigen::Vector3d p_c =
         pointAtRowTime(rates, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
-    const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole);
+    const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole, rates);
     (*inliers)[i] = inlier;
     count += inlier ? 1 : 0;
   }
@@ -191,14 +199,19 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   // which do not own them: a round only chooses which residuals take part. (Allocating them again
   // each round cost more than the solve on a small problem.)
   const bool rolling = rollingShutter(observations);
-  const std::vector<std::unique_ptr<ceres::CostFunction>> costs = makeCosts(observations, pinhole, rolling);
-  RoundSetup setup(options_.huber_px, options_.refine_iterations);
+  // The velocities: unknowns with a rolling shutter, else the motion model's, held fixed (they
+  // only set the blur's weights; global-shutter observations have row time 0).
   CameraRates rates;
+  if (rolling || exposureS() > 0.0) {
+    if (rates_prior.omega_rad_s.allFinite()) rates.omega_rad_s = rates_prior.omega_rad_s;
+    if (rates_prior.velocity_m_s.allFinite()) rates.velocity_m_s = rates_prior.velocity_m_s;
+  }
+  const std::vector<std::unique_ptr<ceres::CostFunction>> costs =
+      makeCosts(observations, pinhole, rolling, T_camera_world_init, rates);
+  RoundSetup setup(options_.huber_px, options_.refine_iterations);
   std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
   if (rolling) {
-    if (rates_prior.omega_rad_s.allFinite()) rates.omega_rad_s = rates_prior.omega_rad_s;
-    if (rates_prior.velocity_m_s.allFinite()) rates.velocity_m_s = rates_prior.velocity_m_s;
     omega_prior.reset(RatePrior::create(rates.omega_rad_s, options_.rolling_shutter_rate_sigma_rad_s));
     velocity_prior.reset(RatePrior::create(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s));
     rate = RateUnknown{&rates, omega_prior.get(), velocity_prior.get()};

@@ -29,19 +29,26 @@ Eigen::Matrix3d rotationMatrix(const double* q) {
   return Eigen::Matrix3d::Identity() + 2.0 * q[3] * skew_v + 2.0 * skew_v * skew_v;
 }
 
-/// Whitened pixel residual (u - u_obs, v - v_obs) / sigma of the camera point p_c (the caller
-/// checks p_c.z() > 0) written to residuals[0..1]; returns d r / d p_c (2x3, whitened).
-Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::Vector2d& uv_px, double inv_sigma,
-                                          const Eigen::Vector3d& p_c, double* residuals) {
+/// Whitened pixel residual W (u - u_obs, v - v_obs) of the camera point p_c (the caller checks
+/// p_c.z() > 0) written to residuals[0..1], W the 2x2 square-root information (I / sigma for a
+/// keypoint without blur); returns d r / d p_c (2x3, whitened).
+Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::Vector2d& uv_px,
+                                          const Eigen::Matrix2d& sqrt_information, const Eigen::Vector3d& p_c,
+                                          double* residuals) {
   const double inv_z = 1.0 / p_c.z();
   const double x = p_c.x() * inv_z, y = p_c.y() * inv_z;
-  residuals[0] = (pinhole.fx * x + pinhole.cx - uv_px.x()) * inv_sigma;
-  residuals[1] = (pinhole.fy * y + pinhole.cy - uv_px.y()) * inv_sigma;
-  Eigen::Matrix<double, 2, 3> d_r_d_pc;
-  d_r_d_pc << pinhole.fx * inv_z, 0.0, -pinhole.fx * x * inv_z,  //
+  const Eigen::Vector2d e(pinhole.fx * x + pinhole.cx - uv_px.x(), pinhole.fy * y + pinhole.cy - uv_px.y());
+  const Eigen::Vector2d r = sqrt_information * e;
+  residuals[0] = r.x();
+  residuals[1] = r.y();
+  Eigen::Matrix<double, 2, 3> d_e_d_pc;
+  d_e_d_pc << pinhole.fx * inv_z, 0.0, -pinhole.fx * x * inv_z,  //
       0.0, pinhole.fy * inv_z, -pinhole.fy * y * inv_z;
-  return d_r_d_pc * inv_sigma;
+  return sqrt_information * d_e_d_pc;
 }
+
+/// The isotropic square-root information of a keypoint with 1 / sigma = inv_sigma.
+Eigen::Matrix2d isotropic(double inv_sigma) { return Eigen::Matrix2d::Identity() * inv_sigma; }
 
 }  // namespace
 
@@ -55,7 +62,7 @@ bool BaReprojectionError::Evaluate(double const* const* parameters, double* resi
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
   const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, isotropic(inv_sigma_), p_c, residuals);
   if (jacobians == nullptr) return true;
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
@@ -110,7 +117,7 @@ bool ReprojectionError::Evaluate(double const* const* parameters, double* residu
   const double* t = parameters[1];
   const Eigen::Vector3d p_c = rotate(q, p_world_m_) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, sqrt_information_, p_c, residuals);
   if (jacobians == nullptr) return true;
 
   if (jacobians[0] != nullptr) {
@@ -131,7 +138,7 @@ bool RgbdReprojectionError::Evaluate(double const* const* parameters, double* re
   if (!(p_c.z() > 1e-6)) return false;
   const double inv_z = 1.0 / p_c.z();
   Eigen::Matrix<double, 3, 3> d_r_d_pc;
-  d_r_d_pc.topRows<2>() = pixelResidual(pinhole_, uv_px_, inv_sigma_, p_c, residuals);
+  d_r_d_pc.topRows<2>() = pixelResidual(pinhole_, uv_px_, isotropic(inv_sigma_), p_c, residuals);
   // Third row: the virtual right-camera column u - bf / z against the observed u_right.
   const double u = pinhole_.fx * p_c.x() * inv_z + pinhole_.cx;
   residuals[2] = (u - bf_ * inv_z - u_right_px_) * inv_sigma_;

@@ -214,8 +214,10 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
   }
   // With a rolling shutter the refinement estimates the camera's velocities too, about the motion
   // model's: the last step T_prev_last over its time, in the last camera's frame (zero without one).
+  // With an exposure the same velocities set each keypoint's blur.
   CameraRates rates_prior;
-  if (options_.rolling_shutter_readout_ms > 0.0 && motion_.hasVelocity() && motion_.stepNs() > 0) {
+  const bool moving_camera_model = options_.rolling_shutter_readout_ms > 0.0 || options_.motion_blur_exposure_ms > 0.0;
+  if (moving_camera_model && motion_.hasVelocity() && motion_.stepNs() > 0) {
     const Eigen::Isometry3d& step = *motion_.lastStep();
     const double dt_s = timestampToSeconds(motion_.stepNs());
     const Eigen::AngleAxisd turn(step.rotation());

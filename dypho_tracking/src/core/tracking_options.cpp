@@ -83,6 +83,7 @@ void TrackingOptions::validate() const {
   }
   requireRange("rolling_shutter_rate_sigma_rad_s", rolling_shutter_rate_sigma_rad_s, 0.0, 100.0, true);
   requireRange("rolling_shutter_velocity_sigma_m_s", rolling_shutter_velocity_sigma_m_s, 0.0, 100.0, true);
+  requireRange("motion_blur_exposure_ms", motion_blur_exposure_ms, 0.0, 100.0);
   requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);
   requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);

@@ -42,7 +42,7 @@ struct PoseOptimizerResult {
   int num_inliers = 0;        ///< count of true in `inliers`
   double rms_inlier_px = 0;   ///< RMS reprojection error of the inliers (not whitened) [px]
   /// The camera's angular and linear velocity during the frame, estimated with a rolling
-  /// shutter; zero without one (rolling_shutter_readout_ms <= 0 or no row times).
+  /// shutter; without one the start's (`rates_prior`) with motion_blur_exposure_ms > 0, else zero.
   CameraRates rates;
   std::string message;  ///< why it failed; empty on success
 };
@@ -59,6 +59,9 @@ struct PoseOptimizerResult {
 /// camera's angular and linear velocity are unknowns too, with priors about the motion model's
 /// (rolling_shutter_rate_sigma_rad_s, rolling_shutter_velocity_sigma_m_s), and each point is
 /// projected with its row's camera (RollingShutterReprojectionError, automatic derivatives).
+/// With an exposure (motion_blur_exposure_ms > 0) each pixel residual is whitened by its
+/// keypoint's blur streak under the start's velocities (motion_blur.h), in the solve and in the
+/// inlier test alike.
 class PoseOptimizer {
  public:
   /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.
@@ -67,7 +70,8 @@ class PoseOptimizer {
   /// Never throws on data: returns !success with a message when fewer than 3 observations are in
   /// front of the camera or Ceres fails.
   /// `rates_prior`: with a rolling shutter, the velocities the priors are centred on and the
-  /// estimate starts from (the motion model's; zero when none).
+  /// estimate starts from (the motion model's; zero when none); with an exposure, the velocities
+  /// that set the blur.
   PoseOptimizerResult optimize(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                                const Eigen::Isometry3d& T_camera_world_init,
                                const CameraRates& rates_prior = CameraRates()) const;
@@ -83,15 +87,21 @@ class PoseOptimizer {
  private:
   double sigma(int level) const;
   /// agrees() with the point already in its row's camera frame.
-  bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m,
-                      const Pinhole& pinhole) const;
+  bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m, const Pinhole& pinhole,
+                      const CameraRates& rates) const;
+  /// motion_blur_exposure_ms in seconds (0 when off).
+  double exposureS() const;
   /// True when the rolling shutter is modelled for `observations` (a readout and row times).
   bool rollingShutter(const std::vector<PoseObservation>& observations) const;
   /// One residual per observation: RgbdReprojectionError when it has a depth and
   /// depth_baseline_m > 0, else ReprojectionError; RollingShutterReprojectionError when
-  /// `rolling`; whitened by sigma(level).
+  /// `rolling`; whitened by sigma(level), and with an exposure by the keypoint's blur at the start
+  /// pose and velocities (motion_blur.h; not the depth residual of RgbdReprojectionError, which
+  /// stays isotropic).
   std::vector<std::unique_ptr<ceres::CostFunction>> makeCosts(const std::vector<PoseObservation>& observations,
-                                                              const Pinhole& pinhole, bool rolling) const;
+                                                              const Pinhole& pinhole, bool rolling,
+                                                              const Eigen::Isometry3d& T_camera_world_init,
+                                                              const CameraRates& rates_init) const;
   /// Marks each observation an inlier at (q_cw, t_cw, rates) in `inliers` (size of
   /// `observations`): in front of its row's camera when `accept_all_in_front`, else
   /// agreesInCamera; returns the count.

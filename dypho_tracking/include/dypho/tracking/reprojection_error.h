@@ -11,7 +11,9 @@ namespace dypho {
 namespace tracking {
 
 /// Residual r = (pi(R(q) P_world + t) - uv_obs) / sigma, 2 x 1, whitened by the keypoint's scale
-/// sigma = scale_factor^level (information 1/sigma^2, paper eq. "Pose Optimization").
+/// sigma = scale_factor^level (information 1/sigma^2, paper eq. "Pose Optimization"); or
+/// r = W (pi(...) - uv_obs) with a 2x2 square-root information W (a blurred keypoint,
+/// motion_blur.h).
 ///
 /// Parameters (pose T_camera_world, i.e. world -> camera):
 ///  - block 0: quaternion q = [x, y, z, w] (Eigen storage order; use ceres::EigenQuaternionManifold);
@@ -26,7 +28,14 @@ class ReprojectionError final : public ceres::SizedCostFunction<2, 4, 3> {
   /// standard deviation [px] (> 0).
   ReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double sigma_px,
                     const Pinhole& pinhole)
-      : p_world_m_(p_world_m), uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
+      : p_world_m_(p_world_m),
+        uv_px_(uv_px),
+        sqrt_information_(Eigen::Matrix2d::Identity() / sigma_px),
+        pinhole_(pinhole) {}
+  /// sqrt_information_px: W [1/px], symmetric positive definite.
+  ReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px,
+                    const Eigen::Matrix2d& sqrt_information_px, const Pinhole& pinhole)
+      : p_world_m_(p_world_m), uv_px_(uv_px), sqrt_information_(sqrt_information_px), pinhole_(pinhole) {}
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
@@ -36,7 +45,7 @@ class ReprojectionError final : public ceres::SizedCostFunction<2, 4, 3> {
  private:
   Eigen::Vector3d p_world_m_;
   Eigen::Vector2d uv_px_;
-  double inv_sigma_;
+  Eigen::Matrix2d sqrt_information_;
   Pinhole pinhole_;
 };
 

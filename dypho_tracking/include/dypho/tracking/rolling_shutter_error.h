@@ -40,19 +40,23 @@ inline Eigen::Vector3d pointAtRowTime(const CameraRates& rates, double row_time_
   return p_row;
 }
 
-/// Residual of one observation seen at `row_time_s` from the stamp: the whitened pixel error of
-/// the point projected with its row's camera, and, when the observation has a depth, the virtual
+/// Residual of one observation seen at `row_time_s` from the stamp: the pixel error of the point
+/// projected with its row's camera, whitened by the 2x2 square-root information W (I / sigma, or
+/// a blurred keypoint's, motion_blur.h), and, when the observation has a depth, the virtual
 /// right column's error as in RgbdReprojectionError (else 0). Parameters: the quaternion of
 /// T_camera_world [x, y, z, w] (EigenQuaternionManifold), its translation [m], omega [rad/s], v
 /// [m/s].
 struct RollingShutterReprojectionError {
+  /// sqrt_information_px: W [1/px]; sigma_px whitens the depth residual.
   RollingShutterReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
-                                  double bf_px_m, double sigma_px, double row_time_s, const Pinhole& pinhole)
+                                  double bf_px_m, double sigma_px, const Eigen::Matrix2d& sqrt_information_px,
+                                  double row_time_s, const Pinhole& pinhole)
       : p_world_m(p_world_m),
         uv_px(uv_px),
         u_right_px(depth_m > 0.0 && bf_px_m > 0.0 ? uv_px.x() - bf_px_m / depth_m : 0.0),
         bf(depth_m > 0.0 ? bf_px_m : 0.0),
         inv_sigma(1.0 / sigma_px),
+        sqrt_information(sqrt_information_px),
         row_time_s(row_time_s),
         pinhole(pinhole) {}
 
@@ -65,17 +69,21 @@ struct RollingShutterReprojectionError {
     if (!(p_row[2] > T(1e-6))) return false;
     const T inv_z = T(1.0) / p_row[2];
     const T u = T(pinhole.fx) * p_row[0] * inv_z + T(pinhole.cx);
-    residuals[0] = (u - T(uv_px.x())) * inv_sigma;
-    residuals[1] = (T(pinhole.fy) * p_row[1] * inv_z + T(pinhole.cy) - T(uv_px.y())) * inv_sigma;
+    const T e_u = u - T(uv_px.x());
+    const T e_v = T(pinhole.fy) * p_row[1] * inv_z + T(pinhole.cy) - T(uv_px.y());
+    residuals[0] = T(sqrt_information(0, 0)) * e_u + T(sqrt_information(0, 1)) * e_v;
+    residuals[1] = T(sqrt_information(1, 0)) * e_u + T(sqrt_information(1, 1)) * e_v;
     residuals[2] = bf > 0.0 ? (u - T(bf) * inv_z - T(u_right_px)) * inv_sigma : T(0.0);
     return true;
   }
 
   /// The Ceres cost (3 residuals; parameter blocks 4, 3, 3, 3).
   static ceres::CostFunction* create(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
-                                     double bf_px_m, double sigma_px, double row_time_s, const Pinhole& pinhole) {
+                                     double bf_px_m, double sigma_px, const Eigen::Matrix2d& sqrt_information_px,
+                                     double row_time_s, const Pinhole& pinhole) {
     return new ceres::AutoDiffCostFunction<RollingShutterReprojectionError, 3, 4, 3, 3, 3>(
-        new RollingShutterReprojectionError(p_world_m, uv_px, depth_m, bf_px_m, sigma_px, row_time_s, pinhole));
+        new RollingShutterReprojectionError(p_world_m, uv_px, depth_m, bf_px_m, sigma_px, sqrt_information_px,
+                                            row_time_s, pinhole));
   }
 
   Eigen::Vector3d p_world_m;
@@ -83,6 +91,7 @@ struct RollingShutterReprojectionError {
   double u_right_px;
   double bf;
   double inv_sigma;
+  Eigen::Matrix2d sqrt_information;
   double row_time_s;
   Pinhole pinhole;
 };
