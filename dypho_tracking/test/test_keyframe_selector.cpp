@@ -24,12 +24,12 @@ KeyframeQuery calmQuery() {
   q.num_inliers = 400;
   q.num_reference_inliers = 500;
   q.frames_since_keyframe = 5;
-  q.frame_rotation_deg = 0.5;  // below keyframe_max_frame_rotation_deg = 1.5
+  q.frame_rotation_deg = 0.5;  // below keyframe_max_frame_rotation_deg = 4
   return q;
 }
 
 TEST(KeyframeSelector, SoftTriggers) {
-  const KeyframeSelector s{TrackingOptions()};  // 0.10 m, 8 deg, ratio 0.6, 20 frames, 1.5 deg/frame
+  const KeyframeSelector s{TrackingOptions()};  // 0.10 m, 8 deg, ratio 0.6, 20 frames, 4 deg/frame
   EXPECT_FALSE(s.decide(calmQuery()).is_keyframe);
 
   KeyframeQuery q = calmQuery();
@@ -67,13 +67,13 @@ TEST(KeyframeSelector, FastRotationPostponesSoftButNotHardTriggers) {
   const KeyframeSelector s{TrackingOptions()};
   KeyframeQuery q = calmQuery();
   q.T_world_camera = q.T_world_keyframe * pose(0.0, 12.0);  // soft trigger: rotation
-  q.frame_rotation_deg = 2.5;                               // camera turning fast
+  q.frame_rotation_deg = 4.5;                               // camera turning fast (default limit 4)
   EXPECT_FALSE(s.decide(q).is_keyframe);
-  q.frame_rotation_deg = 1.4;
+  q.frame_rotation_deg = 3.9;
   EXPECT_TRUE(s.decide(q).is_keyframe);
 
   q = calmQuery();
-  q.frame_rotation_deg = 4.0;
+  q.frame_rotation_deg = 6.0;
   q.num_inliers = 140;  // 140 / 500 = 0.28 < 0.3: hard
   KeyframeDecision d = s.decide(q);
   EXPECT_TRUE(d.is_keyframe);

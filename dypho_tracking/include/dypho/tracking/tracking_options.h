@@ -154,10 +154,16 @@ struct TrackingOptions {
   int keyframe_max_frames = 20;
   /// The four triggers above are postponed while the camera rotated more than this between the
   /// last two frames: such frames suffer from motion blur, rolling shutter and colour/depth time
-  /// offset, and a keyframe anchors every following frame [deg/frame]; default 1.5, range (0, 180].
-  /// On fr1/rpy (keyframe_rotation_deg 6..15) this gave 2.2-2.5 cm ATE against 3.0-5.4 cm without
-  /// it; the result is sensitive to which frames become keyframes (1.25: ~4.4 cm, 1.75: 2.3-3.9).
-  double keyframe_max_frame_rotation_deg = 1.5;
+  /// offset, and a keyframe anchors every following frame [deg/frame]; default 4 (120 deg/s at
+  /// 30 Hz), range (0, 180]. Too low a value starves the map during a long fast turn, until a
+  /// hard trigger makes the keyframe at the worst frame: 1.5 held off every soft keyframe through
+  /// 85 frames of the generator's fast turns, and the one made then anchored a 4 cm error. The
+  /// generator's fast turns (ground truth; sharp / depth noise / 15 ms blur / kinect-fast) went
+  /// 1.27 / 1.04 / 5.62 / 11.99 cm with 1.5, 0.47 / 0.40 / 1.84 / 8.81 with 3 and 0.39 / 0.39 /
+  /// 1.31 / 9.26 with 4 or more; fr1/rpy's fifteen frame-removal inputs 2.30 cm with 1.5, 2.22
+  /// with 2, 1.50 with 3, 1.42 with 4 and 1.69 without the rule
+  /// (docs/journal/benchmarks-2026.md, section 20).
+  double keyframe_max_frame_rotation_deg = 4.0;
   /// A keyframe is made regardless of the rotation speed when the tracked ratio falls below this
   /// or fewer than 3 * min_inliers inliers remain [-]; default 0.3, range [0, keyframe_min_tracked_ratio].
   double keyframe_hard_tracked_ratio = 0.3;

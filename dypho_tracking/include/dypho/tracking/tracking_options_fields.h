@@ -125,7 +125,9 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
           "100000].");
   visitor("keyframe_max_frame_rotation_deg", options.keyframe_max_frame_rotation_deg,
           "The four triggers above are postponed while the camera rotated more than this between the last two frames: "
-          "such frames suffer from motion blur, rolling shutter and colour/depth time offset, and a keyf");
+          "such frames suffer from motion blur, rolling shutter and colour/depth time offset, and a keyframe anchors "
+          "every following frame [deg/frame]; default 4 (120 deg/s at 30 Hz), range (0, 180]. Too low a value starves "
+          "the map during a long fast turn until a hard trigger makes the keyframe at the worst frame.");
   visitor("keyframe_hard_tracked_ratio", options.keyframe_hard_tracked_ratio,
           "A keyframe is made regardless of the rotation speed when the tracked ratio falls below this or fewer than 3 "
           "* min_inliers inliers remain [-]; default 0.3, range [0, keyframe_min_tracked_ratio].");
