@@ -69,9 +69,13 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
   std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
   for (size_t i = 0; i < n; ++i) {
     const PoseObservation& o = observations[i];
-    // The blur's weight is fixed for the solve, from the start (the motion model's velocities).
-    const Eigen::Vector3d p_c = pointAtRowTime(rates_init, o.row_time_s, T_camera_world_init * o.p_world_m);
-    const Eigen::Matrix2d sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposureS(), sigma(o.level));
+    // The blur's weight is fixed for the solve, from the start (the motion model's velocities);
+    // without an exposure the point is not moved to the camera for it.
+    Eigen::Matrix2d sqrt_information = Eigen::Matrix2d::Identity() / sigma(o.level);
+    if (exposureS() > 0.0) {
+      const Eigen::Vector3d p_c = pointAtRowTime(rates_init, o.row_time_s, T_camera_world_init * o.p_world_m);
+      sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposureS(), sigma(o.level));
+    }
     if (rolling) {
       costs[i].reset(RollingShutterReprojectionError::create(o.p_world_m, o.uv_px, has_depth(o) ? o.depth_m : 0.0, bf,
                                                              sigma(o.level), sqrt_information, o.row_time_s, pinhole));
