@@ -77,8 +77,9 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
       sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposureS(), sigma(o.level));
     }
     if (rolling) {
-      costs[i].reset(RollingShutterReprojectionError::create(o.p_world_m, o.uv_px, has_depth(o) ? o.depth_m : 0.0, bf,
-                                                             sigma(o.level), sqrt_information, o.row_time_s, pinhole));
+      costs[i] =
+          std::make_unique<RollingShutterReprojectionError>(o.p_world_m, o.uv_px, has_depth(o) ? o.depth_m : 0.0, bf,
+                                                            sigma(o.level), sqrt_information, o.row_time_s, pinhole);
     } else if (has_depth(o)) {
       costs[i] = std::make_unique<RgbdReprojectionError>(o.p_world_m, o.uv_px, o.depth_m, options_.depth_baseline_m,
                                                          sigma(o.level), pinhole);
@@ -216,8 +217,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
   if (rolling) {
-    omega_prior.reset(RatePrior::create(rates.omega_rad_s, options_.rolling_shutter_rate_sigma_rad_s));
-    velocity_prior.reset(RatePrior::create(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s));
+    omega_prior = std::make_unique<RatePrior>(rates.omega_rad_s, options_.rolling_shutter_rate_sigma_rad_s);
+    velocity_prior = std::make_unique<RatePrior>(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s);
     rate = RateUnknown{&rates, omega_prior.get(), velocity_prior.get()};
   }
 

@@ -1,6 +1,10 @@
 #include "dypho/tracking/reprojection_error.h"
 
+#include <cmath>
+
 #include <Eigen/Geometry>
+
+#include "dypho/tracking/rolling_shutter_error.h"
 
 namespace dypho {
 namespace tracking {
@@ -47,10 +51,36 @@ Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::V
   return sqrt_information * d_e_d_pc;
 }
 
+/// [a]x, the cross-product matrix of a.
+Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d m;
+  m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  return m;
+}
+
 /// The isotropic square-root information of a keypoint with 1 / sigma = inv_sigma.
 Eigen::Matrix2d isotropic(double inv_sigma) { return Eigen::Matrix2d::Identity() * inv_sigma; }
 
 }  // namespace
+
+void angleAxisRotation(const Eigen::Vector3d& a, Eigen::Matrix3d* R, Eigen::Matrix3d* J_l) {
+  const double t2 = a.squaredNorm();
+  const Eigen::Matrix3d A = skew(a);
+  const Eigen::Matrix3d A2 = A * A;
+  double s1, s2, s3;  // sin t / t, (1 - cos t) / t^2, (t - sin t) / t^3
+  if (t2 < 1e-8) {
+    s1 = 1.0 - t2 / 6.0;
+    s2 = 0.5 - t2 / 24.0;
+    s3 = 1.0 / 6.0 - t2 / 120.0;
+  } else {
+    const double t = std::sqrt(t2);
+    s1 = std::sin(t) / t;
+    s2 = (1.0 - std::cos(t)) / t2;
+    s3 = (t - std::sin(t)) / (t2 * t);
+  }
+  *R = Eigen::Matrix3d::Identity() + s1 * A + s2 * A2;
+  if (J_l != nullptr) *J_l = Eigen::Matrix3d::Identity() + s2 * A + s3 * A2;
+}
 
 Eigen::Matrix<double, 3, 4> quaternionRotationJacobian(const double* q, const Eigen::Vector3d& P) {
   return rotationJacobian(q, P);
@@ -152,6 +182,55 @@ bool RgbdReprojectionError::Evaluate(double const* const* parameters, double* re
   if (jacobians[1] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J_t(jacobians[1]);
     J_t = d_r_d_pc;
+  }
+  return true;
+}
+
+bool RollingShutterReprojectionError::Evaluate(double const* const* parameters, double* residuals,
+                                               double** jacobians) const {
+  const double* q = parameters[0];
+  const Eigen::Map<const Eigen::Vector3d> t(parameters[1]);
+  const Eigen::Map<const Eigen::Vector3d> omega(parameters[2]);
+  const Eigen::Map<const Eigen::Vector3d> velocity(parameters[3]);
+  const double tau = row_time_s_;
+  const Eigen::Vector3d p_stamp = ReprojectionError::rotate(q, p_world_m_) + t;
+  // p_row = R(a) (p_stamp - v tau), a = -omega tau (pointAtRowTime).
+  Eigen::Matrix3d R_a, J_l;
+  angleAxisRotation(-tau * omega, &R_a, &J_l);
+  const Eigen::Vector3d p_row = R_a * (p_stamp - tau * velocity);
+  if (!(p_row.z() > 1e-6)) return false;
+  const double inv_z = 1.0 / p_row.z();
+  Eigen::Matrix<double, 3, 3> d_r_d_prow;
+  d_r_d_prow.topRows<2>() = pixelResidual(pinhole_, uv_px_, sqrt_information_, p_row, residuals);
+  // Third row: the virtual right column u - bf / z against the observed u_right (0 without depth).
+  const double u = pinhole_.fx * p_row.x() * inv_z + pinhole_.cx;
+  residuals[2] = bf_ > 0.0 ? (u - bf_ * inv_z - u_right_px_) * inv_sigma_ : 0.0;
+  if (jacobians == nullptr) return true;
+  if (bf_ > 0.0) {
+    d_r_d_prow.row(2) << pinhole_.fx * inv_z * inv_sigma_, 0.0,
+        (bf_ - pinhole_.fx * p_row.x()) * inv_z * inv_z * inv_sigma_;
+  } else {
+    d_r_d_prow.row(2).setZero();
+  }
+  const Eigen::Matrix3d d_r_d_stamp = d_r_d_prow * R_a;
+  using Jacobian34 = Eigen::Matrix<double, 3, 4, Eigen::RowMajor>;
+  using Jacobian33 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  if (jacobians[0] != nullptr) {
+    Eigen::Map<Jacobian34> J_q(jacobians[0]);
+    J_q = d_r_d_stamp * rotationJacobian(q, p_world_m_);
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Map<Jacobian33> J_t(jacobians[1]);
+    J_t = d_r_d_stamp;
+  }
+  if (jacobians[2] != nullptr) {
+    // d p_row / d omega = d p_row / d a * (-tau) = tau [p_row]x J_l(a).
+    Eigen::Map<Jacobian33> J_omega(jacobians[2]);
+    J_omega = d_r_d_prow * (tau * skew(p_row) * J_l);
+  }
+  if (jacobians[3] != nullptr) {
+    Eigen::Map<Jacobian33> J_v(jacobians[3]);
+    J_v = -tau * d_r_d_stamp;
   }
   return true;
 }

@@ -58,7 +58,7 @@ struct PoseOptimizerResult {
 /// With a rolling shutter (rolling_shutter_readout_ms > 0 and observations with row times) the
 /// camera's angular and linear velocity are unknowns too, with priors about the motion model's
 /// (rolling_shutter_rate_sigma_rad_s, rolling_shutter_velocity_sigma_m_s), and each point is
-/// projected with its row's camera (RollingShutterReprojectionError, automatic derivatives).
+/// projected with its row's camera (RollingShutterReprojectionError, analytic derivatives).
 /// With an exposure (motion_blur_exposure_ms > 0) each pixel residual is whitened by its
 /// keypoint's blur streak under the start's velocities (motion_blur.h), in the solve and in the
 /// inlier test alike.

@@ -9,8 +9,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <ceres/autodiff_cost_function.h>
-#include <ceres/rotation.h>
+#include <ceres/sized_cost_function.h>
 
 #include "dypho/tracking/pinhole.h"
 
@@ -23,21 +22,17 @@ struct CameraRates {
   Eigen::Vector3d velocity_m_s = Eigen::Vector3d::Zero();  ///< linear velocity [m/s]
 };
 
-/// p_row = exp(-omega tau) (p_stamp - v tau), tau = row_time_s (see the file comment); T = double
-/// or a Ceres Jet.
-template <typename T>
-void pointAtRowTime(const T* omega_rad_s, const T* velocity_m_s, double row_time_s, const T* p_stamp, T* p_row) {
-  const T angle_axis[3] = {-omega_rad_s[0] * row_time_s, -omega_rad_s[1] * row_time_s, -omega_rad_s[2] * row_time_s};
-  const T moved[3] = {p_stamp[0] - velocity_m_s[0] * row_time_s, p_stamp[1] - velocity_m_s[1] * row_time_s,
-                      p_stamp[2] - velocity_m_s[2] * row_time_s};
-  ceres::AngleAxisRotatePoint(angle_axis, moved, p_row);
-}
+/// Rotation matrix R of the angle-axis vector a [rad] and, when J_l is given, the left Jacobian
+/// of SO(3) at a, J_l(a) = I + (1 - cos t) / t^2 [a]x + (t - sin t) / t^3 [a]x^2 (t = |a|; a
+/// series for t < 1e-4 rad): R(a + d) p = (I + [J_l(a) d]x) R(a) p to first order, so
+/// d (R(a) p) / d a = -[R(a) p]x J_l(a).
+void angleAxisRotation(const Eigen::Vector3d& a, Eigen::Matrix3d* R, Eigen::Matrix3d* J_l = nullptr);
 
-/// pointAtRowTime for Eigen vectors.
+/// p_row = exp(-omega tau) (p_stamp - v tau), tau = row_time_s (see the file comment).
 inline Eigen::Vector3d pointAtRowTime(const CameraRates& rates, double row_time_s, const Eigen::Vector3d& p_stamp) {
-  Eigen::Vector3d p_row;
-  pointAtRowTime(rates.omega_rad_s.data(), rates.velocity_m_s.data(), row_time_s, p_stamp.data(), p_row.data());
-  return p_row;
+  Eigen::Matrix3d R;
+  angleAxisRotation(-row_time_s * rates.omega_rad_s, &R);
+  return R * (p_stamp - row_time_s * rates.velocity_m_s);
 }
 
 /// Residual of one observation seen at `row_time_s` from the stamp: the pixel error of the point
@@ -45,75 +40,55 @@ inline Eigen::Vector3d pointAtRowTime(const CameraRates& rates, double row_time_
 /// a blurred keypoint's, motion_blur.h), and, when the observation has a depth, the virtual
 /// right column's error as in RgbdReprojectionError (else 0). Parameters: the quaternion of
 /// T_camera_world [x, y, z, w] (EigenQuaternionManifold), its translation [m], omega [rad/s], v
-/// [m/s].
-struct RollingShutterReprojectionError {
-  /// sqrt_information_px: W [1/px]; sigma_px whitens the depth residual.
+/// [m/s]. Analytic Jacobian (reprojection_error.cpp), with d p_row / d omega = tau [p_row]x
+/// J_l(-omega tau), J_l the left Jacobian of SO(3); Evaluate returns false for p_row.z <= 1e-6 m.
+class RollingShutterReprojectionError final : public ceres::SizedCostFunction<3, 4, 3, 3, 3> {
+ public:
+  /// sqrt_information_px: W [1/px]; sigma_px whitens the depth residual; depth_m 0 or bf_px_m 0:
+  /// no depth residual (the third residual is 0).
   RollingShutterReprojectionError(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
                                   double bf_px_m, double sigma_px, const Eigen::Matrix2d& sqrt_information_px,
                                   double row_time_s, const Pinhole& pinhole)
-      : p_world_m(p_world_m),
-        uv_px(uv_px),
-        u_right_px(depth_m > 0.0 && bf_px_m > 0.0 ? uv_px.x() - bf_px_m / depth_m : 0.0),
-        bf(depth_m > 0.0 ? bf_px_m : 0.0),
-        inv_sigma(1.0 / sigma_px),
-        sqrt_information(sqrt_information_px),
-        row_time_s(row_time_s),
-        pinhole(pinhole) {}
+      : p_world_m_(p_world_m),
+        uv_px_(uv_px),
+        u_right_px_(depth_m > 0.0 && bf_px_m > 0.0 ? uv_px.x() - bf_px_m / depth_m : 0.0),
+        bf_(depth_m > 0.0 ? bf_px_m : 0.0),
+        inv_sigma_(1.0 / sigma_px),
+        sqrt_information_(sqrt_information_px),
+        row_time_s_(row_time_s),
+        pinhole_(pinhole) {}
 
-  template <typename T>
-  bool operator()(const T* q_cw, const T* t_cw, const T* omega_rad_s, const T* velocity_m_s, T* residuals) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> q(q_cw);
-    const Eigen::Matrix<T, 3, 1> p_stamp = q * p_world_m.cast<T>() + Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t_cw);
-    T p_row[3];
-    pointAtRowTime(omega_rad_s, velocity_m_s, row_time_s, p_stamp.data(), p_row);
-    if (!(p_row[2] > T(1e-6))) return false;
-    const T inv_z = T(1.0) / p_row[2];
-    const T u = T(pinhole.fx) * p_row[0] * inv_z + T(pinhole.cx);
-    const T e_u = u - T(uv_px.x());
-    const T e_v = T(pinhole.fy) * p_row[1] * inv_z + T(pinhole.cy) - T(uv_px.y());
-    residuals[0] = T(sqrt_information(0, 0)) * e_u + T(sqrt_information(0, 1)) * e_v;
-    residuals[1] = T(sqrt_information(1, 0)) * e_u + T(sqrt_information(1, 1)) * e_v;
-    residuals[2] = bf > 0.0 ? (u - T(bf) * inv_z - T(u_right_px)) * inv_sigma : T(0.0);
-    return true;
-  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
-  /// The Ceres cost (3 residuals; parameter blocks 4, 3, 3, 3).
-  static ceres::CostFunction* create(const Eigen::Vector3d& p_world_m, const Eigen::Vector2d& uv_px, double depth_m,
-                                     double bf_px_m, double sigma_px, const Eigen::Matrix2d& sqrt_information_px,
-                                     double row_time_s, const Pinhole& pinhole) {
-    return new ceres::AutoDiffCostFunction<RollingShutterReprojectionError, 3, 4, 3, 3, 3>(
-        new RollingShutterReprojectionError(p_world_m, uv_px, depth_m, bf_px_m, sigma_px, sqrt_information_px,
-                                            row_time_s, pinhole));
-  }
-
-  Eigen::Vector3d p_world_m;
-  Eigen::Vector2d uv_px;
-  double u_right_px;
-  double bf;
-  double inv_sigma;
-  Eigen::Matrix2d sqrt_information;
-  double row_time_s;
-  Pinhole pinhole;
+ private:
+  Eigen::Vector3d p_world_m_;
+  Eigen::Vector2d uv_px_;
+  double u_right_px_;
+  double bf_;
+  double inv_sigma_;
+  Eigen::Matrix2d sqrt_information_;
+  double row_time_s_;
+  Pinhole pinhole_;
 };
 
 /// Prior on a rate (the angular or the linear velocity) about `center` (the motion model's):
-/// r = (rate - center) / sigma (3 residuals, one block of 3).
-struct RatePrior {
-  RatePrior(const Eigen::Vector3d& center, double sigma) : center(center), inv_sigma(1.0 / sigma) {}
+/// r = (rate - center) / sigma (3 residuals, one block of 3; Jacobian I / sigma).
+class RatePrior final : public ceres::SizedCostFunction<3, 3> {
+ public:
+  RatePrior(const Eigen::Vector3d& center, double sigma) : center_(center), inv_sigma_(1.0 / sigma) {}
 
-  template <typename T>
-  bool operator()(const T* rate, T* residuals) const {
-    for (int i = 0; i < 3; ++i) residuals[i] = (rate[i] - T(center[i])) * inv_sigma;
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    for (int i = 0; i < 3; ++i) residuals[i] = (parameters[0][i] - center_[i]) * inv_sigma_;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(jacobians[0]);
+      J = Eigen::Matrix3d::Identity() * inv_sigma_;
+    }
     return true;
   }
 
-  /// The Ceres cost.
-  static ceres::CostFunction* create(const Eigen::Vector3d& center, double sigma) {
-    return new ceres::AutoDiffCostFunction<RatePrior, 3, 3>(new RatePrior(center, sigma));
-  }
-
-  Eigen::Vector3d center;
-  double inv_sigma;
+ private:
+  Eigen::Vector3d center_;
+  double inv_sigma_;
 };
 
 }  // namespace tracking
