@@ -7,8 +7,9 @@
 # Usage: bench/precision_ablation.sh [BUILD_DIR] [OUT_DIR]
 #   DYPHO_ABLATION_CONFIGS: configurations to run (default: features wide dense_only dense_all
 #     dense), e.g. "features dense"; the others below: global_ba, fuse, global_shutter (the
-#     rolling-shutter model off), no_fit and no_motion_tolerance (the mask's parts that serve
-#     tracking off)
+#     rolling-shutter model off), blur (keypoints weighted by a 15 ms exposure's streaks),
+#     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), no_fit and
+#     no_motion_tolerance (the mask's parts that serve tracking off)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
@@ -35,6 +36,8 @@ declare -A CONFIG=(
   [global_ba]=$'  global_ba_at_end: true'
   [fuse]=$'  fuse_keyframes: 10'
   [global_shutter]=$'  rolling_shutter_readout_ms: 0'
+  [blur]=$'  motion_blur_exposure_ms: 15'
+  [keyframes_1_5]=$'  keyframe_max_frame_rotation_deg: 1.5'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(
