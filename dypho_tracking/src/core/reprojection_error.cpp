@@ -10,17 +10,22 @@ namespace dypho {
 namespace tracking {
 namespace {
 
+/// [a]x, the cross-product matrix of a.
+Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d m;
+  m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
+  return m;
+}
+
 /// d (R(q) P) / d q for the 4 ambient quaternion coordinates [x, y, z, w] (see header):
 /// f(q) = P + 2 w (v x P) + 2 v x (v x P), v x (v x P) = v (v.P) - P (v.v)
 /// d f / d v = -2 w [P]x + 2 ((v.P) I + v P^T - 2 P v^T);  d f / d w = 2 (v x P).
 Eigen::Matrix<double, 3, 4> rotationJacobian(const double* q, const Eigen::Vector3d& P) {
   const Eigen::Vector3d v(q[0], q[1], q[2]);
   const double w = q[3];
-  Eigen::Matrix3d skew_p;
-  skew_p << 0, -P.z(), P.y(), P.z(), 0, -P.x(), -P.y(), P.x(), 0;
   Eigen::Matrix<double, 3, 4> J;
   J.leftCols<3>() =
-      -2.0 * w * skew_p + 2.0 * (v.dot(P) * Eigen::Matrix3d::Identity() + v * P.transpose() - 2.0 * P * v.transpose());
+      -2.0 * w * skew(P) + 2.0 * (v.dot(P) * Eigen::Matrix3d::Identity() + v * P.transpose() - 2.0 * P * v.transpose());
   J.col(3) = 2.0 * v.cross(P);
   return J;
 }
@@ -28,8 +33,7 @@ Eigen::Matrix<double, 3, 4> rotationJacobian(const double* q, const Eigen::Vecto
 /// d (R(q) P) / d P: the rotation matrix of the unit quaternion q = [x, y, z, w],
 /// R = I + 2 w [v]x + 2 [v]x^2.
 Eigen::Matrix3d rotationMatrix(const double* q) {
-  Eigen::Matrix3d skew_v;
-  skew_v << 0, -q[2], q[1], q[2], 0, -q[0], -q[1], q[0], 0;
+  const Eigen::Matrix3d skew_v = skew(Eigen::Vector3d(q[0], q[1], q[2]));
   return Eigen::Matrix3d::Identity() + 2.0 * q[3] * skew_v + 2.0 * skew_v * skew_v;
 }
 
@@ -49,13 +53,6 @@ Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::V
   d_e_d_pc << pinhole.fx * inv_z, 0.0, -pinhole.fx * x * inv_z,  //
       0.0, pinhole.fy * inv_z, -pinhole.fy * y * inv_z;
   return sqrt_information * d_e_d_pc;
-}
-
-/// [a]x, the cross-product matrix of a.
-Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
-  Eigen::Matrix3d m;
-  m << 0, -a.z(), a.y(), a.z(), 0, -a.x(), -a.y(), a.x(), 0;
-  return m;
 }
 
 /// The isotropic square-root information of a keypoint with 1 / sigma = inv_sigma.
