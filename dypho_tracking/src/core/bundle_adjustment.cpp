@@ -128,13 +128,13 @@ void removeChi2Outliers(const LocalBaProblem& input, const TrackingOptions& opti
   ceres::Problem& problem = window->problem;
   const std::vector<Observation>& observations = window->observations;
   for (size_t k = 0; k < observations.size(); ++k) {
-    double r[2], r_depth = 0;
+    double r[2], r_depth[2] = {0, 0};  // BaDepthError's second row is its zero padding
     double cost = 0;
     bool ok = problem.EvaluateResidualBlock(observations[k].block, false, &cost, r, nullptr);
     if (ok && observations[k].depth_block != nullptr) {
-      ok = problem.EvaluateResidualBlock(observations[k].depth_block, false, &cost, &r_depth, nullptr);
+      ok = problem.EvaluateResidualBlock(observations[k].depth_block, false, &cost, r_depth, nullptr);
     }
-    const double chi2 = r[0] * r[0] + r[1] * r[1] + r_depth * r_depth;
+    const double chi2 = r[0] * r[0] + r[1] * r[1] + r_depth[0] * r_depth[0];
     const double threshold =
         observations[k].depth_block != nullptr ? options.chi2_threshold_depth : options.chi2_threshold;
     if (!ok || chi2 > threshold) {

@@ -114,20 +114,24 @@ bool BaDepthError::Evaluate(double const* const* parameters, double* residuals, 
   if (!(p_c.z() > 1e-6)) return false;
   const double inv_z = 1.0 / p_c.z();
   residuals[0] = bf_ * (inv_z - inv_depth_) * inv_sigma_;
+  residuals[1] = 0.0;  // the padding row (header)
   if (jacobians == nullptr) return true;
-  // d r / d p_c = [0, 0, -bf / z^2] / sigma.
+  // d r / d p_c = [0, 0, -bf / z^2] / sigma; the padding row's derivatives are 0.
   const Eigen::RowVector3d d_r_d_pc(0.0, 0.0, -bf_ * inv_z * inv_z * inv_sigma_);
   if (jacobians[0] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 1, 4>> J_q(jacobians[0]);
-    J_q = d_r_d_pc * rotationJacobian(q, P);
+    Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
+    J_q.row(0) = d_r_d_pc * rotationJacobian(q, P);
+    J_q.row(1).setZero();
   }
   if (jacobians[1] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 1, 3>> J_t(jacobians[1]);
-    J_t = d_r_d_pc;
+    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_t(jacobians[1]);
+    J_t.row(0) = d_r_d_pc;
+    J_t.row(1).setZero();
   }
   if (jacobians[2] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 1, 3>> J_p(jacobians[2]);
-    J_p = d_r_d_pc * rotationMatrix(q);
+    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_p(jacobians[2]);
+    J_p.row(0) = d_r_d_pc * rotationMatrix(q);
+    J_p.row(1).setZero();
   }
   return true;
 }

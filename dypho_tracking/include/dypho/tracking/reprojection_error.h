@@ -101,7 +101,12 @@ class BaReprojectionError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
 /// disparity units): r = b f_x (1 / z_pred - 1 / z_measured) / sigma, z_pred = (R(q) P + t)_z.
 /// Fixes the metric scale that reprojection alone leaves free when few keyframes are fixed.
 /// Same parameter blocks as BaReprojectionError.
-class BaDepthError final : public ceres::SizedCostFunction<1, 4, 3, 3> {
+///
+/// Two rows, the second always 0 with a zero Jacobian: the cost is that of the one-row residual,
+/// but every residual block of the problem then has two rows, point blocks of 3 and pose blocks
+/// of 3 (tangent), so Ceres's Schur elimination picks its fixed-size 2x3x3 kernel instead of the
+/// dynamic one that mixed row counts force (a keyframe's local BA markedly faster, same steps).
+class BaDepthError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
  public:
   /// depth_m: measured depth (> 0) [m]; bf_px_m: baseline [m] times f_x [px]; sigma_px (> 0).
   BaDepthError(double depth_m, double bf_px_m, double sigma_px)
