@@ -40,16 +40,17 @@ inline void writeRealtimeCsv(const std::string& path, const pipeline::RealtimeRe
 /// The realtime run in two lines for the summary.
 inline std::string realtimeSummary(const pipeline::RealtimeResult& r, std::size_t num_frames,
                                    const pipeline::RealtimeOptions& o) {
-  const auto caught_up = std::count_if(r.processed.begin(), r.processed.end(),
-                                       [](const pipeline::RealtimeProcessedFrame& f) { return f.report.tracking.caught_up; });
+  const auto caught_up =
+      std::count_if(r.processed.begin(), r.processed.end(),
+                    [](const pipeline::RealtimeProcessedFrame& f) { return f.report.tracking.caught_up; });
   std::ostringstream os;
   os << std::fixed << "realtime:     " << r.frames_in << " frames in, " << r.processed.size() << " processed ("
      << r.framesPosed() << " posed, " << std::setprecision(3)
      << static_cast<double>(r.framesPosed()) / static_cast<double>(std::max<std::size_t>(num_frames, 1))
      << " of the sequence), " << r.framesDropped() << " dropped, no pose; " << caught_up
-     << " in catch-up mode (no local BA); "
-     << r.framesWithMask(tracking::MaskSource::kCarried) << " with a carried mask, " << r.masks_skipped.size()
-     << " skipped by the mask; " << r.late_releases << " released late (reading fell behind)\n"
+     << " in catch-up mode (no local BA); " << r.framesWithMask(tracking::MaskSource::kCarried)
+     << " with a carried mask, " << r.masks_skipped.size() << " skipped by the mask; " << r.late_releases
+     << " released late (reading fell behind)\n"
      << "latency:      " << std::setprecision(1) << r.latencyPercentileMs(0.5) << " ms p50, "
      << r.latencyPercentileMs(0.95) << " ms p95 (release to pose); speed x" << std::setprecision(2) << o.speed
      << ", mask queue " << o.queue_capacity_frames << ", " << std::setprecision(1) << r.wall_s

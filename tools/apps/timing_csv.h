@@ -41,7 +41,8 @@ inline void writeTiming(const std::string& path, const std::vector<TimingRow>& r
          << (r.report.rendered_depth_used ? 1 : 0) << ',' << std::setprecision(3) << t.times.static_check << ','
          << std::setprecision(4) << t.static_agreement << ',' << (t.static_check_corrected ? 1 : 0) << ','
          << t.num_moving_points_removed << ',' << t.moving_points_camera_m.size() << ',' << std::setprecision(3)
-         << t.times.dense << ',' << std::setprecision(5) << t.dense_correction_m << ',' << (t.caught_up ? 1 : 0) << '\n';
+         << t.times.dense << ',' << std::setprecision(5) << t.dense_correction_m << ',' << (t.caught_up ? 1 : 0)
+         << '\n';
     }
   });
 }
