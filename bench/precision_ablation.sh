@@ -6,7 +6,8 @@
 # median tracking and dense-refinement ms per frame.
 # Usage: bench/precision_ablation.sh [BUILD_DIR] [OUT_DIR]
 #   DYPHO_ABLATION_CONFIGS: configurations to run (default: features wide dense_only dense_all
-#     dense), e.g. "features dense"; the others below: global_ba, fuse, global_shutter (the
+#     dense), e.g. "features dense"; the others below: global_ba (on by default since 2026-12-01),
+#     no_global_ba, fuse, global_shutter (the
 #     rolling-shutter model off), blur (keypoints weighted by a 15 ms exposure's streaks),
 #     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), no_fit and
 #     no_motion_tolerance (the mask's parts that serve tracking off)
@@ -34,6 +35,7 @@ declare -A CONFIG=(
   [dense_all]=$'  dense_refinement: true\n  dense_max_frame_rotation_deg: 180'
   [dense]=$'  dense_refinement: true'
   [global_ba]=$'  global_ba_at_end: true'
+  [no_global_ba]=$'  global_ba_at_end: false'
   [fuse]=$'  fuse_keyframes: 10'
   [global_shutter]=$'  rolling_shutter_readout_ms: 0'
   [blur]=$'  motion_blur_exposure_ms: 15'

@@ -89,6 +89,19 @@ void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, B
   if (window->problem.NumResidualBlocks() > 0) owned_loss.release();
 }
 
+/// The problem's keyframe-pair priors (newBaRelativePoseError, no loss) between keyframes of the
+/// window; a pair of two fixed keyframes is left out.
+void addPosePriors(const LocalBaProblem& input, BaWindow* window) {
+  for (const KeyframePairPrior& prior : input.pose_priors) {
+    const auto a = window->poses.find(prior.from);
+    const auto b = window->poses.find(prior.to);
+    if (a == window->poses.end() || b == window->poses.end() || (a->second.fixed && b->second.fixed)) continue;
+    window->problem.AddResidualBlock(newBaRelativePoseError(prior.T_from_to, prior.sigma_rot_rad, prior.sigma_trans_m),
+                                     nullptr, a->second.q.coeffs().data(), a->second.t.data(),
+                                     b->second.q.coeffs().data(), b->second.t.data());
+  }
+}
+
 /// Quaternion manifolds on the poses in the problem; the fixed ones held constant.
 void setPoseManifolds(BaWindow* window) {
   ceres::Problem& problem = window->problem;
@@ -116,6 +129,7 @@ ceres::Solver::Options baSolverOptions(const BaSolverSettings& settings) {
   }
   so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   so.max_num_iterations = settings.iterations;
+  if (settings.max_seconds_per_round > 0.0) so.max_solver_time_in_seconds = settings.max_seconds_per_round;
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
   return so;
@@ -200,6 +214,7 @@ LocalBaSolution solveBundleAdjustment(const LocalBaProblem& input, const Trackin
     solution.message = "no observations";
     return solution;
   }
+  addPosePriors(input, &window);
   setPoseManifolds(&window);
   const ceres::Solver::Options so = baSolverOptions(settings);
   ceres::Solver::Summary summary;

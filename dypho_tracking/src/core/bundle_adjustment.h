@@ -16,6 +16,9 @@ namespace tracking {
 struct BaSolverSettings {
   int iterations = 5;   ///< Levenberg-Marquardt steps per round (two rounds) [count]
   bool sparse = false;  ///< sparse Schur (many keyframes) instead of dense Schur (a small window)
+  /// Wall-time limit of each of the two rounds (Ceres's max_solver_time_in_seconds: it stops
+  /// with the best solution so far) [s]; 0: none.
+  double max_seconds_per_round = 0.0;
 };
 
 /// Copies into `problem` one observation per (keyframe, point) pair of the problem's keyframes

@@ -1,6 +1,7 @@
 #include "dypho/tracking/global_bundle_adjuster.h"
 
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <vector>
 #include <iomanip>
@@ -30,6 +31,27 @@ int moveSingleViewPoints(const std::map<std::int64_t, Eigen::Isometry3d>& moves,
     ++moved;
   }
   return moved;
+}
+
+/// A prior on the relative pose of each keyframe and the next (by id) as the map has it now, with
+/// global_ba_prior_sigma_deg / _m; none when either is 0, nor into the first keyframe of a
+/// segment in `extra_fixed` (its pose is not tied to the one before).
+void addKeyframePairPriors(const TrackerMap& map, const TrackingOptions& options,
+                           const std::set<std::int64_t>& extra_fixed, LocalBaProblem* problem) {
+  if (!(options.global_ba_prior_sigma_deg > 0.0) || !(options.global_ba_prior_sigma_m > 0.0)) return;
+  const MapKeyframe* previous = nullptr;
+  for (const auto& [id, keyframe] : map.keyframes()) {
+    if (previous != nullptr && extra_fixed.count(id) == 0) {
+      KeyframePairPrior prior;
+      prior.from = previous->id;
+      prior.to = id;
+      prior.T_from_to = previous->T_world_camera.inverse() * keyframe.T_world_camera;
+      prior.sigma_rot_rad = options.global_ba_prior_sigma_deg * M_PI / 180.0;
+      prior.sigma_trans_m = options.global_ba_prior_sigma_m;
+      problem->pose_priors.push_back(prior);
+    }
+    previous = &keyframe;
+  }
 }
 
 }  // namespace
@@ -80,6 +102,7 @@ LocalBaProblem GlobalBundleAdjuster::prepare(const TrackerMap& map, const Pinhol
     return problem;
   }
   addBaObservations(map, options_, &problem);
+  addKeyframePairPriors(map, options_, extra_fixed, &problem);
   return problem;
 }
 
@@ -87,6 +110,7 @@ LocalBaSolution GlobalBundleAdjuster::solve(const LocalBaProblem& problem) const
   BaSolverSettings settings;
   settings.iterations = options_.global_ba_iterations;
   settings.sparse = true;
+  settings.max_seconds_per_round = options_.global_ba_max_seconds / 2.0;
   return solveBundleAdjustment(problem, options_, settings);
 }
 

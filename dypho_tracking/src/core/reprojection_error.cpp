@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <Eigen/Geometry>
+#include <ceres/autodiff_cost_function.h>
 
 #include "dypho/tracking/rolling_shutter_error.h"
 
@@ -58,7 +59,42 @@ Eigen::Matrix<double, 2, 3> pixelResidual(const Pinhole& pinhole, const Eigen::V
 /// The isotropic square-root information of a keypoint with 1 / sigma = inv_sigma.
 Eigen::Matrix2d isotropic(double inv_sigma) { return Eigen::Matrix2d::Identity() * inv_sigma; }
 
+/// newBaRelativePoseError's residual (header) for Ceres's automatic derivatives.
+struct BaRelativePoseResidual {
+  Eigen::Quaterniond q_meas_inv;
+  Eigen::Vector3d t_meas;
+  double w_rot;
+  double w_trans;
+
+  template <typename T>
+  bool operator()(const T* q_a_raw, const T* t_a_raw, const T* q_b_raw, const T* t_b_raw, T* residuals) const {
+    using Vector3 = Eigen::Matrix<T, 3, 1>;
+    const Eigen::Map<const Eigen::Quaternion<T>> q_a(q_a_raw), q_b(q_b_raw);
+    const Eigen::Map<const Vector3> t_a(t_a_raw), t_b(t_b_raw);
+    // X_a X_b^-1 = (R_a R_b^T, t_a - R_a R_b^T t_b).
+    const Eigen::Quaternion<T> q_ab = q_a * q_b.conjugate();
+    const Vector3 t_ab = t_a - q_ab * t_b;
+    Eigen::Quaternion<T> q_error = q_meas_inv.cast<T>() * q_ab;
+    if (q_error.w() < T(0)) q_error.coeffs() = -q_error.coeffs();
+    const Vector3 rotation = T(2.0 * w_rot) * q_error.vec();
+    const Vector3 translation = T(w_trans) * (q_meas_inv.cast<T>() * (t_ab - t_meas.cast<T>()));
+    for (int i = 0; i < 3; ++i) {
+      residuals[i] = rotation[i];
+      residuals[3 + i] = translation[i];
+    }
+    return true;
+  }
+};
+
 }  // namespace
+
+ceres::CostFunction* newBaRelativePoseError(const Eigen::Isometry3d& T_a_b, double sigma_rot_rad,
+                                            double sigma_trans_m) {
+  const Eigen::Quaterniond q_meas = Eigen::Quaterniond(T_a_b.rotation()).normalized();
+  auto* residual =
+      new BaRelativePoseResidual{q_meas.conjugate(), T_a_b.translation(), 1.0 / sigma_rot_rad, 1.0 / sigma_trans_m};
+  return new ceres::AutoDiffCostFunction<BaRelativePoseResidual, 6, 4, 3, 4, 3>(residual);
+}
 
 void angleAxisRotation(const Eigen::Vector3d& a, Eigen::Matrix3d* R, Eigen::Matrix3d* J_l) {
   const double t2 = a.squaredNorm();

@@ -47,6 +47,26 @@ void validateLocalMapping(const TrackingOptions& o) {
   requireRange("local_ba_async_frames", o.local_ba_async_frames, 0, 30);
 }
 
+/// Loop closure, the pose graph and global BA.
+void validateLoopAndGlobalBa(const TrackingOptions& o) {
+  requireRange("loop_min_keyframe_gap", o.loop_min_keyframe_gap, 2, 100000);
+  requireRange("loop_search_radius_m", o.loop_search_radius_m, 0.0, 100.0, true);
+  requireRange("loop_max_angle_deg", o.loop_max_angle_deg, 0.0, 180.0, true);
+  requireRange("loop_max_candidates", o.loop_max_candidates, 1, 100);
+  requireRange("loop_min_inliers", o.loop_min_inliers, o.min_inliers, 10000);
+  requireRange("loop_edge_weight", o.loop_edge_weight, 0.0, 1000.0, true);
+  requireRange("pose_graph_min_shared", o.pose_graph_min_shared, 1, 100000);
+  requireRange("pose_graph_sigma_rot_deg", o.pose_graph_sigma_rot_deg, 0.0, 90.0, true);
+  requireRange("pose_graph_sigma_trans_m", o.pose_graph_sigma_trans_m, 0.0, 10.0, true);
+  requireRange("pose_graph_iterations", o.pose_graph_iterations, 1, 1000);
+  requireRange("correction_min_translation_m", o.correction_min_translation_m, 0.0, 1.0);
+  requireRange("correction_min_rotation_rad", o.correction_min_rotation_rad, 0.0, 1.0);
+  requireRange("global_ba_iterations", o.global_ba_iterations, 1, 100);
+  requireRange("global_ba_prior_sigma_deg", o.global_ba_prior_sigma_deg, 0.0, 90.0);
+  requireRange("global_ba_prior_sigma_m", o.global_ba_prior_sigma_m, 0.0, 10.0);
+  requireRange("global_ba_max_seconds", o.global_ba_max_seconds, 0.1, 3600.0);
+}
+
 }  // namespace
 
 void TrackingOptions::validate() const {
@@ -114,19 +134,7 @@ void TrackingOptions::validate() const {
   requireRange("localization_max_jump_m", localization_max_jump_m, 0.0, 100.0, true);
   requireRange("localization_max_jump_deg", localization_max_jump_deg, 0.0, 180.0, true);
   requireRange("localization_confident_inliers", localization_confident_inliers, min_inliers, 100000);
-  requireRange("loop_min_keyframe_gap", loop_min_keyframe_gap, 2, 100000);
-  requireRange("loop_search_radius_m", loop_search_radius_m, 0.0, 100.0, true);
-  requireRange("loop_max_angle_deg", loop_max_angle_deg, 0.0, 180.0, true);
-  requireRange("loop_max_candidates", loop_max_candidates, 1, 100);
-  requireRange("loop_min_inliers", loop_min_inliers, min_inliers, 10000);
-  requireRange("loop_edge_weight", loop_edge_weight, 0.0, 1000.0, true);
-  requireRange("pose_graph_min_shared", pose_graph_min_shared, 1, 100000);
-  requireRange("pose_graph_sigma_rot_deg", pose_graph_sigma_rot_deg, 0.0, 90.0, true);
-  requireRange("pose_graph_sigma_trans_m", pose_graph_sigma_trans_m, 0.0, 10.0, true);
-  requireRange("pose_graph_iterations", pose_graph_iterations, 1, 1000);
-  requireRange("correction_min_translation_m", correction_min_translation_m, 0.0, 1.0);
-  requireRange("correction_min_rotation_rad", correction_min_rotation_rad, 0.0, 1.0);
-  requireRange("global_ba_iterations", global_ba_iterations, 1, 100);
+  validateLoopAndGlobalBa(*this);
 }
 
 std::string TrackingOptions::toString() const {

@@ -40,12 +40,22 @@ struct LocalBaObservation {
 
 /// A local BA window copied out of the map (LocalBundleAdjuster::prepare): solving it touches
 /// nothing shared, so it may run on another thread while tracking goes on.
+/// A prior on the relative pose of two keyframes of a BA problem (newBaRelativePoseError).
+struct KeyframePairPrior {
+  std::int64_t from = -1;                                       ///< keyframe a
+  std::int64_t to = -1;                                         ///< keyframe b
+  Eigen::Isometry3d T_from_to = Eigen::Isometry3d::Identity();  ///< T_world_a^-1 T_world_b
+  double sigma_rot_rad = 0.0;                                   ///< > 0 [rad]
+  double sigma_trans_m = 0.0;                                   ///< > 0 [m]
+};
+
 struct LocalBaProblem {
   std::int64_t newest_keyframe_id = -1;
   std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;   ///< free and fixed keyframes
   std::map<std::int64_t, bool> fixed;                           ///< keyframe id -> held constant
   std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< map points
   std::vector<LocalBaObservation> observations;
+  std::vector<KeyframePairPrior> pose_priors;  ///< global BA's; none in local BA
   Pinhole pinhole;
   std::string message;  ///< why there is nothing to solve; empty when there is
 };

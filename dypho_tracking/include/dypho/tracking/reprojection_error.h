@@ -3,6 +3,8 @@
 /// Ceres reprojection residual with an analytic Jacobian for motion-only pose refinement.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <ceres/cost_function.h>
 #include <ceres/sized_cost_function.h>
 
 #include "dypho/tracking/pinhole.h"
@@ -119,6 +121,15 @@ class BaDepthError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
   double bf_;
   double inv_sigma_;
 };
+
+/// Prior on the relative pose of two keyframes in bundle adjustment: with the BA's pose blocks
+/// X = T_camera_world, T_a_b = X_a X_b^-1 (keyframe b in keyframe a) against a measured T_a_b,
+/// r = [2 vec(q_meas^-1 (x) q_ab) / sigma_rot_rad; R_meas^T (t_ab - t_meas) / sigma_trans_m]
+/// (6 x 1, the quaternion error taken in the hemisphere of w >= 0). Parameter blocks: q_a
+/// [x, y, z, w], t_a [m], q_b, t_b (EigenQuaternionManifold on the quaternions). Automatic
+/// derivatives: a problem has one per keyframe pair, against thousands of reprojection residuals.
+/// sigma_rot_rad, sigma_trans_m > 0. The caller owns the result until Ceres takes it.
+ceres::CostFunction* newBaRelativePoseError(const Eigen::Isometry3d& T_a_b, double sigma_rot_rad, double sigma_trans_m);
 
 /// d (R(q) P) / d q for the 4 ambient quaternion coordinates [x, y, z, w] of the rotation formula
 /// of ReprojectionError::rotate (3 x 4).

@@ -400,15 +400,36 @@ struct TrackingOptions {
   bool global_ba_after_loop = false;
   /// Run a global BA at the end of a run (RgbdOdometry::finishRun: the offline runner before it
   /// writes trajectory.txt, the tracking nodelet at shutdown before it saves), after which the
-  /// saved trajectory follows the adjusted keyframes; default false: it is not reliably better
-  /// (ATE Bonn crowd 2.00 -> 1.63 cm and synthetic loop 0.68 -> 0.54 cm, but TUM fr1_rpy
-  /// 3.12 -> 4.02 cm with the flow mask and 3.84 -> 6.03 cm without; why is not established:
-  /// the depth term is part of it, without it in the global BA 2.91 and 4.24 cm). 0.1-0.4 s on
-  /// the real sequences (18-26 keyframes), 1.3-2.3 s on the synthetic loop (82).
-  bool global_ba_at_end = false;
+  /// saved trajectory follows the adjusted keyframes; default true: with the keyframe-pair prior
+  /// (global_ba_prior_sigma_*) it gains on the means of the shared windows' fifteen
+  /// frame-removal inputs (fr1/rpy 1.42 -> 1.36, Bonn crowd flow 1.37 -> 1.34, detector 1.35 ->
+  /// 1.31 cm) and on their worst input. 0.05-0.4 s on the real windows (16-33 keyframes), 1.3-2.3
+  /// s on the synthetic loop (82), bounded by global_ba_max_seconds.
+  bool global_ba_at_end = true;
   /// Levenberg-Marquardt iterations of each of the two global BA rounds (outliers removed in
   /// between) [count]; default 10 (ORB-SLAM's global BA), range [1, 100].
   int global_ba_iterations = 10;
+  /// Global BA holds each keyframe near its pose relative to the keyframe before it (by id), as
+  /// the map had it before the BA: a prior of this standard deviation on their relative rotation
+  /// [deg] (newBaRelativePoseError); default 0.5: the pose graph's edge sigma
+  /// (pose_graph_sigma_rot_deg), the error it assigns a tracked relative pose; range [0, 90], 0
+  /// with global_ba_prior_sigma_m 0: no prior. Looser priors (2 deg / 4 cm) gave the generator's
+  /// kinect-fast case back the global BA's gain (means 8.01 without global BA, 6.80 without a
+  /// prior, 7.96 at 0.5 deg / 1 cm, 6.89 at 2 deg / 4 cm) but not the Bonn crowd's fifteen inputs
+  /// (flow mean 1.37 at 2 deg / 4 cm, 1.34 at 0.5 deg / 1 cm). A keyframe whose multi-view points
+  /// lie in a small patch of the image has a direction that its points hardly see (a sideways
+  /// shift against a turn); without the prior, global BA moved such a keyframe 12 cm on Bonn crowd
+  /// with every 15th frame removed (ATE 1.41 -> 3.97 cm). A well-seen keyframe's hundreds of
+  /// observations outweigh it by far.
+  double global_ba_prior_sigma_deg = 0.5;
+  /// The same prior on their relative translation [m]; default 0.01 (the pose graph's,
+  /// pose_graph_sigma_trans_m), range [0, 10].
+  double global_ba_prior_sigma_m = 0.01;
+  /// Wall-time budget of one global BA, both rounds together [s] (each round stops with its best
+  /// solution so far when its half is spent); default 4: the tracking nodelet runs the final
+  /// global BA in its shutdown, before it saves, and roslaunch escalates to SIGTERM 15 s after
+  /// its SIGINT. Range [0.1, 3600].
+  double global_ba_max_seconds = 4.0;
 
   // --- localisation in a loaded map (RgbdOdometry::restoreSession) ---
   /// Localise only: track against the map a saved session brought (restoreSession) without
