@@ -9,7 +9,9 @@
 #     dense), e.g. "features dense"; the others below: global_ba (on by default since 2026-12-01),
 #     no_global_ba, fuse, global_shutter (the
 #     rolling-shutter model off), blur (keypoints weighted by a 15 ms exposure's streaks),
-#     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), no_fit and
+#     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), rate_fixed,
+#     rate_ratio_0_25 and rate_ratio_0_5 (the rolling-shutter rate prior's width fixed at
+#     0.15 rad/s, or widened to 0.25 / 0.5 times the motion model's rate), no_fit and
 #     no_motion_tolerance (the mask's parts that serve tracking off)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
@@ -40,6 +42,9 @@ declare -A CONFIG=(
   [global_shutter]=$'  rolling_shutter_readout_ms: 0'
   [blur]=$'  motion_blur_exposure_ms: 15'
   [keyframes_1_5]=$'  keyframe_max_frame_rotation_deg: 1.5'
+  [rate_fixed]=$'  rolling_shutter_rate_sigma_ratio: 0'
+  [rate_ratio_0_25]=$'  rolling_shutter_rate_sigma_ratio: 0.25'
+  [rate_ratio_0_5]=$'  rolling_shutter_rate_sigma_ratio: 0.5'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(

@@ -1,5 +1,6 @@
 #include "dypho/tracking/pose_optimizer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -217,7 +218,9 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
   if (rolling) {
-    omega_prior = std::make_unique<RatePrior>(rates.omega_rad_s, options_.rolling_shutter_rate_sigma_rad_s);
+    const double omega_sigma_rad_s = std::max(options_.rolling_shutter_rate_sigma_rad_s,
+                                              options_.rolling_shutter_rate_sigma_ratio * rates.omega_rad_s.norm());
+    omega_prior = std::make_unique<RatePrior>(rates.omega_rad_s, omega_sigma_rad_s);
     velocity_prior = std::make_unique<RatePrior>(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s);
     rate = RateUnknown{&rates, omega_prior.get(), velocity_prior.get()};
   }

@@ -102,6 +102,7 @@ void TrackingOptions::validate() const {
     requireRange("rolling_shutter_readout_ms", rolling_shutter_readout_ms, 0.0, 100.0);
   }
   requireRange("rolling_shutter_rate_sigma_rad_s", rolling_shutter_rate_sigma_rad_s, 0.0, 100.0, true);
+  requireRange("rolling_shutter_rate_sigma_ratio", rolling_shutter_rate_sigma_ratio, 0.0, 10.0);
   requireRange("rolling_shutter_velocity_sigma_m_s", rolling_shutter_velocity_sigma_m_s, 0.0, 100.0, true);
   requireRange("motion_blur_exposure_ms", motion_blur_exposure_ms, 0.0, 100.0);
   requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);

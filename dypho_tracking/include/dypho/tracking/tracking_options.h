@@ -126,6 +126,15 @@ struct TrackingOptions {
   /// rolling shutter: 5.4 cm with 0.3 against 1.6 cm with 0.15); a tight one misses fast turns
   /// (docs/journal/benchmarks-2026.md, section 14).
   double rolling_shutter_rate_sigma_rad_s = 0.15;
+  /// The same prior widened on fast turns: its standard deviation is the larger of
+  /// rolling_shutter_rate_sigma_rad_s and this ratio times the motion model's rate [-]; default
+  /// 0.25, range [0, 10]; 0 = a fixed width. A turn that speeds up by 1-2 deg per frame (fr1/rpy)
+  /// changes the rate by 0.5-1 rad/s from one frame to the next, far outside a fixed 0.15 rad/s;
+  /// frames slower than 0.6 rad/s keep the tight prior. With 0.25 the fifteen frame-removal inputs
+  /// of fr1/rpy went 1.36 -> 1.25 cm and the generator's kinect-fast case 7.96 -> 6.39 cm; Bonn
+  /// crowd turns faster than 0.6 rad/s on one frame of 200 (docs/journal/benchmarks-2026.md,
+  /// section 23).
+  double rolling_shutter_rate_sigma_ratio = 0.25;
   /// Prior standard deviation of the linear velocity estimated with a rolling shutter, about the
   /// motion model's [m/s]; default 0.1, range (0, 100].
   double rolling_shutter_velocity_sigma_m_s = 0.1;
