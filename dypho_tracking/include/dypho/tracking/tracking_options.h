@@ -272,10 +272,9 @@ struct TrackingOptions {
   /// residuals weighted by the depth noise (dense_depth_sigma_per_m2). The feature pose enters as
   /// a prior with its information (dense_feature_prior_weight), so features and pixels form one
   /// cost. Skipped in catch-up mode. Default false: over the shared sequences whole, with every
-  /// 15th frame removed and with 10 % removed at random (bench/precision_ablation.sh), the mean
-  /// ATE went 1.90 -> 1.41 cm on Bonn with the detector and 4.45 -> 4.02 cm on fr1/rpy without a
-  /// mask, but 4.29 -> 6.36 cm on fr1/rpy and 1.85 -> 1.95 cm on Bonn with the flow mask (the
-  /// product's default).
+  /// 15th frame removed and with 10 % removed at random (bench/precision_ablation.sh, section
+  /// 21), it lost everywhere at the current tracker: fr1/rpy 1.54 -> 1.62, Bonn flow 1.49 ->
+  /// 1.84, Bonn detector 1.35 -> 1.42, the generator's kinect-fast case 8.01 -> 10.24 cm.
   bool dense_refinement = false;
   /// Finest working resolution of the dense refinement [-]; default 0.5, range [0.1, 1].
   double dense_scale = 0.5;

@@ -216,7 +216,8 @@ void visitMapPointOptions(TrackingOptions& options, Visitor&& visitor) {
           "Dense refinement of every tracked frame: photometric and depth residuals over the reference keyframe's "
           "static pixels, coarse to fine, t-distribution weights, depth residuals weighted by the depth noise; the "
           "feature pose is a prior with its own information, so both form one cost. Skipped in catch-up mode. "
-          "Default false (it pays with the detector mask, not with the flow mask: docs/journal/benchmarks-2026.md).");
+          "Default false: it lost on every shared sequence and on the generator's fast turns "
+          "(docs/journal/benchmarks-2026.md, section 21).");
   visitor("dense_scale", options.dense_scale,
           "Finest working resolution of the dense refinement [-]; default 0.5, range [0.1, 1].");
   visitor("dense_levels", options.dense_levels,
