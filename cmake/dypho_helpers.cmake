@@ -21,6 +21,9 @@ endfunction()
 # DYPHO_TEST_COMPILE_OPTIONS (cache list, default empty): extra compile options of the test
 # executables' own files only, not of the libraries they test (scripts/test_sanitized.sh compiles
 # the test files without UBSan: -fno-sanitize=undefined).
+# Every test made here is labelled `unit` (ctest -L unit), or `whole_system` with WHOLE_SYSTEM:
+# scripts/test.sh runs the unit tests two at a time and the rest (rostests, launch and dataset
+# runs, which play at real time or keep both cores busy) one at a time.
 # ALL_CORES: the test keeps several threads busy; `ctest -j` never runs two such tests at once
 # (under ASan on 2 cores the mapper and pipeline tests took 521 and 439 s side by side; 329 s
 # beside a single-threaded test and 254 s alone).
@@ -55,6 +58,11 @@ function(dypho_add_gtest name)
   add_test(NAME ${name} COMMAND bash ${DYPHO_REAL_SOURCE_DIR}/scripts/run_gtest.sh --shards ${ARG_SHARDS} $<TARGET_FILE:${name}>
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} SKIP_RETURN_CODE 77)
+  if(ARG_WHOLE_SYSTEM)
+    set_tests_properties(${name} PROPERTIES LABELS whole_system)
+  else()
+    set_tests_properties(${name} PROPERTIES LABELS unit)
+  endif()
   if(ARG_COST)
     set_tests_properties(${name} PROPERTIES COST ${ARG_COST})
   endif()
