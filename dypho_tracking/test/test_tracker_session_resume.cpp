@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,10 @@ class TrackerSessionResume : public ::testing::Test {
     tools::SyntheticScene scene(o);
     for (int i = 0; i < o.frames; ++i) frames_.push_back(scene.render(i));
   }
-  static void TearDownTestSuite() { frames_.clear(); }
+  static void TearDownTestSuite() {
+    frames_.clear();
+    yesterday_.reset();
+  }
 
   /// Frame i with the stamp of the `step`-th frame of the sequence (a path over the same frames
   /// back and forth keeps its stamps increasing).
@@ -64,13 +68,31 @@ class TrackerSessionResume : public ::testing::Test {
       ASSERT_EQ(r.state, TrackingState::kOk) << "frame " << i << ": " << r.message;
     }
   }
+  /// Yesterday's run: frames 0-49 at steps 0-49 with the default options, every frame OK. The
+  /// tracker is deterministic, so the tests that resume it share one run (made by the first).
+  static constexpr int kYesterdaySteps = 50;
+  static const TrackerSession& yesterdaySession() {
+    if (!yesterday_) {
+      RgbdOdometry yesterday{TrackingOptions()};
+      int step = 0;
+      run(&yesterday, 0, 49, &step);
+      if (::testing::Test::HasFatalFailure()) {
+        static const TrackerSession kNone;
+        return kNone;
+      }
+      yesterday_ = std::make_unique<TrackerSession>(yesterday.session());
+    }
+    return *yesterday_;
+  }
   static std::string tempPath(const std::string& name) {
     return (fs::temp_directory_path() / ("dypho_resume_" + std::to_string(::getpid()) + "_" + name)).string();
   }
   static std::vector<tools::SynthFrame> frames_;
+  static std::unique_ptr<TrackerSession> yesterday_;
 };
 
 std::vector<tools::SynthFrame> TrackerSessionResume::frames_;
+std::unique_ptr<TrackerSession> TrackerSessionResume::yesterday_;
 
 // There and back over the room: redundant keyframes are removed, so the session holds removed
 // keyframes' poses too. Saved, loaded and restored, every field is the original's to the bit.
@@ -152,11 +174,10 @@ TEST_F(TrackerSessionResume, RestoredTrackerGoesOnLikeTheOriginal) {
 // frame with nothing to find is lost (and keeps searching); the next frame, in the mapped area
 // and stamped before yesterday's last frame (any stamp goes), is relocalised to its true pose.
 TEST_F(TrackerSessionResume, FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap) {
-  RgbdOdometry yesterday{TrackingOptions()};
-  int step = 0;
-  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  const TrackerSession* yesterday = nullptr;
+  ASSERT_NO_FATAL_FAILURE(yesterday = &yesterdaySession());
   const std::string path = tempPath("yesterday.bin");
-  saveTrackerSession(path, yesterday.session());
+  saveTrackerSession(path, *yesterday);
   RgbdOdometry today{TrackingOptions()};
   today.restoreSession(loadTrackerSession(path, frames_[0].frame.camera));
   fs::remove(path);
@@ -189,10 +210,10 @@ TEST_F(TrackerSessionResume, FirstFrameAfterRestoreIsRelocalisedInTheLoadedMap) 
 // (which would add a keyframe).
 // Without a restored map nothing is tracked, and the message says what to do.
 TEST_F(TrackerSessionResume, LocalisationOnlyTracksWithoutChangingTheMap) {
-  RgbdOdometry yesterday{TrackingOptions()};
-  int step = 0;
-  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
-  const TrackerSession session = yesterday.session();
+  int step = kYesterdaySteps;
+  const TrackerSession* yesterday = nullptr;
+  ASSERT_NO_FATAL_FAILURE(yesterday = &yesterdaySession());
+  const TrackerSession& session = *yesterday;
   TrackingOptions options;
   options.localization_only = true;
   RgbdOdometry today{options};
@@ -239,10 +260,9 @@ TEST_F(TrackerSessionResume, LocalisationOnlyTracksWithoutChangingTheMap) {
 // frame of another camera (focal length 5 % off) refuses it and the stage goes on without it; a
 // frame of the session's camera restores it, and the camera is found in the loaded map at once.
 TEST_F(TrackerSessionResume, StageRestoresASessionAtTheFirstFrameOfItsCamera) {
-  RgbdOdometry yesterday{TrackingOptions()};
-  int step = 0;
-  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
-  const TrackerSession session = yesterday.session();
+  const TrackerSession* yesterday = nullptr;
+  ASSERT_NO_FATAL_FAILURE(yesterday = &yesterdaySession());
+  const TrackerSession& session = *yesterday;
 
   TrackingStage other{TrackingOptions()};
   other.restoreSessionAtNextFrame(session);
@@ -270,10 +290,9 @@ TEST_F(TrackerSessionResume, StageRestoresASessionAtTheFirstFrameOfItsCamera) {
 // map's keyframes unchanged. Without the session kept, the restart would drop the loaded map
 // and, in localisation only, nothing could be tracked any more.
 TEST_F(TrackerSessionResume, LocalisationOnlyKeepsTheLoadedMapWhenTimeJumpsBack) {
-  RgbdOdometry yesterday{TrackingOptions()};
-  int step = 0;
-  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
-  const TrackerSession session = yesterday.session();
+  const TrackerSession* yesterday = nullptr;
+  ASSERT_NO_FATAL_FAILURE(yesterday = &yesterdaySession());
+  const TrackerSession& session = *yesterday;
   TrackingOptions options;
   options.localization_only = true;
   TrackingStage stage{options};
@@ -304,13 +323,13 @@ TEST_F(TrackerSessionResume, LocalisationOnlyKeepsTheLoadedMapWhenTimeJumpsBack)
 // the frame is lost (its pose the last good one). Unguarded, it was published there. The next
 // true frame is tracked at its place again.
 TEST_F(TrackerSessionResume, LocalisationOnlyRefusesAPoseFarFromItsPrediction) {
-  RgbdOdometry yesterday{TrackingOptions()};
-  int step = 0;
-  ASSERT_NO_FATAL_FAILURE(run(&yesterday, 0, 49, &step));
+  int step = kYesterdaySteps;
+  const TrackerSession* yesterday = nullptr;
+  ASSERT_NO_FATAL_FAILURE(yesterday = &yesterdaySession());
   TrackingOptions options;
   options.localization_only = true;
   RgbdOdometry today{options};
-  today.restoreSession(yesterday.session());
+  today.restoreSession(*yesterday);
   ASSERT_NO_FATAL_FAILURE(run(&today, 10, 14, &step));
   const RgbdFrame aliased = frameAt(40, step++);
   cv::Mat mask(aliased.bgr.size(), CV_8UC1, cv::Scalar(255));
