@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -166,7 +167,13 @@ TEST(GaussianMapLoad, LoadWhileTheWorkerTrainsAndRendersRun) {
   std::atomic<bool> done{false};
   std::thread renderer([&] {
     const Keyframe kf = planeKeyframe(1, Eigen::Isometry3d::Identity());
-    while (!done) mapper.render(sidePose(), kf.frame.camera);
+    // A render about every millisecond. Without the pause the loop took the mapper's lock back
+    // the moment it let go, and on a busy machine the loads and the workers waited for it for
+    // up to a minute (1.6 s alone).
+    while (!done) {
+      mapper.render(sidePose(), kf.frame.camera);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
   });
   for (int i = 0; i < 6; ++i) {
     mapper.enqueueKeyframe(std::make_shared<Keyframe>(planeKeyframe(10 + i, Eigen::Isometry3d::Identity())), true);
