@@ -26,7 +26,9 @@ struct RunResult {
   KeyframePoseCorrections mapper_keyframes;   ///< keyframe poses the Gaussian map is anchored to
 };
 
-RunResult runSynthetic(int frames, bool loop_closure) {
+/// `rendered_depth`: R_d on (the paper's weight; off by default), which needs the map's render at
+/// every frame's predicted pose.
+RunResult runSynthetic(int frames, bool loop_closure, bool rendered_depth) {
   tools::SynthOptions so;
   so.frames = frames;
   so.people = 2;
@@ -34,7 +36,7 @@ RunResult runSynthetic(int frames, bool loop_closure) {
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
   options.tracking.loop_closure = loop_closure;
-  options.mask.background.tau = 0.1;                      // R_d on (the paper's weight; off by default)
+  if (rendered_depth) options.mask.background.tau = 0.1;
   options.mapping.gaussian.iterations_per_keyframe = 10;  // keeps the test short; R_d needs a map only
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);
@@ -58,8 +60,8 @@ RunResult runSynthetic(int frames, bool loop_closure) {
 // Two runs of the same frames give the same bits (the R_d render comes from the map as it stood
 // after the previous keyframe's job, and training reduces in a fixed order), with R_d in use.
 TEST(SlamPipeline, RepeatableToTheBitWithRenderedDepth) {
-  const RunResult a = runSynthetic(60, true);
-  const RunResult b = runSynthetic(60, true);
+  const RunResult a = runSynthetic(60, /*loop_closure=*/true, /*rendered_depth=*/true);
+  const RunResult b = runSynthetic(60, /*loop_closure=*/true, /*rendered_depth=*/true);
   ASSERT_EQ(a.poses.size(), b.poses.size());
   EXPECT_EQ(a.keyframes, b.keyframes);
   for (std::size_t i = 0; i < a.poses.size(); ++i) {
@@ -74,7 +76,7 @@ TEST(SlamPipeline, RepeatableToTheBitWithRenderedDepth) {
 // Local BA moves earlier keyframes; without loop closure the only source of corrections is local
 // BA. Every such correction reaches the Gaussian map: its keyframe poses equal the tracker's.
 TEST(SlamPipeline, LocalBaCorrectionsReachTheGaussianMap) {
-  const RunResult r = runSynthetic(90, /*loop_closure=*/false);
+  const RunResult r = runSynthetic(90, /*loop_closure=*/false, /*rendered_depth=*/false);
   EXPECT_GT(r.correction_batches, 0u);
   EXPECT_GT(r.corrected_in_mapper, 0u);
   ASSERT_FALSE(r.mapper_keyframes.empty());
@@ -94,7 +96,8 @@ TEST(SlamPipeline, LocalBaCorrectionsReachTheGaussianMap) {
 namespace {
 
 // Through the whole pipeline: a repeated and a late frame are dropped (no pose, no restart, the
-// trajectory keeps its frames); a looped sequence (time back by 5 s) restarts tracking.
+// trajectory keeps its frames); a looped sequence (time back by 5 s) restarts tracking. With R_d
+// in use: the mask renders the map at the predicted pose until the restart, and goes on after it.
 TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
   tools::SynthOptions so;
   so.frames = 40;
@@ -102,6 +105,7 @@ TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
   so.seed = 5;
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
+  options.mask.background.tau = 0.1;  // R_d on (the paper's weight; off by default)
   options.mapping.gaussian.iterations_per_keyframe = 2;
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);
@@ -131,6 +135,7 @@ TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
     EXPECT_EQ(r.tracking.state, tracking::TrackingState::kOk) << "frame " << i;
   }
   EXPECT_EQ(slam.tracking().numFrames(), recorded + 5);
+  EXPECT_GT(slam.mask().stats().frames_with_rendered_depth, 0u) << "R_d was never used";
 
   // A jump back by more than 1 s (the sequence looped): a new run.
   RgbdFrame looped = frames[0].frame;
