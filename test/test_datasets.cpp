@@ -118,11 +118,11 @@ std::array<double, 3> viewSummary(const std::string& report, const std::string& 
   return {-1.0, 0.0, 0.0};
 }
 
-// The Gaussian map of real frames: fr1/rpy's first 40 frames (11 keyframes) with the map on,
-// scored at every 10th frame by the runner (view_evaluation.txt). Measured on the 2-core VM:
-// 25.38 dB over the 4 views, coverage 100 %; the bound is 3 dB below, as for the synthetic map
-// (expectMapViews), and coverage must be >= 95 %. The map's training is most of a run's time, so
-// the trajectory tests run without it; the first 40 frames are the map's check on real data.
+/// The Gaussian map of real frames: fr1/rpy's first 40 frames (11 keyframes) with the map on,
+/// scored at every 10th frame by the runner (view_evaluation.txt). Measured on the 2-core VM:
+/// 25.38 dB over the 4 views, coverage 100 %; the bound is 3 dB below, as for the synthetic map
+/// (expectMapViews), and coverage must be >= 95 %. The map's training is most of a run's time, so
+/// the trajectory tests run without it; the first 40 frames are the map's check on real data.
 constexpr double kFr1MapPsnrBoundDb = 22.4;
 
 void expectRealMap(const std::string& data) {

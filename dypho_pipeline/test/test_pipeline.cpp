@@ -26,8 +26,11 @@ struct RunResult {
   KeyframePoseCorrections mapper_keyframes;   ///< keyframe poses the Gaussian map is anchored to
 };
 
-/// `rendered_depth`: R_d on (the paper's weight; off by default), which needs the map's render at
-/// every frame's predicted pose.
+/// R_d's weight in the paper (MaskOptions background.tau; off by default).
+constexpr double kPaperRenderedDepthTau = 0.1;
+
+/// `rendered_depth`: R_d on (kPaperRenderedDepthTau), which needs the map's render at every
+/// frame's predicted pose.
 RunResult runSynthetic(int frames, bool loop_closure, bool rendered_depth) {
   tools::SynthOptions so;
   so.frames = frames;
@@ -36,7 +39,7 @@ RunResult runSynthetic(int frames, bool loop_closure, bool rendered_depth) {
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
   options.tracking.loop_closure = loop_closure;
-  if (rendered_depth) options.mask.background.tau = 0.1;
+  if (rendered_depth) options.mask.background.tau = kPaperRenderedDepthTau;
   options.mapping.gaussian.iterations_per_keyframe = 10;  // keeps the test short; R_d needs a map only
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);
@@ -105,7 +108,7 @@ TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
   so.seed = 5;
   const tools::SyntheticScene scene(so);
   pipeline::PipelineOptions options;
-  options.mask.background.tau = 0.1;  // R_d on (the paper's weight; off by default)
+  options.mask.background.tau = kPaperRenderedDepthTau;  // R_d on
   options.mapping.gaussian.iterations_per_keyframe = 2;
   options.mapping.gaussian.final_refine_iterations = 0;
   pipeline::SlamPipeline slam(options);
