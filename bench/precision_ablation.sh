@@ -12,7 +12,10 @@
 #     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), rate_fixed,
 #     rate_ratio_0_25 and rate_ratio_0_5 (the rolling-shutter rate prior's width fixed at
 #     0.15 rad/s, or widened to 0.25 / 0.5 times the motion model's rate), no_fit and
-#     no_motion_tolerance (the mask's parts that serve tracking off)
+#     no_motion_tolerance (the mask's parts that serve tracking off), local_map_20 and
+#     local_map_40 (frames tracked against 20 or 40 covisible keyframes' points, not 10),
+#     local_ba_10 (local BA over 10 keyframes, not 5), kf_ratio_0_75 and kf_ratio_0_5 (a new
+#     keyframe below 75 % or 50 % of the keyframe's points tracked, not 60 %)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
@@ -45,6 +48,11 @@ declare -A CONFIG=(
   [rate_fixed]=$'  rolling_shutter_rate_sigma_ratio: 0'
   [rate_ratio_0_25]=$'  rolling_shutter_rate_sigma_ratio: 0.25'
   [rate_ratio_0_5]=$'  rolling_shutter_rate_sigma_ratio: 0.5'
+  [local_map_20]=$'  local_map_keyframes: 20'
+  [local_map_40]=$'  local_map_keyframes: 40'
+  [local_ba_10]=$'  local_ba_keyframes: 10'
+  [kf_ratio_0_75]=$'  keyframe_min_tracked_ratio: 0.75'
+  [kf_ratio_0_5]=$'  keyframe_min_tracked_ratio: 0.5'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(
