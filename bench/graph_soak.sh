@@ -17,7 +17,8 @@ if [[ ! -f "$out/synth/synthetic.bag" ]]; then
   "$BIN/dypho_synth" --out "$out/synth" --frames "$frames" --motion halfsphere --people 2 --seed 9 > "$out/synth.log"
 fi
 rm -rf "$out/run"
-start_graph "$out" bag:="$out/synth/synthetic.bag" output_dir:="$out/run" start_delay:=8.0
+start_graph "$out" bag:="$out/synth/synthetic.bag" output_dir:="$out/run" start_delay:=8.0 \
+  rolling_shutter_readout_ms:=0   # the generator's global shutter
 "$BIN/graph_soak_probe" --pid "$manager_pid" --out "$out/graph_soak.csv" --expect "$frames" --every 100
 wait "$launch_pid" || true
 "$BIN/soak_runner" --plot-csv "$out/graph_soak.csv" --plot "$out/graph_soak.png"

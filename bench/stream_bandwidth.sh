@@ -14,7 +14,8 @@ if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {ex
 set -euo pipefail
 BAG="$(realpath "$1")"; OUT="$(realpath -m "$2")"; SECONDS_WINDOW="${3:-25}"; SCALE="${4:-1}"
 mkdir -p "$OUT"
-port=$((20000 + RANDOM % 20000))
+source "$(dirname "${BASH_SOURCE[0]}")/../scripts/ros_port.sh"
+port="$(free_ros_port)"
 export ROS_MASTER_URI="http://localhost:$port" ROS_IP=127.0.0.1
 
 # A config folder = config/ plus ~rendered_scale for the mapping nodelet.

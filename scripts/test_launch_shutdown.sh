@@ -15,6 +15,7 @@
 # map.ply, no temporary files left. Exit 0 when all pass.
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -uo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/ros_port.sh"
 bag="${1:-}"
 out="${2:-}"
 if [[ ! -f "$bag" || -z "$out" ]]; then
@@ -54,14 +55,15 @@ run_case() {  # NAME PLAYED_S [roslaunch args] (Ctrl-C this long after the first
   shift 2
   # The output folder does not exist yet: the nodelets create it.
   local dir="$out/$name/run" log="$out/$name.log"
-  local port=$((20000 + RANDOM % 20000))
+  local port; port="$(free_ros_port)"
   mkdir -p "$out/$name"
   local delay="$start_delay"
   # Localisation: time for the ~load_session calls before the first frame (a load restarts the
   # trajectory, so a load in mid-bag would leave too few poses to judge).
   [[ "$name" == localization_only ]] && delay=10.0
+  # The synthetic bag's camera has a global shutter (tum_bag.launch assumes the TUM cameras' 30 ms).
   setsid roslaunch -p "$port" --screen dypho_slam tum_bag.launch bag:="$bag" output_dir:="$dir" \
-    start_delay:="$delay" "$@" > "$log" 2>&1 &
+    start_delay:="$delay" rolling_shutter_readout_ms:=0 "$@" > "$log" 2>&1 &
   local pid=$!
   if [[ "$name" == bag_ended ]]; then
     # A session saved while the bag plays, through the tracking nodelet's service. One client
