@@ -122,6 +122,36 @@ def check_distributed():
           "distributed.launch with the defaults (both hosts localhost) resolves")
 
 
+def params_of(config, node):
+    return {k[len(node) + 1:]: p.value for k, p in config.params.items() if k.startswith(node + "/")}
+
+
+def check_tum_bag_camera():
+    """tum_bag.launch gives TUM's published bags (nominal camera_info) their calibration file,
+    chosen by the bag's name, and leaves other bags on their own camera_info."""
+    cameras = os.path.join(rospkg.RosPack().get_path("dypho_slam"), "config", "cameras")
+    cases = (("/data/freiburg2/rgbd_dataset_freiburg1_rpy.bag", os.path.join(cameras, "tum_fr1.yaml")),
+             ("/data/rgbd_dataset_freiburg2_desk_with_person.bag", os.path.join(cameras, "tum_fr2.yaml")),
+             ("/data/rgbd_dataset_freiburg3_walking_xyz.bag", os.path.join(cameras, "tum_fr3.yaml")),
+             ("/data/freiburg1/bonn_crowd.bag", ""),
+             ("/data/synthetic.bag", ""))
+    for bag, expected in cases:
+        config = load("tum_bag.launch", "bag:=" + bag)
+        for node in ("/dypho/mask", "/dypho/tracking"):
+            got = params_of(config, node).get("camera_file")
+            check(got == expected, "tum_bag bag:=%s: %s camera_file is '%s' (got '%s')" % (bag, node, expected, got))
+    config = load("tum_bag.launch", "bag:=/data/rgbd_dataset_freiburg1_rpy.bag", "camera_file:=/calib/mine.yaml")
+    check(params_of(config, "/dypho/tracking").get("camera_file") == "/calib/mine.yaml",
+          "tum_bag camera_file:= given by the user wins over the bag's name")
+    config = load("tum_bag.launch", "bag:=/data/rgbd_dataset_freiburg1_rpy.bag", "camera_file:=none")
+    check(params_of(config, "/dypho/tracking").get("camera_file") == "",
+          "tum_bag camera_file:=none keeps the bag's camera_info")
+    for name in LAYOUTS:
+        config = load("live_camera.launch", "camera:=" + name, "rviz:=false")
+        check(params_of(config, "/dypho/tracking").get("camera_file") == "",
+              "live_camera camera:=%s takes the driver's camera_info by default" % name)
+
+
 def undocumented_args(xml_text):
     """Names of the <arg>s with a default (settable by a user) and no or an empty doc, in every
     branch of the file (args under if/unless that are not taken with the default values too)."""
@@ -158,6 +188,7 @@ def main():
     check_live_camera()
     check_standalone()
     check_distributed()
+    check_tum_bag_camera()
     if FAILURES:
         print("%d launch-file check(s) failed" % len(FAILURES))
         return 1

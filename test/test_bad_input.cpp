@@ -151,6 +151,9 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
     return obs.poses - before;
   };
   ASSERT_GE(poses_after(15), 10) << "the graph does not track good frames";
+  // The generator's camera_info has the OpenNI driver's nominal values (525 px, the image centre,
+  // no distortion), as TUM's bags do: the nodelets point the camera_file argument out.
+  EXPECT_TRUE(logMentions(obs, "camera_info holds nominal values")) << "nominal intrinsics not pointed out";
 
   const SynthFrame f = scene.render(next_frame);
   auto bad = [&](const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth, const sensor_msgs::CameraInfo& info) {

@@ -1,7 +1,8 @@
 /// rostest node for bad_params.test: loads each nodelet into a running manager with one bad
-/// private parameter (unknown key, out-of-range value, wrong type) and checks that the nodelet
-/// logs a FATAL error naming the parameter and stays idle (advertises nothing), and that the
-/// manager goes on: it then loads a nodelet with good parameters, which starts.
+/// private parameter (unknown key, out-of-range value, wrong type, missing camera file) and
+/// checks that the nodelet logs a FATAL error naming the parameter and stays idle (advertises
+/// nothing), and that the manager goes on: it then loads a nodelet with good parameters, which
+/// starts.
 
 #include <mutex>
 #include <string>
@@ -82,6 +83,8 @@ TEST(BadParams, EachBadParameterFailsTheLoadByNameAndTheManagerGoesOn) {
   EXPECT_TRUE(waitForError(log, "not started", "flow_scale"));
   EXPECT_TRUE(load("/bad/mapping", "dypho_slam/GaussianMappingNodelet"));
   EXPECT_TRUE(waitForError(log, "iterations_per_keyframe", "wrong type"));
+  EXPECT_TRUE(load("/bad/tracking_camera", "dypho_slam/TrackingNodelet"));
+  EXPECT_TRUE(waitForError(log, "not started", "/nonexistent/dypho_camera.yaml"));
   // ... and stays idle: nothing of theirs is advertised.
   const std::vector<std::string> bad_topics = topicsUnder("/bad/");
   EXPECT_TRUE(bad_topics.empty()) << "a nodelet with a bad parameter advertised " << bad_topics.front();

@@ -95,11 +95,10 @@ cv::Mat toMask(const sensor_msgs::Image& image) {
   return cv_bridge::toCvCopy(image, enc::MONO8)->image;
 }
 
-RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
-                      const sensor_msgs::CameraInfo& info) {
+RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth, const CameraIntrinsics& camera) {
   RgbdFrame frame;
   frame.stamp_ns = toTimestamp(rgb.header.stamp);
-  frame.camera = toCameraIntrinsics(info);
+  frame.camera = camera;
   frame.bgr = toBgr(rgb);
   frame.depth_m = toDepthMetres(depth);
   if (frame.bgr.size() != frame.depth_m.size()) {
@@ -108,11 +107,16 @@ RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& d
                           ": use a depth image registered to the colour camera");
   }
   if (frame.bgr.cols != frame.camera.width || frame.bgr.rows != frame.camera.height) {
-    throw ConversionError("camera_info says " + std::to_string(info.width) + "x" + std::to_string(info.height) +
+    throw ConversionError("camera_info says " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
                           " but the images are " + std::to_string(rgb.width) + "x" + std::to_string(rgb.height) +
                           ": the camera_info topic does not belong to this image");
   }
   return frame;
+}
+
+RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
+                      const sensor_msgs::CameraInfo& info) {
+  return toRgbdFrame(rgb, depth, toCameraIntrinsics(info));
 }
 
 sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding, const std_msgs::Header& header) {

@@ -48,6 +48,8 @@ cv::Mat toMask(const sensor_msgs::Image& image);
 /// and with the CameraInfo. Throws ConversionError with the mismatch.
 RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
                       const sensor_msgs::CameraInfo& info);
+/// As above, with the intrinsics given (FrameCamera::intrinsics: camera_info's or a camera file's).
+RgbdFrame toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth, const CameraIntrinsics& camera);
 
 /// Image message sharing nothing with the input (deep copy) with the given encoding.
 sensor_msgs::ImagePtr toImageMsg(const cv::Mat& image, const std::string& encoding, const std_msgs::Header& header);

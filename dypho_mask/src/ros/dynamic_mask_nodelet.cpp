@@ -38,6 +38,7 @@
 #include "dypho/mask/mask_options_fields.h"
 #include "dypho/mask/mask_stage.h"
 #include "dypho_ros/conversions.h"
+#include "dypho_ros/frame_camera.h"
 #include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/sync_watchdog.h"
@@ -84,6 +85,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     int queue_size = 30;  // 1 s at 30 Hz: a burst after a held-up moment is not dropped here
     bool approx_sync = true;
     double watchdog_s = 5.0;
+    std::string camera_file;  // empty = each frame's camera_info (frame_camera.h)
   };
 
   /// 1. Parameters: reads, checks and prints them, and sets OpenCV's pool (thread budget).
@@ -95,6 +97,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     reader("queue_size", p.queue_size, "synchroniser queue length [messages]");
     reader("approx_sync", p.approx_sync, "approximate-time sync of rgb/depth/camera_info");
     reader("watchdog_s", p.watchdog_s, "warn when no input arrived for this long [s]; 0 = off");
+    reader("camera_file", p.camera_file, "camera file whose intrinsics replace camera_info's; empty = camera_info");
     reader("rendered_depth_tolerance_s", p.stage_options.rendered_depth_tolerance_s,
            "R_d is used by the frame whose stamp is within this of its stamp [s]");
     reader("max_waiting_frames", max_waiting_frames_,
@@ -108,7 +111,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
                                           << " threads, network nice +" << p.options.yolo.async_nice
                                           << (p.options.yolo.async ? " (asynchronous)" : " (in the mask thread)"));
     p.options.validate();
-    NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary());
+    camera_ = std::make_unique<rc::FrameCamera>(p.camera_file);  // throws naming a bad file
+    NODELET_INFO_STREAM("dynamic mask parameters:" << reader.summary() << "\n" << camera_->describe());
     return p;
   }
 
@@ -199,7 +203,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     const sensor_msgs::ImageConstPtr& rgb = msgs.rgb;
     RgbdFrame frame;
     try {
-      frame = rc::toRgbdFrame(*rgb, *msgs.depth, *msgs.info);
+      std::string camera_warning;
+      frame = rc::toRgbdFrame(*rgb, *msgs.depth, camera_->intrinsics(*msgs.info, &camera_warning));
+      if (!camera_warning.empty()) NODELET_WARN_STREAM(camera_warning);
     } catch (const std::exception& e) {
       const std::string message = std::string("dropping frame: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
@@ -331,6 +337,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
   }
 
+  std::unique_ptr<rc::FrameCamera> camera_;  ///< camera_info's intrinsics or camera_file's (worker thread)
   std::unique_ptr<mask::MaskStage>
       stage_;  ///< the worker thread (and the optional-input callbacks, through its own lock)
   int max_waiting_frames_ = 2;

@@ -47,6 +47,7 @@
 #include "dypho/tracking/tracking_options_fields.h"
 #include "dypho/tracking/tracking_stage.h"
 #include "dypho_ros/conversions.h"
+#include "dypho_ros/frame_camera.h"
 #include "dypho_ros/nodelet_runtime.h"
 #include "dypho_ros/param_reader.h"
 #include "dypho_ros/path_publisher.h"
@@ -67,6 +68,7 @@ struct TrackingRosParams {
   std::string camera_frame;         ///< tracked camera optical frame; empty = the rgb header's frame_id
   bool publish_tf = true;           ///< broadcast map -> odom -> camera_frame
   bool use_mask = true;             ///< subscribe to the dynamic mask and track only static pixels
+  std::string camera_file;          ///< camera file whose intrinsics replace camera_info's; empty = camera_info
   /// Synchroniser and subscriber queues [messages]: 1 s at 30 Hz, so that frames that arrive in
   /// a burst after the manager's threads were held up are not dropped before the pairer.
   int queue_size = 30;
@@ -139,7 +141,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 4. The live tracker's threads, then inputs.
     Live::Callbacks callbacks;
-    callbacks.convert = &TrackingNodelet::toLiveFrame;
+    callbacks.convert = [this](const Live::Ready& ready) { return toLiveFrame(ready); };
     callbacks.sink = [this](Live::Tracked& tracked) { onTracked(tracked); };
     callbacks.failure = [this](const tracking::LiveFailure& failure) {
       if (input_log_.pass(failure.message)) NODELET_ERROR_STREAM(failure.message);
@@ -169,6 +171,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     reader("camera_frame", params_.camera_frame, "");
     reader("publish_tf", params_.publish_tf, "");
     reader("use_mask", params_.use_mask, "");
+    reader("camera_file", params_.camera_file, "");
     reader("queue_size", params_.queue_size, "");
     reader("watchdog_s", params_.watchdog_s, "");
     reader("output_dir", params_.output_dir, "");
@@ -188,7 +191,13 @@ class TrackingNodelet : public nodelet::Nodelet {
     params_.output_dir = rc::prepareOutputDirectory(params_.output_dir, output_warning);
     if (!output_warning.empty()) NODELET_WARN_STREAM(output_warning << ": set ~output_dir to keep the trajectory");
     options.validate();
-    NODELET_INFO_STREAM("tracking parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir);
+    camera_ = std::make_unique<rc::FrameCamera>(params_.camera_file);  // throws naming a bad file
+    // -1 = the camera file's readout, as in the dataset runner; without a file, a global shutter.
+    if (options.rolling_shutter_readout_ms < 0.0 && camera_->rollingShutterReadoutMs()) {
+      options.rolling_shutter_readout_ms = *camera_->rollingShutterReadoutMs();
+    }
+    NODELET_INFO_STREAM("tracking parameters:" << reader.summary() << "\noutputs go to " << params_.output_dir << "\n"
+                                               << camera_->describe());
     return options;
   }
 
@@ -225,9 +234,12 @@ class TrackingNodelet : public nodelet::Nodelet {
   }
 
   /// The live tracker's conversion (its preparing thread): throws rc::ConversionError on bad input.
-  static tracking::LiveFrame toLiveFrame(const Live::Ready& ready) {
+  tracking::LiveFrame toLiveFrame(const Live::Ready& ready) const {
     tracking::LiveFrame out;
-    out.frame = rc::toRgbdFrame(*ready.frame.rgb, *ready.frame.depth, *ready.frame.info);
+    std::string camera_warning;
+    out.frame =
+        rc::toRgbdFrame(*ready.frame.rgb, *ready.frame.depth, camera_->intrinsics(*ready.frame.info, &camera_warning));
+    if (!camera_warning.empty()) NODELET_WARN_STREAM(camera_warning);
     if (ready.mask) out.mask = rc::toMask(*ready.mask);
     return out;
   }
@@ -538,6 +550,7 @@ class TrackingNodelet : public nodelet::Nodelet {
   image_transport::SubscriberFilter rgb_sub_, depth_sub_;
   image_transport::Subscriber mask_sub_;
   message_filters::Subscriber<CameraInfo> info_sub_;
+  std::unique_ptr<rc::FrameCamera> camera_;  ///< camera_info's intrinsics or camera_file's (preparing thread)
   std::unique_ptr<message_filters::Synchronizer<Policy3>> sync3_;
   std::unique_ptr<rc::SyncWatchdog> watchdog_;
 };

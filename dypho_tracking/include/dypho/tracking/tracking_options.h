@@ -113,7 +113,8 @@ struct TrackingOptions {
   /// Readout time of the colour camera's rolling shutter: the top row is exposed this long before
   /// the bottom row, the middle row at the frame's stamp [ms]; default -1 = the camera's (the
   /// dataset runner takes `rolling_shutter_readout_ms` from the camera file, config/cameras/; the
-  /// ROS nodelet has none and uses a global shutter), 0 = global shutter, range {-1} or [0, 100].
+  /// ROS nodelet from its `camera_file` when it has one, else it uses a global shutter), 0 =
+  /// global shutter, range {-1} or [0, 100].
   /// With a readout, the pose refinement also estimates the camera's angular velocity
   /// during the frame and projects each point with the pose of its keypoint's row, and a new
   /// keyframe's points are made from its keypoints moved to the stamp's view
