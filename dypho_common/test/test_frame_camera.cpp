@@ -39,7 +39,8 @@ TEST(FrameCamera, ACameraFileReplacesTheCameraInfo) {
   EXPECT_TRUE(warning.empty()) << "the file is the calibration: nothing to warn about";
   EXPECT_NE(camera.describe().find(kFr1File), std::string::npos);
   ASSERT_TRUE(camera.rollingShutterReadoutMs().has_value());
-  EXPECT_DOUBLE_EQ(*camera.rollingShutterReadoutMs(), dypho::tools::loadCameraConfig(kFr1File).rolling_shutter_readout_ms);
+  EXPECT_DOUBLE_EQ(*camera.rollingShutterReadoutMs(),
+                   dypho::tools::loadCameraConfig(kFr1File).rolling_shutter_readout_ms);
   EXPECT_FALSE(rc::FrameCamera("").rollingShutterReadoutMs().has_value());
 }
 
