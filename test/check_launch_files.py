@@ -9,6 +9,7 @@ failure is printed."""
 
 import glob
 import os
+import shlex
 import sys
 import xml.etree.ElementTree as ET
 
@@ -146,6 +147,11 @@ def check_tum_bag_camera():
     config = load("tum_bag.launch", "bag:=/data/rgbd_dataset_freiburg1_rpy.bag", "camera_file:=none")
     check(params_of(config, "/dypho/tracking").get("camera_file") == "",
           "tum_bag camera_file:=none keeps the bag's camera_info")
+    player = nodes(load("tum_bag.launch", "bag:=/data/b.bag", "end_delay:=4.5")).get("/player")
+    prefix = shlex.split(player.launch_prefix or "") if player else []
+    check(len(prefix) == 3 and prefix[0] == "bash" and os.path.isfile(prefix[1])
+          and prefix[1].endswith("/scripts/play_then_wait.sh") and prefix[2] == "4.5",
+          "tum_bag: the player runs through scripts/play_then_wait.sh with end_delay (got %s)" % prefix)
     for name in LAYOUTS:
         config = load("live_camera.launch", "camera:=" + name, "rviz:=false")
         check(params_of(config, "/dypho/tracking").get("camera_file") == "",
