@@ -118,9 +118,13 @@ def check_distributed():
     loader = m["dypho_mapping_host"].env_loader
     check(loader.endswith("/scripts/env_loader.sh") and os.access(loader, os.X_OK),
           "env-loader defaults to this checkout's executable scripts/env_loader.sh (%s)" % loader)
-    n = nodes(load("distributed.launch"))
+    config = load("distributed.launch", "camera_file:=/calib/cam.yaml")
+    n = nodes(config)
     check(sorted(n) == ["/dypho/dypho_manager", "/dypho/mapping", "/dypho/mask", "/dypho/tracking"],
           "distributed.launch with the defaults (both hosts localhost) resolves")
+    for node in ("/dypho/mask", "/dypho/tracking"):
+        check(params_of(config, node).get("camera_file") == "/calib/cam.yaml",
+              "distributed camera_file:= reaches %s" % node)
 
 
 def params_of(config, node):
