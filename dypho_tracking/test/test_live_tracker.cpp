@@ -159,8 +159,8 @@ TEST(LiveTracker, AFrameWithoutItsMaskGoesOnAfterTheWait) {
   EXPECT_EQ(c.frames_without_mask, 1u);
 }
 
-// Beyond max_pending_frames the oldest waiting frame is dropped, handed back to the caller and
-// counted; stop() discards the frames still waiting and refuses later ones, all counted.
+// Beyond max_pending_frames a waiting frame is dropped (before any frame went on: the oldest),
+// handed back to the caller and counted; stop() discards the frames still waiting and refuses later ones, all counted.
 TEST(LiveTracker, BeyondTheBoundTheOldestFrameIsDroppedAndHandedBack) {
   TrackingStage stage{TrackingOptions()};
   Seen seen;

@@ -1,5 +1,5 @@
 /// MaskPairer: every frame goes on with its own mask, a carried one or none, within the stated
-/// wait; nothing piles up; the counters add up.
+/// wait; nothing piles up, and a backlog thins out evenly; the counters add up.
 
 #include <optional>
 #include <vector>
@@ -110,12 +110,39 @@ TEST(MaskPairing, NothingPilesUpBeyondTheBound) {
   }
   EXPECT_EQ(p.pending(), 3u);
   EXPECT_EQ(p.stats().dropped, 7u);
+  // Before any frame went on, the oldest has no frame before it: dropping it leaves no gap.
   EXPECT_EQ(dropped, (std::vector<int>{0, 1, 2, 3, 4, 5, 6})) << "each drop hands back the oldest frame";
   for (int i = 0; i < 10; ++i) p.addMask(stampOf(i), i);
   const auto ready = p.takeReady(0.0);
   ASSERT_EQ(ready.size(), 3u);
   EXPECT_EQ(ready[0].frame, 7) << "the oldest frames are the ones dropped";
   EXPECT_EQ(ready[2].frame, 9);
+  expectCountsAddUp(p);
+}
+
+// Behind a frame that went on, a backlog thins out: each drop takes the waiting frame whose
+// removal leaves the shortest gap, so five drops from ten waiting frames take every other one
+// (frames 1, 3, 5, 7, 9) and no gap grows beyond two frame intervals. Dropping the oldest each
+// time would have left a gap of six intervals after frame 0 (frames 1-5 gone).
+TEST(MaskPairing, ABacklogThinsOutEveryOtherFrame) {
+  Pairer p(options(1.0, 10));
+  p.addFrame(stampOf(0), 0, 0.0);
+  p.addMask(stampOf(0), 0);
+  ASSERT_EQ(p.takeReady(0.0).size(), 1u);  // frame 0 went on
+  std::vector<int> dropped;
+  for (int i = 1; i <= 15; ++i) {
+    if (const std::optional<int> d = p.addFrame(stampOf(i), i, 0.0)) dropped.push_back(*d);
+  }
+  EXPECT_EQ(dropped, (std::vector<int>{1, 3, 5, 7, 9}));
+  for (int i = 1; i <= 15; ++i) p.addMask(stampOf(i), i);
+  const auto ready = p.takeReady(0.0);
+  ASSERT_EQ(ready.size(), 10u);
+  int previous = 0;
+  for (const auto& r : ready) {
+    EXPECT_LE(r.frame - previous, 2) << "a gap of " << r.frame - previous << " frames before frame " << r.frame;
+    previous = r.frame;
+  }
+  EXPECT_EQ(ready.back().frame, 15) << "the newest frame is kept";
   expectCountsAddUp(p);
 }
 

@@ -13,7 +13,7 @@
 ///    frame is skipped by the mask, as the mask nodelet's ~max_waiting_frames does), and (b) to a
 ///    tracking::LiveTracker, the tracking nodelet's own live code: it pairs each frame with its
 ///    mask (waits at most mask_pairing.max_wait_s, then carries the nearest mask or none), drops
-///    the oldest frame beyond mask_pairing.max_pending_frames (counted), prepares features on one
+///    a frame beyond mask_pairing.max_pending_frames (counted; every other one of a backlog), prepares features on one
 ///    thread and tracks on another. The mask thread gives each mask to the live tracker as it
 ///    finishes it. Dropped frames are never tracked and have no pose in the trajectory.
 ///  - After tracking, the pipeline hands the pose on (SlamPipeline::handOnTracked: mask and

@@ -7,7 +7,8 @@
 ///
 ///  - addFrame()/addMask() (the callers' threads, a short lock) feed a MaskPairer: a frame waits
 ///    for its own mask at most `max_wait_s`, then goes on with a carried mask or none; beyond
-///    `max_pending_frames` waiting frames the oldest is dropped and counted (mask_pairing.h).
+///    `max_pending_frames` waiting frames one is dropped and counted, thinning a backlog every
+///    other frame (mask_pairing.h).
 ///  - The preparing thread (`dypho_features`) takes the paired frames in stamp order, converts
 ///    each with the caller's function and extracts its features (FeaturePreparer), while
 ///  - the tracking thread (`dypho_tracking`) tracks the previous one (TrackingStage::process) and
@@ -143,7 +144,7 @@ class LiveTracker {
   LiveTracker& operator=(const LiveTracker&) = delete;
   ~LiveTracker() { stop(); }
 
-  /// A new frame, now. Returns the frame dropped to make room (the oldest waiting one), if any.
+  /// A new frame, now. Returns the frame dropped to make room (MaskPairer::addFrame), if any.
   /// After stop() or finish() the frame is not taken (counted as discarded).
   std::optional<Input> addFrame(Timestamp stamp_ns, Input frame) {
     std::optional<Input> dropped;

@@ -6,18 +6,24 @@
 ///    time (`kCarried`, at most `max_carry_age_s` away) or without one (`kNone`), and says so;
 ///  - a mask of a later frame releases the earlier frames still waiting at once (the mask stage
 ///    skipped them: it never goes back);
-///  - frames are released in stamp order; beyond `max_pending_frames` the oldest waiting frame is
-///    dropped and counted, so nothing piles up when tracking is slower than the camera;
+///  - frames are released in stamp order; beyond `max_pending_frames` a waiting frame is dropped
+///    and counted, so nothing piles up when tracking is slower than the camera. The one dropped
+///    leaves the shortest gap between the frames around it: a backlog thins out every other frame
+///    instead of losing a run of consecutive ones, which tracking bridges far worse (a fast turn
+///    over ten missing frames can lose the track; ten frames missing every other one cost nothing:
+///    docs/journal/benchmarks-2026.md section 29);
 ///  - a stamp earlier than the last released one (a looped bag, a restarted driver) forgets the
 ///    masks after it.
 /// ROS-free; the tracking nodelet holds message pointers in it (no copies), the tests plain values.
 /// Not thread-safe (the owner's lock).
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <deque>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -52,11 +58,12 @@ struct MaskPairingOptions {
   /// mask takes 15-40 ms per frame on 2 cores; a longer wait only adds latency).
   double max_wait_s = 0.1;
   /// Frames waiting at once (for their masks or for tracking), >= 1; a newer frame beyond it
-  /// drops the oldest. Default 30 (1 s at 30 Hz): a machine that is slower than the camera for
-  /// up to about a second (a loaded moment of a small CPU, a burst of keyframes in a crowd, each
-  /// with a 60-80 ms local BA on 2 cores) costs latency, not frames, and catch-up mode drains the
-  /// backlog afterwards. A longer backlog is dropped rather than tracked later still. With 16, a
-  /// 2-core VM with a busy loop beside the graph dropped frames in 2 of 6 runs (docs/journal/benchmarks-2026.md).
+  /// drops one of them (the file comment says which). Default 30 (1 s at 30 Hz): a machine that
+  /// is slower than the camera for up to about a second (a loaded moment of a small CPU, a burst
+  /// of keyframes in a crowd, each with a 60-80 ms local BA on 2 cores) costs latency, not
+  /// frames, and catch-up mode drains the backlog afterwards. A longer backlog is thinned rather
+  /// than tracked later still. With 16, a 2-core VM with a busy loop beside the graph dropped
+  /// frames in 2 of 6 runs (docs/journal/benchmarks-2026.md).
   int max_pending_frames = 30;
   /// A mask further than this from the frame's stamp is not carried to it [s], >= 0. Default 0.2
   /// (six frames at 30 Hz; people move a few centimetres, within the mask's safety margin).
@@ -101,8 +108,8 @@ class MaskPairer {
     options_.validate();
   }
 
-  /// A new frame, arrived at `now_s` (a monotonic clock [s]). Returns the oldest waiting frame
-  /// when it was dropped to make room (counted in stats().dropped), else nothing.
+  /// A new frame, arrived at `now_s` (a monotonic clock [s]). Returns the waiting frame dropped to
+  /// make room (counted in stats().dropped; see frameToDrop()), else nothing.
   std::optional<Frame> addFrame(Timestamp stamp_ns, Frame frame, double now_s) {
     ++stats_.frames_in;
     if (last_released_ns_ && stamp_ns < *last_released_ns_) {  // time went back: a new run
@@ -114,8 +121,9 @@ class MaskPairer {
     pending_.push_back(Pending{stamp_ns, std::move(frame), now_s});
     std::optional<Frame> dropped;
     if (static_cast<int>(pending_.size()) > options_.max_pending_frames) {  // one frame added: one over at most
-      dropped.emplace(std::move(pending_.front().frame));
-      pending_.pop_front();
+      const auto victim = pending_.begin() + static_cast<std::ptrdiff_t>(frameToDrop());
+      dropped.emplace(std::move(victim->frame));
+      pending_.erase(victim);
       ++stats_.dropped;
     }
     return dropped;
@@ -191,6 +199,23 @@ class MaskPairer {
   using MaskMap = std::map<Timestamp, Mask>;
 
   static Timestamp nanos(double s) { return static_cast<Timestamp>(s * 1e9); }
+
+  /// The waiting frame whose removal leaves the shortest gap between its neighbours (the frame
+  /// released last before the oldest; before any release the oldest has none, so it goes first);
+  /// ties go to the oldest; never the newest, which has no later neighbour yet.
+  std::size_t frameToDrop() const {
+    std::size_t best = 0;
+    Timestamp best_gap_ns = std::numeric_limits<Timestamp>::max();
+    for (std::size_t i = 0; i + 1 < pending_.size(); ++i) {
+      const Timestamp before_ns = i > 0 ? pending_[i - 1].stamp_ns : last_released_ns_.value_or(pending_[0].stamp_ns);
+      const Timestamp gap_ns = pending_[i + 1].stamp_ns - before_ns;
+      if (gap_ns < best_gap_ns) {
+        best_gap_ns = gap_ns;
+        best = i;
+      }
+    }
+    return best;
+  }
 
   bool isPending(Timestamp stamp_ns) const {
     for (const Pending& p : pending_) {
