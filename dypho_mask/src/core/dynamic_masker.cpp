@@ -160,13 +160,21 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
   // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
   f.network = segment_->ready() && network_mask_in_use_;
   f.T_prev_cur = f.prior.T_prev_cur;
-  if (options_.flow.fit_rigid_motion && f.prior.T_prev_cur && !f.prior.prediction_fresh) {
+  // No prediction once the background model is established: tracking was lost (its motion model
+  // starts again). (The first frames have none either; their B is still being built.)
+  const bool no_prediction = !f.prior.T_prev_cur && f.run_background &&
+                             background_updates_ >= options_.background.veto_after_updates;
+  if (options_.flow.fit_rigid_motion && (no_prediction || (f.prior.T_prev_cur && !f.prior.prediction_fresh))) {
     // The background is warped with the motion fitted to the flow, so the test waits for it: a
     // prediction made from older poses (a live graph's mask runs before tracking has posed the
     // previous frame) or none at all (the first frames, after a loss) puts B's depth edges off
-    // and the static view in front of them fails the test.
+    // and the static view in front of them fails the test. Without a prediction the fit starts
+    // from a still camera; an unwarped B behind a turning camera would mark the whole static
+    // view dynamic, tracking would find no features in it, stay lost and give no prediction
+    // (docs/journal/benchmarks-2026.md section 29).
     flow_.setResidualMemoryEnabled(!f.network);
-    f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_, true);
+    const Eigen::Isometry3d start = f.prior.T_prev_cur.value_or(Eigen::Isometry3d::Identity());
+    f.flow = flow_.compute(f.frame, start, previous_mask_, true);
     if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
     if (f.run_background) testAgainstBackground(f);
     return;
