@@ -162,8 +162,8 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
   f.T_prev_cur = f.prior.T_prev_cur;
   // No prediction once the background model is established: tracking was lost (its motion model
   // starts again). (The first frames have none either; their B is still being built.)
-  const bool no_prediction = !f.prior.T_prev_cur && f.run_background &&
-                             background_updates_ >= options_.background.veto_after_updates;
+  const bool no_prediction =
+      !f.prior.T_prev_cur && f.run_background && background_updates_ >= options_.background.veto_after_updates;
   if (options_.flow.fit_rigid_motion && (no_prediction || (f.prior.T_prev_cur && !f.prior.prediction_fresh))) {
     // The background is warped with the motion fitted to the flow, so the test waits for it: a
     // prediction made from older poses (a live graph's mask runs before tracking has posed the
