@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/tracking/local_bundle_adjuster.h"
+#include "dypho/tracking/loop_closer.h"
 #include "dypho/tracking/tracker_map.h"
 #include "dypho/tracking/pose_graph_optimizer.h"
 #include "dypho/tracking/reprojection_error.h"
@@ -137,6 +138,63 @@ TEST(PoseGraphOptimizer, LoopEdgeRemovesAccumulatedDrift) {
   EXPECT_GT(before, 0.2);
   EXPECT_LT(after, 1e-3);
   EXPECT_LT(r.final_cost, 1e-6 * r.initial_cost);
+}
+
+/// Twelve keyframes on a circle; tracking was lost after keyframe 5, and keyframe 6 started a
+/// re-initialised segment at keyframe 5's pose (the motion while lost unknown): keyframes 6-11
+/// are the truth moved by the camera's 25 deg turn and 0.5 m step it missed. A loop from keyframe 11
+/// back to keyframe 0 measures keyframe 11's true pose.
+class LoopAcrossAGuess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (int i = 0; i < kN; ++i) {
+      const double a = 1.5 * M_PI * i / (kN - 1);
+      truth_[i] = makePose(0, 0, a, 2 * std::cos(a), 2 * std::sin(a), 0);
+    }
+    // The guess: keyframe 6 where keyframe 5 was; the segment rigid behind it.
+    const Eigen::Isometry3d T_guess_truth = truth_[5] * truth_[6].inverse();
+    for (int i = 0; i < kN; ++i) {
+      MapKeyframe kf;
+      kf.id = i;
+      kf.T_world_camera = i < kFirstGuessed ? truth_[i] : T_guess_truth * truth_[i];
+      map_.addKeyframe(std::move(kf));
+    }
+    loop_.found = true;
+    loop_.current_keyframe_id = kN - 1;
+    loop_.loop_keyframe_id = 0;
+    loop_.T_world_current = truth_[kN - 1];
+  }
+  /// Largest distance of a keyframe from the truth [m].
+  double worstError() const {
+    double worst = 0;
+    for (int i = 0; i < kN; ++i) {
+      worst = std::max(worst, (map_.keyframe(i)->T_world_camera.translation() - truth_.at(i).translation()).norm());
+    }
+    return worst;
+  }
+  static constexpr int kN = 12;
+  static constexpr int kFirstGuessed = 6;
+  TrackingOptions options_;
+  TrackerMap map_{options_};
+  std::map<std::int64_t, Eigen::Isometry3d> truth_;
+  LoopResult loop_;
+};
+
+TEST_F(LoopAcrossAGuess, TheLoopPlacesTheSegmentWhoseStartWasGuessed) {
+  ASSERT_GT(worstError(), 0.4);  // the guess is off by the missed 0.5 m step and 25 deg turn
+  const LoopCorrection c = LoopCloser(options_).close(&map_, loop_, kFirstGuessed);
+  ASSERT_TRUE(c.applied) << c.message;
+  // Without the edge from the guess, every edge agrees with the truth: the optimum is the truth
+  // (1 mm for the solver's stopping tolerances, as in LoopEdgeRemovesAccumulatedDrift).
+  EXPECT_LT(worstError(), 1e-3);
+}
+
+TEST_F(LoopAcrossAGuess, WithTheGuessAsAnEdgeTheSegmentStaysOff) {
+  // The same loop, closed as if keyframe 6's pose had been measured: the guess and the loop
+  // disagree by the whole missed motion, and the graph splits it (what the closer did before).
+  const LoopCorrection c = LoopCloser(options_).close(&map_, loop_);
+  ASSERT_TRUE(c.applied) << c.message;
+  EXPECT_GT(worstError(), 0.05);
 }
 
 /// Synthetic map: 4 keyframes observing 300 points; the two newest keyframes' poses and all

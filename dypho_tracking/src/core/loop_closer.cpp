@@ -7,7 +7,8 @@ namespace tracking {
 
 LoopCloser::LoopCloser(const TrackingOptions& options) : options_(options), optimizer_(options) { options_.validate(); }
 
-LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const {
+LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop,
+                                 std::int64_t unanchored_from_keyframe_id) const {
   LoopCorrection out;
   if (map == nullptr || !loop.found || map->keyframe(loop.current_keyframe_id) == nullptr ||
       map->keyframe(loop.loop_keyframe_id) == nullptr) {
@@ -20,11 +21,18 @@ LoopCorrection LoopCloser::close(TrackerMap* map, const LoopResult& loop) const 
   const auto relative = [&](std::int64_t a, std::int64_t b) {
     return PoseGraphEdge{a, b, poses[a].inverse() * poses[b], 1.0};
   };
+  // The segment's start is a guess: with a loop across it, no edge ties the segment to the guess.
+  const std::int64_t guessed_start = unanchored_from_keyframe_id >= 0 &&
+                                             loop.loop_keyframe_id < unanchored_from_keyframe_id &&
+                                             loop.current_keyframe_id >= unanchored_from_keyframe_id
+                                         ? unanchored_from_keyframe_id
+                                         : -1;
   std::int64_t previous = -1;
   for (const auto& kv : poses) {
-    if (previous >= 0) edges.push_back(relative(previous, kv.first));
+    const bool across_guess = guessed_start >= 0 && previous < guessed_start && kv.first >= guessed_start;
+    if (previous >= 0 && !across_guess) edges.push_back(relative(previous, kv.first));
     for (std::int64_t other : map->covisibleKeyframes(kv.first, 100)) {
-      if (other >= kv.first || other == previous) continue;  // each pair once
+      if (other >= kv.first || (other == previous && !across_guess)) continue;  // each pair once
       if (map->sharedPoints(kv.first, other) < options_.pose_graph_min_shared) continue;
       edges.push_back(relative(other, kv.first));
     }

@@ -242,7 +242,7 @@ void RgbdOdometry::closeLoops(std::int64_t keyframe_id, const Pinhole& pinhole, 
   }
   const LoopResult loop = loop_detector_.detect(map_, keyframe_id, pinhole);
   if (!loop.found) return;
-  const LoopCorrection correction = loop_closer_.close(&map_, loop);
+  const LoopCorrection correction = loop_closer_.close(&map_, loop, unanchored_from_keyframe_id_);
   if (!correction.applied) {
     result->message = "loop with keyframe " + std::to_string(loop.loop_keyframe_id) +
                       " verified but not applied: " + correction.message;

@@ -34,13 +34,19 @@ struct LoopCorrection {
 /// relative poses taken from the current estimates except the loop edge; fixes the loop keyframe;
 /// optimises (PoseGraphOptimizer); moves keyframes and their points (TrackerMap::applyKeyframePoses);
 /// then fuses the matched points of the loop (current ones into the old ones).
+///
+/// A re-initialised segment (tracking lost for max_lost_frames, a new keyframe at a guessed pose)
+/// is tied to the keyframes before it only by that guess. When the loop reaches from such a
+/// segment back to a keyframe before it, the edge between the segment's first keyframe and the
+/// one before it is left out: the loop places the segment, not the guess.
 class LoopCloser {
  public:
   /// Uses the pose_graph_* fields.
   explicit LoopCloser(const TrackingOptions& options);
 
-  /// Never throws on data.
-  LoopCorrection close(TrackerMap* map, const LoopResult& loop) const;
+  /// `unanchored_from_keyframe_id`: the first keyframe id of the re-initialised segment not yet
+  /// tied to the map (RgbdOdometry), -1 when there is none. Never throws on data.
+  LoopCorrection close(TrackerMap* map, const LoopResult& loop, std::int64_t unanchored_from_keyframe_id = -1) const;
 
  private:
   TrackingOptions options_;
