@@ -21,7 +21,7 @@
 
 #include "dypho/tools/synthetic_scene.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using dypho::tools::SynthFrame;
 
@@ -263,7 +263,7 @@ TEST(BadInput, NodeletsNameEachProblemPublishNoNaNAndKeepServing) {
   for (std::size_t i = 0; i < obs.log.size() && i < 12; ++i) std::cout << "  " << obs.log[i] << "\n";
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

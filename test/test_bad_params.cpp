@@ -15,7 +15,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct LogLines {
   std::mutex mutex;
@@ -104,7 +104,7 @@ TEST(BadParams, EachBadParameterFailsTheLoadByNameAndTheManagerGoesOn) {
   for (const std::string& line : log.errors) std::cout << "  " << line << "\n";
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

@@ -19,7 +19,7 @@
 #include "dypho/tools/evaluation.h"
 #include "dypho/common/trajectory_io.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 // ATE bounds [m] (RMSE after rigid alignment of trajectory.txt, the final trajectory), default
 // settings (flow mask). Runs are deterministic for a build; fr1's bound is the measured value plus
@@ -205,7 +205,7 @@ TEST(DatasetRun, RollingShutterFastTurnsAreTracked) {
   EXPECT_GT(ate_global, DYPHO_ROLLING_SHUTTER_WITHOUT_MODEL_MIN_M);
 }
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// A still camera's 150 frames with people in view from frame 0 (dypho_synth `args`, `seed`),
 /// generated into testOut()/`name`; returns its folder ("" when generation failed).
@@ -217,7 +217,7 @@ std::string stillCameraCrowd(const std::string& name, const std::string& args, i
   return std::system(cmd.c_str()) == 0 ? dir : std::string();
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 /// Synthetic hard cases of a still camera in a crowd, flow mask only: a name and the
 /// dypho_synth arguments.
@@ -254,7 +254,7 @@ INSTANTIATE_TEST_SUITE_P(
                       HardCaseSpec{"crossing8_seed1", "--people 8 --people-distance 0.8", 1}),
     [](const ::testing::TestParamInfo<HardCaseSpec>& info) { return std::string(info.param.name); });
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// 8 people crossing a still camera's view from frame 0, generator seed 2 (docs/journal/benchmarks-2026.md
 /// section 8), generated once.
@@ -301,7 +301,7 @@ void expectLowerAte(const std::string& data, const std::string& label, const Run
   EXPECT_LT(ate_with, ate_without - min_gain_m);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 // The static check's other starts (tracking option static_check_other_starts) on the case where
 // they mattered: 8 people crossing, seed 2, with the mask that misses two of them on frames 37-52
@@ -578,4 +578,4 @@ TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   EXPECT_NE(readText(out + "/log.txt").find("--config given twice"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -27,7 +27,7 @@
 #include "input_timing.h"
 #include "player_start.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct Recorder {
   std::mutex mutex;
@@ -249,7 +249,7 @@ TEST(GraphTest, OutputsFlowAndTrajectoryIsAccurate) {
   EXPECT_GE(sharedStamps(rec.keyframe_stamps_s, in_process.keyframe_stamps_s, 0.034), 0.6);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

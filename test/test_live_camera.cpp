@@ -24,7 +24,7 @@
 #include "input_timing.h"
 #include "player_start.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct Recorder {
   std::mutex mutex;
@@ -203,7 +203,7 @@ TEST(LiveCamera, ThirtyHertzBagIsTrackedAccurately) {
   EXPECT_LT(ate.rmse_m, max_ate_m);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

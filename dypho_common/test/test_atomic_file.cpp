@@ -13,7 +13,7 @@
 
 #include "dypho/common/atomic_file.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr std::size_t kBytes = 8u << 20;  // 8 MB: a save takes long enough to be interrupted
 
@@ -69,4 +69,4 @@ TEST(AtomicFile, SigkillDuringSaveLeavesACompleteFile) {
   ::system(("rm -rf '" + dir + "'").c_str());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

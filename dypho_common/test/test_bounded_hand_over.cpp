@@ -12,7 +12,7 @@
 #include "dypho/common/bounded_hand_over.h"
 
 namespace dypho {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(BoundedHandOver, KeepsOrderDropsTheOldestWhenFullAndDrainsAfterClose) {
   dypho::BoundedHandOver<int> q(2);
@@ -60,5 +60,5 @@ TEST(BoundedHandOver, PushWhenRoomWaitsForTheConsumerAndNeverDrops) {
   EXPECT_EQ(full.pop(), std::nullopt);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho

@@ -10,7 +10,7 @@
 #include "dypho_ros/conversions.h"
 #include "dypho_ros/frame_camera.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 namespace rc = dypho::ros_conversions;
 
@@ -101,4 +101,4 @@ TEST(FrameCamera, AMissingOrBrokenFileFailsAtStartNamingIt) {
   EXPECT_THROW(rc::FrameCamera camera(broken), std::runtime_error);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

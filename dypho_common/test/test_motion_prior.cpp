@@ -7,7 +7,7 @@
 
 #include "dypho/common/motion_prior.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using namespace dypho;
 
@@ -112,4 +112,4 @@ TEST(ConstantVelocityModel, CorrectionOfTheEarlierPosesIsNotMotion) {
   EXPECT_GT((uncorrected.lastStep()->translation() - poseAt(0.01, 0.0).translation()).norm(), 0.04);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -4,7 +4,7 @@
 
 #include "dypho/common/rolling_stats.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(RollingStats, PercentilesOfTheNewestSamples) {
   dypho::RollingSamples s(100);
@@ -27,4 +27,4 @@ TEST(RollingStats, RateOverTheWindow) {
   EXPECT_EQ(r.rateHz(5.0), 0.0) << "events older than the window are forgotten";
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -6,7 +6,7 @@
 
 #include "dypho/common/stamp_gate.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using namespace dypho;
 
@@ -32,4 +32,4 @@ TEST(StampGate, DropsRepeatedAndLateFramesRestartsOnAJumpBack) {
   EXPECT_EQ(extremes.admit(std::numeric_limits<Timestamp>::min()), StampOrder::kJumpedBack);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

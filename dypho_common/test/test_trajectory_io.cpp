@@ -11,7 +11,7 @@
 namespace fs = std::filesystem;
 using namespace dypho;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 fs::path makeTempDir(const std::string& name) {
   std::string tmpl = (fs::temp_directory_path() / ("dypho_traj_" + name + "_XXXXXX")).string();
@@ -45,8 +45,6 @@ std::string expectThrowMessage(const std::string& path) {
   ADD_FAILURE() << "no error reading " << path;
   return "";
 }
-
-}  // namespace
 
 TEST(TrajectoryIo, RoundTripAndNoTemporaryLeft) {
   const fs::path dir = makeTempDir("rt");
@@ -113,4 +111,5 @@ TEST(TrajectoryIo, MalformedLinesNameFileAndLine) {
 
 TEST(TrajectoryIo, WriteIntoMissingFolderThrows) {
   EXPECT_THROW(writeTumTrajectory("/nonexistent_dir_dypho/traj.txt", randomPoses(2, 1)), std::runtime_error);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

@@ -11,7 +11,7 @@
 
 namespace dypho {
 namespace mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(CloudMapOptions, DefaultsAreValidAndDocumentedValues) {
   const CloudMapOptions o;
@@ -69,6 +69,6 @@ TEST(CloudMapOptions, VisitOptionsCoversEveryFieldOfToString) {
   EXPECT_EQ(visited, printed_keys);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mapping
 }  // namespace dypho

@@ -10,7 +10,7 @@
 
 namespace dypho {
 namespace mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(ComputeDevice, CpuWhenCpuRequested) {
   std::string message;
@@ -58,6 +58,6 @@ TEST(ComputeDevice, AutoFallsBackToCpuWithReasonWithoutDeviceAndCudaIsThenAnErro
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mapping
 }  // namespace dypho

@@ -19,7 +19,7 @@
 #include "kernel_bodies.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using Scene = GaussianParamsStorage<float>;
 namespace body = cuda_body;
@@ -423,5 +423,5 @@ TEST(CudaKernelBodies, DeferredExposureChainEqualsTheFusedOne) {
   for (int i = 0; i < 3 * npix; ++i) EXPECT_FLOAT_EQ(shown[i], L.gain[i / npix] * color[i] + L.offset[i / npix]);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -18,7 +18,7 @@
 #include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using Scene = GaussianParamsStorage<float>;
 
@@ -282,5 +282,5 @@ TEST(CudaParity, ReuseAfterALargerSceneIsExact) {
   EXPECT_EQ(a.alpha, b.alpha);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

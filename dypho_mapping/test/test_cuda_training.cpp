@@ -15,7 +15,7 @@
 #include "plane_keyframe.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct Run {
   double psnr_seeded = 0.0, psnr = 0.0, first_loss = 0.0, last_loss = 0.0;
@@ -137,5 +137,5 @@ TEST(CudaTraining, SnapshotRendersOnTheGpuMatchTheCpu) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -12,7 +12,7 @@
 #include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using Scene = GaussianParamsStorage<double>;
 
@@ -158,5 +158,5 @@ TEST_P(GradientCheck, AnalyticMatchesCentralDifferences) {
 
 INSTANTIATE_TEST_SUITE_P(ShDegrees, GradientCheck, ::testing::Values(0, 1, 2, 3));
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

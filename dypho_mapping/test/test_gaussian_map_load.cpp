@@ -18,7 +18,7 @@
 #include "plane_keyframe.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 std::string tempPath(const std::string& name) {
   return "/tmp/dypho_test_map_load_" + std::to_string(::getpid()) + "_" + name;
@@ -189,5 +189,5 @@ TEST(GaussianMapLoad, LoadWhileTheWorkerTrainsAndRendersRun) {
   std::remove(bad.c_str());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -24,7 +24,7 @@
 #include "dypho/tools/synthetic_scene.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 std::string tempPath(const std::string& name) {
   return "/tmp/dypho_test_gaussian_" + std::to_string(::getpid()) + "_" + name;
@@ -589,5 +589,5 @@ TEST(MappingStage, PredictedDepthNeedsAVelocityAndAMap) {
   EXPECT_TRUE(stage.predictedDepth(4 * dt, camera).empty());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -9,7 +9,7 @@
 #include "dypho/mapping/mapping_options_fields.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(MappingOptions, ConfigFileHasEveryKeyWithItsDefaultInOrder) {
   const YAML::Node yaml = YAML::LoadFile(std::string(DYPHO_SOURCE_DIR) + "/config/mapping.yaml");
@@ -69,5 +69,5 @@ TEST(MappingOptions, DefaultsValidateAndBadValuesNameTheField) {
   expectBad(b, "live_cpu_training_duty");
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -14,7 +14,7 @@
 #include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 CameraIntrinsics testCamera() {
   CameraIntrinsics c;
@@ -529,5 +529,5 @@ TEST(GaussianSh, ReanchoredGaussianRendersTheSameFromTheMovedCamera) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -18,7 +18,7 @@
 #include "dypho/mapping/gaussian_ply.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 std::string tempPath(const std::string& name) {
   return "/tmp/dypho_test_ply_" + std::to_string(::getpid()) + "_" + name;
@@ -155,5 +155,5 @@ TEST(GaussianPly, HostileHeadersAreRefusedWithoutAllocating) {
   std::remove(path.c_str());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -17,7 +17,7 @@
 
 namespace dypho {
 namespace mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -306,6 +306,6 @@ TEST(KeyframeCloudMap, CapacityCapKeepsOldestAndSkipsNewest) {
   EXPECT_FALSE(map.capacityReached());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mapping
 }  // namespace dypho

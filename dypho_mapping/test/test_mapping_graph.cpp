@@ -9,7 +9,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// Share of pixels of a 32FC1 image with a finite depth in (0.1, 20) m; -1 when not 32FC1.
 double validDepthShare(const sensor_msgs::Image& m) {
@@ -78,7 +78,7 @@ TEST(MappingGraphTest, RenderedImagesAndCloudsArePublished) {
   EXPECT_GE(best_predicted_share.load(), 0.5);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

@@ -11,7 +11,7 @@
 #include "dypho/mapping/mapping_worker.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 // The worker's merge keeps the order of keyframes and corrections.
 TEST(MappingWorker, AFullLiveQueueMergesInOrder) {
@@ -52,5 +52,5 @@ TEST(MappingWorker, AFullLiveQueueMergesInOrder) {
   EXPECT_EQ(corrections_seen[1], 1u);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

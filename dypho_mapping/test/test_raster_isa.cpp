@@ -12,7 +12,7 @@
 #include "gaussian_params_storage.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using FloatScene = GaussianParamsStorage<float>;
 
@@ -145,5 +145,5 @@ TEST(RasterIsa, Avx2MatchesGenericToRounding) { compareIsas(false, 1e-5f, 1e-4f)
 // (alpha 1/255 times a colour <= ~1.5): 0.006 on images; gradients keep 1e-3 relative.
 TEST(RasterIsa, Avx2MatchesGenericWithThresholds) { compareIsas(true, 6e-3f, 1e-3f); }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

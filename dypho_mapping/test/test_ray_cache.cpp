@@ -10,7 +10,7 @@
 
 namespace dypho {
 namespace mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 CameraIntrinsics tumFr1() {
   CameraIntrinsics c;
@@ -91,6 +91,6 @@ TEST(UndistortedRayCache, InvalidCameraThrows) {
   EXPECT_THROW(cache.rays(CameraIntrinsics()), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mapping
 }  // namespace dypho

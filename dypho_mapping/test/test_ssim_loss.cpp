@@ -9,7 +9,7 @@
 #include "dypho/mapping/ssim_loss.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr int kW = 23, kH = 17;
 
@@ -167,5 +167,5 @@ TEST(SsimLoss, FloatAndThreadsAgreeWithSingleThreadedDouble) {
   EXPECT_LE(max_err, 1e-4 * max_g);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -15,7 +15,7 @@
 #include "plane_keyframe.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr int kW = 40, kH = 30;
 
@@ -231,11 +231,11 @@ TEST(TrainingSchedule, LeastTrainedFirstSharesIterationsEvenly) {
   EXPECT_EQ(trainer.keyframes[3].trained_iterations, 1);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 // The isotropy regulariser's gradient against central differences of its value, and none for a
 // Gaussian that was not visible.
@@ -274,5 +274,5 @@ TEST(TrainingMath, IsotropyGradientMatchesNumericalDifferences) {
   EXPECT_LT(grad[1], 0.f);  // and grows the short ones
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

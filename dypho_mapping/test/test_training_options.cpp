@@ -14,7 +14,7 @@
 #include "plane_keyframe.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// A textured fronto-parallel plane at 2 m; 1 cm sideways is 1 px at this focal length.
 Keyframe planeKeyframe(std::int64_t id, double x_m, double y_m) {
@@ -148,5 +148,5 @@ TEST(ExposureGauge, TheMapMovesIntoTheMeanExposureAndKeyframeRendersStay) {
   EXPECT_EQ(first_after.psnr_db, first_before.psnr_db);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

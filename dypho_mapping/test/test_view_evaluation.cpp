@@ -7,7 +7,7 @@
 #include "dypho/mapping/view_evaluation.h"
 
 namespace dypho::mapping {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// A textured input frame (so that SSIM has structure to compare) and its depth.
 struct Frame {
@@ -117,5 +117,5 @@ TEST(ViewEvaluation, MismatchedInputsAndBadOptionsAreRefused) {
   EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

@@ -12,7 +12,7 @@
 using namespace dypho;
 using namespace dypho::mask;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 CameraIntrinsics cam(int w, int h) {
   CameraIntrinsics c;
@@ -23,8 +23,6 @@ CameraIntrinsics cam(int w, int h) {
   c.height = h;
   return c;
 }
-
-}  // namespace
 
 TEST(ConsistencyFilter, CountsAgreeingNeighbours) {
   cv::Mat B(20, 20, CV_32FC1, cv::Scalar(3.0f)), D = B.clone(), dyn;
@@ -230,4 +228,5 @@ TEST(BackgroundModel, DepthEdgeOffByAShareOfTheTurnIsStaticButAPersonIsNot) {
   EXPECT_EQ(flagged_edge[1], 0);
   EXPECT_GE(flagged_person[0], 36);
   EXPECT_GE(flagged_person[1], 36);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

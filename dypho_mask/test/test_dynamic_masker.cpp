@@ -22,7 +22,7 @@
 using namespace dypho;
 using namespace dypho::mask;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 bool exists(const std::string& p) {
   struct stat st;
@@ -30,8 +30,6 @@ bool exists(const std::string& p) {
 }
 
 const std::string kModels = DYPHO_TEST_MODELS_DIR;
-
-}  // namespace
 
 // Pure camera motion (no people) with the true relative pose: the mask must be (nearly) empty
 // once the background model exists (from the second flow frame on; the first flow frame has no
@@ -454,4 +452,5 @@ TEST(CameraStill, NeedsASmallMedianAndAQuietShareOrASmallPredictedMotion) {
   flow.median_flow_px = 0.1;
   flow.raw_flow_mask.release();
   EXPECT_FALSE(cameraStill(flow, resting)) << "no flow: nothing known";
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

@@ -11,7 +11,7 @@
 
 namespace dypho {
 namespace mask {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(FlowMaskOptions, DefaultsAreValidAndDocumentedValues) {
   const FlowMaskOptions o;
@@ -86,6 +86,6 @@ TEST(FlowMaskOptions, VisitOptionsCoversEveryFieldOfToString) {
   EXPECT_EQ(visited, printed_keys);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mask
 }  // namespace dypho

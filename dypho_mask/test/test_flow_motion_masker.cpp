@@ -12,7 +12,7 @@
 
 namespace dypho {
 namespace mask {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const cv::Size kSize(640, 480);
 
@@ -468,6 +468,6 @@ TEST(FlowMotionMasker, StageTimesArePartsOfTheTotal) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace mask
 }  // namespace dypho

@@ -17,7 +17,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// rgb.txt of the TUM layout: stamp [ns] -> file name (e.g. "1600000000.033333.png").
 std::map<std::int64_t, std::string> readRgbList(const std::string& path) {
@@ -125,7 +125,7 @@ TEST(MaskNodelet, PublishesAMaskPerFrameThatAgreesWithTheGroundTruth) {
   EXPECT_GE(mean_iou, 0.80);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

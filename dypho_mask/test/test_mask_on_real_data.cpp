@@ -21,7 +21,7 @@
 
 namespace dypho {
 namespace mask {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// Stamps [s] and paths of a TUM-format list ("timestamp path" lines, '#' comments).
 std::vector<std::pair<double, std::string>> listStamped(const std::string& folder, const std::string& list) {

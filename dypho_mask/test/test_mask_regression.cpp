@@ -14,7 +14,7 @@
 
 using namespace dypho;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct Scores {
   double iou = 0.0;
@@ -50,8 +50,6 @@ Scores runSequence(tools::SynthMotion motion, std::uint32_t seed, int frames) {
   return {inter / uni, false_dyn / static_px};
 }
 
-}  // namespace
-
 class MaskRegression : public ::testing::TestWithParam<std::tuple<tools::SynthMotion, int>> {};
 
 TEST_P(MaskRegression, MeetsTheIssueBoundsWithGroundTruthPosePrior) {
@@ -74,3 +72,4 @@ INSTANTIATE_TEST_SUITE_P(Sequences, MaskRegression,
                                            std::make_tuple(tools::SynthMotion::kHalfsphere, 3),
                                            std::make_tuple(tools::SynthMotion::kHalfsphere, 5),
                                            std::make_tuple(tools::SynthMotion::kXyz, 2)));
+}  // namespace DYPHO_UNITY_ID

@@ -10,7 +10,7 @@
 using namespace dypho;
 using namespace dypho::mask;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr Timestamp kFrameNs = 33'333'333;
 const cv::Rect kPerson(100, 60, 60, 120);  // full-res px
@@ -58,8 +58,6 @@ double personCoverage(bool seeds, const std::vector<cv::Point3f>& points, Timest
   return static_cast<double>(cv::countNonZero(result.mask(kPerson))) / kPerson.area();
 }
 
-}  // namespace
-
 // Bounds: the seeded person is covered but for the mask's clean-up at its outline (> 90 %); the
 // unseeded one is missed entirely but for the margin grown from the wall's side (< 30 %).
 TEST(MovingPointSeeds, GrowOverThePersonTheMaskMissed) {
@@ -78,4 +76,5 @@ TEST(MovingPointSeeds, IgnoreOldPointsAndOtherSurfaces) {
   EXPECT_LT(personCoverage(true, {personCentre(camera)}, frameAt(2).stamp_ns - 200'000'000), 0.3);
   cv::Point3f farther = personCentre(camera) * (2.5f / 1.5f);  // same pixel, 1 m behind the person
   EXPECT_LT(personCoverage(true, {farther}, frameAt(1).stamp_ns), 0.3);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

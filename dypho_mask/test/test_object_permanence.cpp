@@ -10,7 +10,7 @@
 
 using namespace dypho::mask;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const cv::Size kSize(80, 60);
 const cv::Rect kPerson(20, 10, 16, 40);
@@ -40,8 +40,6 @@ PermanenceSettings settings(int frames) {
   s.max_quiet_frames = frames;
   return s;
 }
-
-}  // namespace
 
 TEST(ObjectPermanence, KeepsAQuietRegionForMaxQuietFramesThenDropsIt) {
   ObjectPermanence p(settings(3));
@@ -133,4 +131,5 @@ TEST(ObjectPermanence, BadSettingsAreRejected) {
   PermanenceSettings s;
   s.max_depth_change_m = 0.0;
   EXPECT_THROW((ObjectPermanence(s)), std::invalid_argument);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

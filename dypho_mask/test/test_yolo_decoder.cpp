@@ -9,7 +9,7 @@
 
 using namespace dypho::mask;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 cv::Mat tensor3(int a, int b) {
   const int sizes[3] = {1, a, b};
@@ -17,8 +17,6 @@ cv::Mat tensor3(int a, int b) {
 }
 
 float& at3(cv::Mat& m, int i, int j) { return m.ptr<float>(0)[i * m.size[2] + j]; }
-
-}  // namespace
 
 TEST(Letterbox, RoundTripAndPadding) {
   const Letterbox lb = makeLetterbox({640, 480}, {416, 416});
@@ -239,4 +237,5 @@ TEST(BoxDepthSegmenter, GrowthFillsAPersonButNotADesk) {
   growRegionsInDepth(room, no_background, settings, outline);
   EXPECT_EQ(cv::countNonZero(outline(person)), person.area());
   EXPECT_EQ(cv::countNonZero(outline), person.area());
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

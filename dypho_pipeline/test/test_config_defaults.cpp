@@ -15,7 +15,7 @@
 #include "dypho/mask/mask_options_fields.h"
 #include "dypho/tracking/tracking_options_fields.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// Compares every visited field with the same key of a YAML map; records the keys it saw.
 class DefaultsMatchYaml {
@@ -76,11 +76,11 @@ TEST(ConfigDefaults, MappingYamlEqualsBuiltInDefaults) {
   expectYamlEqualsDefaults<dypho::mapping::MappingOptions>("mapping.yaml");
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 // Services write only under the configured output directory.
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(OutputDirectory, RequestsStayInsideTheOutputDirectory) {
   const std::string base = "/tmp/dypho_output_test/base";
@@ -96,4 +96,4 @@ TEST(OutputDirectory, RequestsStayInsideTheOutputDirectory) {
   EXPECT_THROW(dypho::resolveOutputDirectory("", "x"), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -12,7 +12,7 @@
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/synthetic_scene.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using namespace dypho;
 
@@ -98,9 +98,9 @@ TEST(SlamPipeline, LocalBaCorrectionsReachTheGaussianMap) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 // Through the whole pipeline: a repeated and a late frame are dropped (no pose, no restart, the
 // trajectory keeps its frames); a looped sequence (time back by 5 s) restarts tracking. With R_d
@@ -159,9 +159,9 @@ TEST(SlamPipeline, DropsRepeatedAndLateFramesRestartsWhenTimeJumpsBack) {
   EXPECT_EQ(slam.tracking().numFrames(), 1u);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 // pose_refinement: at the end the map's refined keyframe poses become the tracker's, and the
 // final trajectory follows them (with it off nothing is handed back: checked at the end of
@@ -200,4 +200,4 @@ TEST(SlamPipeline, RefinedKeyframePosesGoBackToTracking) {
   EXPECT_LT(moved_m, 0.06);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -21,7 +21,7 @@
 #include "dypho/tools/synthetic_scene.h"
 
 namespace dypho {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(RealtimeOptions, RejectsBadValues) {
   pipeline::RealtimeOptions o;
@@ -268,5 +268,5 @@ TEST(RealtimeRunner, DefaultDeterministicRunIsUnaffected) {
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_TRUE(a[i].matrix() == b[i].matrix()) << "frame " << i;
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho

@@ -24,7 +24,7 @@
 #include "dypho/tools/synthetic_scene.h"
 
 namespace dypho::pipeline {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -285,5 +285,5 @@ TEST_F(SessionStore, HalvesWrittenApartCompleteTheSessionInEitherOrder) {
   EXPECT_THROW(resolveSessionDir(dir), std::runtime_error);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::pipeline

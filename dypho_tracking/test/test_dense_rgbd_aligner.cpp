@@ -10,7 +10,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kWallDepthM = 2.0;
 constexpr double kFocalPx = 525.0;  // test::testCamera()
@@ -144,6 +144,6 @@ TEST(DenseRgbdAligner, FeatureInformationIsTheGaussNewtonHessianOfTheReprojectio
   EXPECT_LT((H - numeric).cwiseAbs().maxCoeff(), 1e-4 * numeric.cwiseAbs().maxCoeff());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -8,7 +8,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kDepthM = 2.0;
 constexpr int kShiftU = 14, kShiftV = -9;  // content motion between the two images [px]
@@ -75,6 +75,6 @@ TEST(FeatureMatcher, ProjectionSearchUsesThePrediction) {
   EXPECT_LT(bad.size(), good.size() / 4);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -15,7 +15,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Pinhole testPinhole() { return Pinhole{525.0, 525.0, 319.5, 239.5}; }
 
@@ -313,6 +313,6 @@ TEST(RgbdOdometryFinishRun, WithoutFramesDoesNothing) {
   EXPECT_FALSE(RgbdOdometry(options).finishRun().global_ba.ran);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -14,7 +14,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const Pinhole kPinhole{525.0, 525.0, 319.5, 239.5};
 
@@ -136,6 +136,6 @@ TEST(KeyframeAlignerProbation, TooFewVerifiedPointsLetEveryMatchCarryThePose) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

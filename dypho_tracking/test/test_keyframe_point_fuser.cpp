@@ -13,7 +13,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const Pinhole kPinhole{500.0, 500.0, 320.0, 240.0};
 
@@ -178,6 +178,6 @@ TEST(KeyframePointFuser, OffChangesNothingAndAddObservationRefusesATakenFeature)
   EXPECT_FALSE(map.addObservation(first_ids[3], 0, 99));  // no such feature
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -6,7 +6,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Eigen::Isometry3d pose(double tx, double yaw_deg) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -121,6 +121,6 @@ TEST(KeyframeSelector, StaticDoubtPostponesOnlyThePeriodicKeyframe) {
   EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -16,7 +16,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr Timestamp kDt = 33'333'333;  // 30 Hz
 constexpr int kFrames = 12;
@@ -244,6 +244,6 @@ TEST(LiveTracker, RejectsMissingCallbacksAndBadOptions) {
   EXPECT_THROW(Live(stage, pairing(-1.0), true, callbacks(seen)), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -17,7 +17,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Pinhole testPinhole() { return Pinhole{525.0, 525.0, 319.5, 239.5}; }
 
@@ -264,6 +264,6 @@ TEST(LocalBundleAdjuster, RecoversPerturbedKeyframesAndPoints) {
   EXPECT_LT(mean_error, 0.7 * mean_error_before);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

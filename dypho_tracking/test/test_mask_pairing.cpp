@@ -8,7 +8,7 @@
 
 #include "dypho/tracking/mask_pairing.h"
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using dypho::Timestamp;
 using dypho::tracking::MaskPairer;
@@ -190,4 +190,4 @@ TEST(MaskPairing, BadOptionsAreRejected) {
   EXPECT_THROW(Pairer(options(0.1, 4, -0.5)), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID

@@ -12,7 +12,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 class MissingFrames : public ::testing::Test {
  protected:
@@ -70,6 +70,6 @@ TEST_F(MissingFrames, DroppedFramesDoNotMoveTheTrajectory) {
   EXPECT_LT(random10_m, 1.25 * whole_m + 0.001) << "whole " << whole_m << " m";
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

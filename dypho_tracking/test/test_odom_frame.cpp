@@ -4,7 +4,7 @@
 #include "dypho/tracking/odom_frame.h"
 
 namespace dypho::tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Eigen::Isometry3d pose(double x, double y, double z, double yaw_rad) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -45,5 +45,5 @@ TEST(OdomFrame, MapToOdomTakesTheJumpAndOdomToCameraStaysSmooth) {
   EXPECT_LT(distance(odom.update(T_map_found, loop, true), loop), 1e-12);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::tracking

@@ -15,7 +15,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(OrbExtractor, SpreadsKeypointsOverTheImage) {
   OrbExtractor extractor{TrackingOptions()};
@@ -85,13 +85,13 @@ TEST(OrbExtractor, RejectsWrongTypes) {
   EXPECT_THROW(extractor.extract(cv::Mat(480, 640, CV_8UC1), cv::Mat(10, 10, CV_8UC1)), std::invalid_argument);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// Image with a FAST-invisible pattern: centre pixel `centre` and the 16 ring pixels set to
 /// `ring[i]`, everything else `background`.
@@ -233,6 +233,6 @@ TEST(OrbGrid, LevelGridTilesTheUsableArea) {
   EXPECT_FALSE(levelGrid(cv::Size(45, 480), OrbExtractor::kEdgePx, 40).has_value());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

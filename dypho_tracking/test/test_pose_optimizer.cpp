@@ -12,7 +12,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const Pinhole kPinhole{525.0, 525.0, 319.5, 239.5};
 
@@ -342,6 +342,6 @@ TEST(PoseOptimizer, MotionBlurWeightsRecoverTheCameraOfABlurredFrame) {
   EXPECT_GT(inliers_weighted, 5 * 280);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -12,7 +12,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 using Mat24 = Eigen::Matrix<double, 2, 4, Eigen::RowMajor>;
 using Mat23 = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
@@ -203,6 +203,6 @@ TEST(RollingShutterReprojectionError, AngleAxisRotationMatchesEigen) {
   }
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

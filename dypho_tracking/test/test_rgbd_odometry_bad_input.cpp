@@ -10,7 +10,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr Timestamp kDt = 33'000'000;  // 30 Hz
 
@@ -221,6 +221,6 @@ TEST(TrackingStage, PosesOfAReinitialisedSegmentAreNotAnchored) {
   EXPECT_TRUE(back.pose.anchored) << back.result.message;
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

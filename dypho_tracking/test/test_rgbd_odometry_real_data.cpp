@@ -22,7 +22,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 struct StampedPath {
   double t_s = 0;
@@ -248,6 +248,6 @@ TEST(RgbdOdometryRealData, BonnCrowdRough) {
   EXPECT_LT(raw.ate_m, 0.60);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -11,7 +11,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 FrameFeatures featuresOf(const RgbdFrame& frame, const TrackingOptions& options) {
   cv::Mat gray;
@@ -78,6 +78,6 @@ TEST(RollingShutter, KeypointsOfAFastTurnMoveToTheGlobalShutterView) {
   EXPECT_LT(after_px, 1.5);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

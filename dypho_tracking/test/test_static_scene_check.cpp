@@ -7,7 +7,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kWallDepthM = 2.0;
 constexpr double kFocalPx = 525.0;  // test::testCamera()
@@ -122,6 +122,6 @@ TEST(StaticSceneCheck, NoReferenceWithoutUsablePixels) {
   EXPECT_EQ(check.score(Eigen::Isometry3d::Identity()).checked, 0);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -9,7 +9,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// Keyframe with n features at (i, 0, 2) m in its camera frame; ids given (or -1 = new).
 MapKeyframe makeKf(std::int64_t id, const std::vector<std::int64_t>& ids, double x_m = 0) {
@@ -292,6 +292,6 @@ TEST(TrackerMap, RemovedKeyframeKeepsAPoseThatFollowsCorrections) {
   EXPECT_FALSE(map.keyframePose(1).has_value());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -24,7 +24,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -320,6 +320,6 @@ TEST(TrackerSession, RestoredTrackerContinuesTheIds) {
   EXPECT_TRUE(removed->isApprox(pose(0.0, -0.5, 1.0, true) * pose(0.25, 0.0, 0.0, true), 1e-15));
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -22,7 +22,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 namespace fs = std::filesystem;
 
@@ -344,6 +344,6 @@ TEST_F(TrackerSessionResume, LocalisationOnlyRefusesAPoseFarFromItsPrediction) {
   EXPECT_LT(positionError(back.T_world_camera, 16), 0.02);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -15,7 +15,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/transform_listener.h>
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(TrackingNodelet, PublishesPosePathTfAndKeyframesAtTheInputRate) {
   ros::NodeHandle nh;
@@ -97,7 +97,7 @@ TEST(TrackingNodelet, SaveServiceWritesOnlyInsideTheOutputDirectory) {
   EXPECT_FALSE(std::ifstream("/tmp/dypho_escaped/trajectory.txt").good());
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

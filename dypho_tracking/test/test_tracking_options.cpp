@@ -11,7 +11,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 TEST(TrackingOptions, DefaultsAreValidAndMatchTheBrief) {
   const TrackingOptions o;
@@ -68,6 +68,6 @@ TEST(TrackingOptions, ToStringListsEveryField) {
   EXPECT_STREQ(toString(TrackingState::kNotInitialized), "NOT_INITIALIZED");
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

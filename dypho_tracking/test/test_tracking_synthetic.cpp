@@ -18,7 +18,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 class SyntheticTracking : public ::testing::Test {
  protected:
@@ -410,13 +410,13 @@ TEST_F(SyntheticTracking, MovingPointsStillOnlyCullsBeforeAStillCameraOnly) {
   EXPECT_GT(run(/*still_camera=*/true, /*still_only=*/true), 20);
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// RMS [m] of the frame-to-frame motion error: the tracked step between consecutive frames
 /// against the true one (the per-frame precision, free of drift).
@@ -455,6 +455,6 @@ TEST_F(SyntheticTracking, DenseRefinementMakesEachFrameMorePrecise) {
   EXPECT_LT(step_error_m[1], 0.75 * step_error_m[0]) << "features " << step_error_m[0] << " m";
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

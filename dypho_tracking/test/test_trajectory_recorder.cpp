@@ -5,7 +5,7 @@
 
 namespace dypho {
 namespace tracking {
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Eigen::Isometry3d pose(double x, double yaw_rad) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -76,6 +76,6 @@ TEST(TrajectoryRecorder, FramesFollowTheLaterCorrectionOfTheirKeyframe) {
   EXPECT_TRUE(final_poses[2].second.isApprox(frame_b, 1e-12));
 }
 
-}  // namespace
+}  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

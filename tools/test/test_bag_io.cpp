@@ -23,7 +23,7 @@ using dypho::tools::BagRgbdReader;
 using dypho::tools::BagRgbdWriter;
 using dypho::tools::BagTopics;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 std::string tempBag(const std::string& name) {
   return (fs::temp_directory_path() / ("dypho_" + name + "_" + std::to_string(::getpid()) + ".bag")).string();
@@ -94,8 +94,6 @@ std::string errorOf(F&& f) {
   }
   return "";
 }
-
-}  // namespace
 
 TEST(BagIo, RoundTripKeepsFramesStampsAndCamera) {
   const std::string path = tempBag("roundtrip");
@@ -335,6 +333,8 @@ TEST(BagLayout, OpenNiNamesAndBgr8Colour) {
   EXPECT_EQ(cv::norm(r.load(0).bgr, f.bgr, cv::NORM_INF), 0.0);
   fs::remove(path);
 }
+
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);

@@ -15,7 +15,7 @@
 namespace fs = std::filesystem;
 using namespace dypho::tools;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const std::string kConfigDir = std::string(DYPHO_SOURCE_DIR) + "/config";
 const std::string kDataDir = std::string(DYPHO_SHARED_DIR) + "/data";
@@ -53,8 +53,6 @@ std::string replaced(std::string s, const std::string& from, const std::string& 
   if (pos == std::string::npos) throw std::logic_error("test bug: '" + from + "' not found");
   return s.replace(pos, from.size(), to);
 }
-
-}  // namespace
 
 TEST(CameraConfig, ParsesEveryField) {
   const fs::path dir = makeTempDir("ok");
@@ -201,4 +199,5 @@ TEST(CameraConfig, DetectSharedDatasets) {
   fs::copy_file(kDataDir + "/tum_fr1_rpy_first150/rgb.txt", dir / "rgb.txt");
   EXPECT_EQ(detectCameraName(dir.string()), std::optional<std::string>("tum_fr1"));
   fs::remove_all(dir);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 using namespace dypho;
 using namespace dypho::tools;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 Eigen::Isometry3d randomRigid(std::mt19937& rng, double max_t_m = 10.0) {
   std::normal_distribution<double> n(0.0, 1.0);
@@ -49,8 +49,6 @@ std::vector<StampedPose> transformed(const Eigen::Isometry3d& T_new_old, std::ve
   for (auto& p : poses) p.T_world_camera = T_new_old * p.T_world_camera;
   return poses;
 }
-
-}  // namespace
 
 TEST(Umeyama, RecoversRandomRigidTransform) {
   std::mt19937 rng(3);
@@ -325,4 +323,5 @@ TEST(TrajectoryPlot, WritesPng) {
   EXPECT_EQ(entries, 1);
   EXPECT_THROW(renderTrajectoryPlot(AteResult{}, "empty"), std::runtime_error);
   fs::remove_all(tmpl);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

@@ -16,7 +16,7 @@ using dypho::tools::SynthFrame;
 using dypho::tools::SynthMotion;
 using dypho::tools::SynthOptions;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
@@ -84,8 +84,6 @@ double meanGradient(const cv::Mat& gray8) {
 }
 
 bool sameImage(const cv::Mat& a, const cv::Mat& b) { return cv::norm(a, b, cv::NORM_INF) == 0.0; }
-
-}  // namespace
 
 // Off by default: exposure 0 and readout 0 are the defaults, and setting them explicitly gives
 // the very same images (bit for bit) as a default SynthOptions. That the default images are the
@@ -270,6 +268,8 @@ TEST(SynthCameraEffects, RejectsDurationsOutsideOneFrame) {
   EXPECT_NE(o.toString().find("exposure_s="), std::string::npos);
   EXPECT_NE(o.toString().find("rolling_shutter_s="), std::string::npos);
 }
+
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);

@@ -12,7 +12,7 @@ using dypho::tools::SyntheticScene;
 using dypho::tools::SynthMotion;
 using dypho::tools::SynthOptions;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
@@ -48,8 +48,6 @@ MotionStats measure(const SyntheticScene& scene) {
   }
   return s;
 }
-
-}  // namespace
 
 class SynthMotionTest : public ::testing::TestWithParam<SynthMotion> {};
 
@@ -196,6 +194,8 @@ TEST(SynthFastRpy, EveryFrameSeesTheRoom) {
     EXPECT_GE(f.static_depth_m.at<float>(120, 160), 1.0f) << "frame " << i;
   }
 }
+
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);

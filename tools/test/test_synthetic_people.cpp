@@ -22,7 +22,7 @@ using dypho::tools::SynthOptions;
 using dypho::tools::SynthWalk;
 namespace sd = dypho::tools::synth_detail;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -140,8 +140,6 @@ std::vector<sd::PersonPath> layoutBeforeWalkStyles(const SynthOptions& o, cv::RN
   }
   return paths;
 }
-
-}  // namespace
 
 // ---------------------------------------------------------------------------------------------
 // Defaults
@@ -543,6 +541,8 @@ TEST(SynthPeople, RejectsImpossibleRequestsWithClearErrors) {
             std::string::npos)
       << text;
 }
+
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);

@@ -18,7 +18,7 @@ using dypho::tools::SynthFrame;
 using dypho::tools::SynthMotion;
 using dypho::tools::SynthOptions;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 SynthOptions smallOptions(int people, std::uint32_t seed) {
   SynthOptions o;
@@ -34,8 +34,6 @@ double fractionDifferent(const cv::Mat& a, const cv::Mat& b) {
   if (diff.channels() > 1) diff = diff.reshape(1, static_cast<int>(diff.total()));
   return cv::countNonZero(diff) / static_cast<double>(diff.total());
 }
-
-}  // namespace
 
 TEST(SyntheticScene, SameSeedGivesIdenticalFramesInAnyOrder) {
   const SyntheticScene a(smallOptions(3, 7));
@@ -238,6 +236,8 @@ TEST(SyntheticScene, RejectsBadOptionsWithClearErrors) {
 
 // catkin_add_gtest links gtest without gtest_main; defining main here also works with
 // GTest::gtest_main (a static library whose main is then not pulled in).
+}  // namespace DYPHO_UNITY_ID
+
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();

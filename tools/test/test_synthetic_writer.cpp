@@ -22,7 +22,7 @@
 namespace fs = std::filesystem;
 using dypho::tools::SynthOptions;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 fs::path freshDir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("dypho_" + name + "_" + std::to_string(::getpid()));
@@ -58,8 +58,6 @@ SynthOptions smallOptions() {
   o.seed = 3;
   return o;
 }
-
-}  // namespace
 
 TEST(SyntheticWriter, FolderMatchesTheRenderedFrames) {
   const SynthOptions o = smallOptions();
@@ -181,6 +179,8 @@ TEST(SyntheticWriter, UnwritableFolderIsAClearError) {
   bad.people = 9;
   EXPECT_THROW(dypho::tools::writeSyntheticDataset(bad, freshDir("synth_bad").string()), std::runtime_error);
 }
+
+}  // namespace DYPHO_UNITY_ID
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);

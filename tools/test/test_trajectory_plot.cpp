@@ -9,7 +9,7 @@
 using namespace dypho::tools;
 using namespace dypho::tools::plot;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 /// A path that spans 4 m in x, 0.5 m in y and 2 m in z.
 std::vector<Eigen::Vector3d> xzPath() {
@@ -20,8 +20,6 @@ std::vector<Eigen::Vector3d> xzPath() {
   }
   return xyz;
 }
-
-}  // namespace
 
 TEST(TrajectoryPlotLayout, ChoosesTheTwoLargestExtentsInXyzOrder) {
   const std::vector<Eigen::Vector3d> gt = xzPath();
@@ -65,4 +63,5 @@ TEST(TrajectoryPlotLayout, ViewHoldsBothTrajectoriesAtOneScale) {
   EXPECT_DOUBLE_EQ(niceStep(8.0, 8), 1.0);
   EXPECT_DOUBLE_EQ(niceStep(12.0, 8), 2.0);
   EXPECT_NEAR(niceStep(0.3, 8), 0.05, 1e-15);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID

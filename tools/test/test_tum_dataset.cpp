@@ -17,7 +17,7 @@
 namespace fs = std::filesystem;
 using namespace dypho::tools;
 
-namespace {
+namespace DYPHO_UNITY_ID {
 
 const std::string kDataDir = std::string(DYPHO_SHARED_DIR) + "/data";
 const std::string kConfigDir = std::string(DYPHO_SOURCE_DIR) + "/config";
@@ -104,8 +104,6 @@ bool sharedDataPresent() {
   std::printf("skipping: shared data folder %s is absent (set DYPHO_SHARED_DIR at configure time)\n", kDataDir.c_str());
   return false;
 }
-
-}  // namespace
 
 TEST(ParseSeconds, ExactNanoseconds) {
   dypho::Timestamp ns = 0;
@@ -301,4 +299,5 @@ TEST(TumDataset, RealBonnCrowd) {
   // SOURCE.txt: median raw values 12000-14500, i.e. 2.4-2.9 m; allow 2-3.5 m.
   EXPECT_GT(depths[depths.size() / 2], 2.0f);
   EXPECT_LT(depths[depths.size() / 2], 3.5f);
-}
+}  // namespace DYPHO_UNITY_ID
+}  // namespace DYPHO_UNITY_ID
