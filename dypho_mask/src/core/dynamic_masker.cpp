@@ -112,7 +112,8 @@ struct DynamicMasker::FrameState {
   /// The relative pose B is warped with: the flow's fitted one (FlowMaskOptions::fit_rigid_motion)
   /// when it has one, else the prior's.
   std::optional<Eigen::Isometry3d> T_prev_cur;
-  SegmentStep seg;  ///< this frame's segment mask
+  SegmentStep seg;                    ///< this frame's segment mask
+  bool background_restarted = false;  ///< B started again at this frame (motion since B unknown)
 };
 
 MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
@@ -176,7 +177,20 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
     const Eigen::Isometry3d start = f.prior.T_prev_cur.value_or(Eigen::Isometry3d::Identity());
     f.flow = flow_.compute(f.frame, start, previous_mask_, true);
     if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
-    if (f.run_background) testAgainstBackground(f);
+    if (!f.run_background) return;
+    testAgainstBackground(f);
+    // The camera's motion since B is unknown (lost, or frames missing) and the flow did not find
+    // it: B was carried with a guess. When the guess put B off the view (far more of it fails the
+    // test than the last mask held), B starts again here: a static region masked once is not
+    // learnt, and the view stayed dynamic for twenty frames (docs/journal/benchmarks-2026.md
+    // section 30). A guess that fits keeps B: in a crowd, a new B would learn the people.
+    const bool guessed = (no_prediction || f.prior.after_gap) && !f.flow.ego_motion_from_pose;
+    if (guessed && background_updates_ > 0 && backgroundLostTheView()) {
+      background_.reset();
+      background_updates_ = 0;
+      f.background_restarted = true;
+      testAgainstBackground(f);  // against the new, empty B: nothing fails it
+    }
     return;
   }
   cv::parallel_for_(
@@ -222,10 +236,19 @@ void DynamicMasker::testAgainstBackground(FrameState& f) {
   f.test_ms = msSince(t);
 }
 
+bool DynamicMasker::backgroundLostTheView() const {
+  const double previous =
+      previous_mask_.empty() ? 0.0 : static_cast<double>(cv::countNonZero(previous_mask_)) / previous_mask_.total();
+  const double failed = static_cast<double>(cv::countNonZero(consistency_small_)) / consistency_small_.total();
+  return failed > previous + kLostViewShare;
+}
+
 bool DynamicMasker::reportMotion(const FrameState& f, MaskResult& result) {
   const FlowMaskResult& flow = f.flow;
   if (f.rendered_ignored)
     addNote(result, "rendered depth ignored: must be CV_32FC1 of the colour size or of workingSize()");
+  if (f.background_restarted)
+    addNote(result, "background model restarted: the camera's motion since the last frame was not found");
   result.rendered_depth_used = f.run_background && !rendered_small_.empty();
   result.flow_ms = flow.total_ms;
   result.ego_motion_from_pose = flow.ego_motion_from_pose;

@@ -70,8 +70,9 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
       if (T_world_prev && T_world_cur) prior.T_prev_cur = T_world_prev->inverse() * *T_world_cur;
       // Fresh: the previous frame was tracked, and this frame is one interval after it.
       const Timestamp interval_ns = motion_.frameIntervalNs();
-      prior.prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && interval_ns > 0 &&
-                               frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
+      const bool next_frame = interval_ns > 0 && frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
+      prior.prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && next_frame;
+      prior.after_gap = interval_ns > 0 && !next_frame;
     }
     if (!rendered_depth_m_.empty()) {
       const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));
