@@ -27,6 +27,10 @@ case "${DYPHO_CUDA:-on}" in
 esac
 CONFIG+=(-DDYPHO_WITH_CUDA=$CUDA)
 if [ "$CUDA" = ON ] && [ -x /usr/local/cuda/bin/nvcc ]; then CONFIG+=(-DCMAKE_CUDA_COMPILER=/usr/local/cuda/bin/nvcc); fi
+# The GPU architectures compiled for (CMake's list): the five of cmake/dypho_cuda.cmake unless
+# DYPHO_CUDA_ARCHITECTURES names others ("native": this machine's GPU). Passed every time, so that
+# a build folder configured once with other ones comes back to the default.
+CONFIG+=(-DCMAKE_CUDA_ARCHITECTURES="${DYPHO_CUDA_ARCHITECTURES:-75;80;86;89;90}")
 # rostest gives each test node its result file as an unquoted argument (rostest/runner.py): with
 # a space in the build path that file is never written and every rostest fails. catkin's test
 # results then go to a folder without spaces, one per build folder.
