@@ -1,7 +1,8 @@
 #!/bin/bash
 # Builds the libFuzzer targets (fuzz/, clang) and runs each for about SECONDS of one core on a
-# copy of its seed corpus (fuzz/corpus/<name>; new inputs land in the copy, not in the repository). Exit 0 only
-# when no target crashed, leaked or tripped a sanitizer (the crashing input is kept in OUT).
+# copy of its seed corpus (fuzz/corpus/<name>; new inputs land in the copy, not in the
+# repository). Exit 0 only when no target crashed, leaked or tripped a sanitizer (the crashing
+# input is kept in OUT).
 # Usage: fuzz.sh [SECONDS_PER_TARGET] [OUT_DIR]        (default 20 s, build-fuzz/)
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
