@@ -7,6 +7,7 @@ add_library(dypho_synth_core
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_geometry.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_motion.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_people.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_people_starts.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_texture.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_writer.cpp)
 target_include_directories(dypho_synth_core PUBLIC

@@ -143,6 +143,8 @@ double minPeopleDistanceM(const SynthOptions& options);
 std::vector<PersonPath> makePeoplePaths(const SynthOptions& options, cv::RNG& rng);
 /// State on `path` at time `t_s`.
 PersonState personStateAt(const PersonPath& path, double t_s);
+/// State of a piecewise path (one with legs) at cycle time `tc_s` in [0, cycle_s).
+PersonState legStateAt(const PersonPath& path, double tc_s);
 
 /// Where a person's body appears in an image.
 struct BodySpan {
@@ -158,6 +160,14 @@ struct BodySpan {
 /// full width 2 kBodyHalfWidthM across the line of sight, at 0.3, 0.9 and 1.45 m height).
 BodySpan bodySpan(const Eigen::Vector2d& position, const Eigen::Isometry3d& T_world_camera,
                   const CameraIntrinsics& camera);
+
+/// Sets the start time of every unit of `paths` (people who share it: a group; indices into
+/// `paths`). Without options.people_in_view_at_start at random; with it, units in turn (nearest
+/// lanes first) at a time that puts all their members inside the first image, preferring times at
+/// which everyone is least hidden by nearer people (at random among the nearly best); then twice
+/// more, each unit again with all the others placed (synthetic_people_starts.cpp).
+void chooseStarts(const SynthOptions& options, std::vector<PersonPath>& paths,
+                  const std::vector<std::vector<int>>& units, cv::RNG& rng);
 
 /// Ray against a person standing at `state`: ray o + t d (t = depth along d whose camera-frame
 /// z is 1). Returns the smallest t > 1e-6 or -1; fills the outward normal and clothing (u, v) [m].
