@@ -1,4 +1,5 @@
 #include <cmath>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 
@@ -119,6 +120,42 @@ TEST(KeyframeSelector, StaticDoubtPostponesOnlyThePeriodicKeyframe) {
   q.frames_since_keyframe = 20;
   q.static_doubt = 0.3;
   EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
+}
+
+// The tracked-ratio trigger fires at 0.75 on a sharp frame (< 1 deg/frame) and at 0.6 on a
+// blurred one, and not at 0.75 while the tracker is catching up with the camera.
+TEST(KeyframeSelector, SharpFramesTakeTheHigherTrackedRatio) {
+  const KeyframeSelector s{TrackingOptions()};  // 0.75 below 1 deg/frame, else 0.6
+  KeyframeQuery q = calmQuery();
+  q.num_inliers = 350;  // 350 / 500 = 0.7: between the two ratios
+  q.frame_rotation_deg = 0.9;
+  KeyframeDecision d = s.decide(q);
+  EXPECT_TRUE(d.is_keyframe);
+  EXPECT_NE(d.reason.find("< 0.75"), std::string::npos) << d.reason;
+  q.frame_rotation_deg = 1.1;  // blurred: only the lower ratio
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.num_inliers = 290;  // 0.58 < 0.6
+  d = s.decide(q);
+  EXPECT_TRUE(d.is_keyframe);
+  EXPECT_NE(d.reason.find("< 0.6"), std::string::npos) << d.reason;
+
+  q = calmQuery();
+  q.num_inliers = 350;
+  q.frame_rotation_deg = 0.2;
+  q.catching_up = true;  // behind the camera: no keyframe for the sharp ratio alone
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.num_inliers = 290;
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+
+  TrackingOptions one_ratio;
+  one_ratio.keyframe_sharp_tracked_ratio = one_ratio.keyframe_min_tracked_ratio;
+  q = calmQuery();
+  q.num_inliers = 350;
+  EXPECT_FALSE(KeyframeSelector(one_ratio).decide(q).is_keyframe);
+
+  TrackingOptions bad;
+  bad.keyframe_sharp_tracked_ratio = 0.5;  // below keyframe_min_tracked_ratio
+  EXPECT_THROW(bad.validate(), std::invalid_argument);
 }
 
 }  // namespace DYPHO_UNITY_ID

@@ -8,6 +8,11 @@ namespace tracking {
 
 KeyframeSelector::KeyframeSelector(const TrackingOptions& options) : options_(options) { options_.validate(); }
 
+double KeyframeSelector::minTrackedRatio(const KeyframeQuery& q) const {
+  const bool sharp = q.frame_rotation_deg < options_.keyframe_sharp_max_frame_rotation_deg;
+  return sharp && !q.catching_up ? options_.keyframe_sharp_tracked_ratio : options_.keyframe_min_tracked_ratio;
+}
+
 KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
   KeyframeDecision decision;
   const double tracked_ratio = q.num_reference_inliers > 0
@@ -28,8 +33,8 @@ KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
       reason << "translation " << translation_m << " m > " << options_.keyframe_translation_m << " m";
     } else if (rotation_deg > options_.keyframe_rotation_deg) {
       reason << "rotation " << rotation_deg << " deg > " << options_.keyframe_rotation_deg << " deg";
-    } else if (tracked_ratio < options_.keyframe_min_tracked_ratio) {
-      reason << "tracked ratio " << tracked_ratio << " < " << options_.keyframe_min_tracked_ratio;
+    } else if (const double min_ratio = minTrackedRatio(q); tracked_ratio < min_ratio) {
+      reason << "tracked ratio " << tracked_ratio << " < " << min_ratio;
     } else if (q.frames_since_keyframe >= options_.keyframe_max_frames &&
                (options_.keyframe_static_doubt <= 0.0 || q.static_doubt <= options_.keyframe_static_doubt ||
                 q.frames_since_keyframe >= 2 * options_.keyframe_max_frames)) {

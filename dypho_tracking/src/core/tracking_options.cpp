@@ -108,6 +108,8 @@ void TrackingOptions::validate() const {
   requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);
   requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);
+  requireRange("keyframe_sharp_tracked_ratio", keyframe_sharp_tracked_ratio, keyframe_min_tracked_ratio, 1.0);
+  requireRange("keyframe_sharp_max_frame_rotation_deg", keyframe_sharp_max_frame_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_max_frames", keyframe_max_frames, 1, 100000);
   requireRange("keyframe_max_frame_rotation_deg", keyframe_max_frame_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_hard_tracked_ratio", keyframe_hard_tracked_ratio, 0.0, keyframe_min_tracked_ratio);

@@ -24,6 +24,8 @@ struct KeyframeQuery {
   /// Share of the reference keyframe's static samples the static check's refined pose explains
   /// beyond the tracked pose, when it did not replace it (TrackingResult::static_check_doubt) [-].
   double static_doubt = 0;
+  /// The tracker is behind the camera (catch-up mode): no keyframe for the sharp ratio alone.
+  bool catching_up = false;
 };
 
 /// Outcome of KeyframeSelector::decide.
@@ -43,7 +45,10 @@ struct KeyframeDecision {
 ///  2. rotation angle since the keyframe > keyframe_rotation_deg;
 ///  3. tracked ratio < keyframe_min_tracked_ratio (the reference is the first tracked frame, like
 ///     ORB-SLAM compares with the keyframe's tracked map points, because typically only 30-50 % of
-///     a frame's ORB keypoints are re-detected and matched in the next one);
+///     a frame's ORB keypoints are re-detected and matched in the next one); below
+///     keyframe_sharp_tracked_ratio already on a sharp frame (frame_rotation_deg <
+///     keyframe_sharp_max_frame_rotation_deg) when not catching_up (ORB-SLAM likewise takes its
+///     ratio keyframes only while local mapping is idle);
 ///  4. frames_since_keyframe >= keyframe_max_frames; postponed while static_doubt >
 ///     keyframe_static_doubt, up to 2 * keyframe_max_frames (a still camera's periodic keyframe
 ///     waits for a pose the static scene does not dispute).
@@ -56,6 +61,10 @@ class KeyframeSelector {
   KeyframeDecision decide(const KeyframeQuery& query) const;
 
  private:
+  /// keyframe_sharp_tracked_ratio on a sharp frame outside catch-up mode, else
+  /// keyframe_min_tracked_ratio.
+  double minTrackedRatio(const KeyframeQuery& q) const;
+
   TrackingOptions options_;
 };
 

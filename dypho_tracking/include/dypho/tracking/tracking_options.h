@@ -159,6 +159,21 @@ struct TrackingOptions {
   /// New keyframe when fewer than this fraction of the keyframe's points are pose inliers [-];
   /// default 0.6, range [0, 1].
   double keyframe_min_tracked_ratio = 0.6;
+  /// On a sharp frame (the camera turned less than keyframe_sharp_max_frame_rotation_deg since
+  /// the previous frame) the tracked-ratio trigger fires already below this fraction (ORB-SLAM's
+  /// RGB-D ratio), unless the tracker is in catch-up mode [-]; default 0.75, range
+  /// [keyframe_min_tracked_ratio, 1]; equal to keyframe_min_tracked_ratio = one ratio for every
+  /// frame. Where people hide the background, an earlier keyframe adds the background they
+  /// uncover; on a blurred frame each extra keyframe is one more blurred, skewed frame that
+  /// anchors the next ones, so blurred frames keep keyframe_min_tracked_ratio. 0.75 on every
+  /// frame: Bonn and the generator's crowds gained, the generator's fast turns lost (seeds 2-5
+  /// 5.97 -> 7.57 cm); on sharp frames only, every case gained (docs/journal/benchmarks-2026.md,
+  /// section 31).
+  double keyframe_sharp_tracked_ratio = 0.75;
+  /// A frame counts as sharp for keyframe_sharp_tracked_ratio while the camera turned less than
+  /// this since the previous frame [deg/frame]; default 1 (30 deg/s at 30 Hz: a blur streak of
+  /// a few pixels in a 10 ms exposure, the dense refinement's limit too), range (0, 180].
+  double keyframe_sharp_max_frame_rotation_deg = 1.0;
   /// New keyframe at the latest after this many frames since the last keyframe [frames];
   /// default 20, range [1, 100000].
   int keyframe_max_frames = 20;
