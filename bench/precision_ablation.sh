@@ -15,8 +15,8 @@
 #     no_motion_tolerance (the mask's parts that serve tracking off), local_map_20 and
 #     local_map_40 (frames tracked against 20 or 40 covisible keyframes' points, not 10),
 #     local_ba_10 (local BA over 10 keyframes, not 5), kf_ratio_0_75 and kf_ratio_0_5 (a new
-#     keyframe below 75 % or 50 % of the keyframe's points tracked, not 60 %; sharp frames keep
-#     75 %), kf_one_ratio (60 % on sharp frames too: the ratio before 2026-12-02)
+#     keyframe below 75 % or 50 % of the keyframe's points tracked, not 60 %), kf_sharp_0_75
+#     (75 % on sharp frames of a moving camera only)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
@@ -54,7 +54,7 @@ declare -A CONFIG=(
   [local_ba_10]=$'  local_ba_keyframes: 10'
   [kf_ratio_0_75]=$'  keyframe_min_tracked_ratio: 0.75'
   [kf_ratio_0_5]=$'  keyframe_min_tracked_ratio: 0.5'
-  [kf_one_ratio]=$'  keyframe_sharp_tracked_ratio: 0.6'
+  [kf_sharp_0_75]=$'  keyframe_sharp_tracked_ratio: 0.75'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(

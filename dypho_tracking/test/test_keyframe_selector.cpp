@@ -122,10 +122,13 @@ TEST(KeyframeSelector, StaticDoubtPostponesOnlyThePeriodicKeyframe) {
   EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
 }
 
-// The tracked-ratio trigger fires at 0.75 on a sharp frame (< 1 deg/frame) and at 0.6 on a
-// blurred one, and not at 0.75 while the tracker is catching up with the camera.
+// With keyframe_sharp_tracked_ratio 0.75 the tracked-ratio trigger fires at 0.75 on a sharp frame
+// (< 1 deg/frame) of a moving camera and at 0.6 on a blurred one, and not at 0.75 while the
+// tracker is catching up with the camera or the camera is still. By default one ratio (0.6).
 TEST(KeyframeSelector, SharpFramesTakeTheHigherTrackedRatio) {
-  const KeyframeSelector s{TrackingOptions()};  // 0.75 below 1 deg/frame, else 0.6
+  TrackingOptions sharp_options;
+  sharp_options.keyframe_sharp_tracked_ratio = 0.75;
+  const KeyframeSelector s{sharp_options};  // 0.75 below 1 deg/frame, else 0.6
   KeyframeQuery q = calmQuery();
   q.num_inliers = 350;  // 350 / 500 = 0.7: between the two ratios
   q.frame_rotation_deg = 0.9;
@@ -147,8 +150,12 @@ TEST(KeyframeSelector, SharpFramesTakeTheHigherTrackedRatio) {
   q.num_inliers = 290;
   EXPECT_TRUE(s.decide(q).is_keyframe);
 
-  TrackingOptions one_ratio;
-  one_ratio.keyframe_sharp_tracked_ratio = one_ratio.keyframe_min_tracked_ratio;
+  q = calmQuery();
+  q.num_inliers = 350;
+  q.camera_still = true;  // a still camera sees no new background
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+
+  const TrackingOptions one_ratio;  // the default: 0.6 on every frame
   q = calmQuery();
   q.num_inliers = 350;
   EXPECT_FALSE(KeyframeSelector(one_ratio).decide(q).is_keyframe);

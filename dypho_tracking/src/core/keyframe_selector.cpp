@@ -10,7 +10,8 @@ KeyframeSelector::KeyframeSelector(const TrackingOptions& options) : options_(op
 
 double KeyframeSelector::minTrackedRatio(const KeyframeQuery& q) const {
   const bool sharp = q.frame_rotation_deg < options_.keyframe_sharp_max_frame_rotation_deg;
-  return sharp && !q.catching_up ? options_.keyframe_sharp_tracked_ratio : options_.keyframe_min_tracked_ratio;
+  return sharp && !q.camera_still && !q.catching_up ? options_.keyframe_sharp_tracked_ratio
+                                                    : options_.keyframe_min_tracked_ratio;
 }
 
 KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {

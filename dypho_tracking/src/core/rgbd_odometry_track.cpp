@@ -336,6 +336,7 @@ KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
   query.frames_since_keyframe = frames_since_keyframe_;
   query.static_doubt = work.result.static_check_doubt;
   query.catching_up = catching_up_;
+  query.camera_still = cameraStill();
   // Inter-frame rotation; unknown (0) right after lost frames.
   query.frame_rotation_deg = motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 /
                                                          M_PI / motion_.stepIntervals()

@@ -26,6 +26,9 @@ struct KeyframeQuery {
   double static_doubt = 0;
   /// The tracker is behind the camera (catch-up mode): no keyframe for the sharp ratio alone.
   bool catching_up = false;
+  /// The last frame-to-frame motion was under 5 mm and 0.2 deg (RgbdOdometry::cameraStill): a
+  /// still camera sees no new background, so no keyframe for the sharp ratio alone either.
+  bool camera_still = false;
 };
 
 /// Outcome of KeyframeSelector::decide.
@@ -47,8 +50,8 @@ struct KeyframeDecision {
 ///     ORB-SLAM compares with the keyframe's tracked map points, because typically only 30-50 % of
 ///     a frame's ORB keypoints are re-detected and matched in the next one); below
 ///     keyframe_sharp_tracked_ratio already on a sharp frame (frame_rotation_deg <
-///     keyframe_sharp_max_frame_rotation_deg) when not catching_up (ORB-SLAM likewise takes its
-///     ratio keyframes only while local mapping is idle);
+///     keyframe_sharp_max_frame_rotation_deg) of a moving camera (not camera_still) when not
+///     catching_up (ORB-SLAM likewise takes its ratio keyframes only while local mapping is idle);
 ///  4. frames_since_keyframe >= keyframe_max_frames; postponed while static_doubt >
 ///     keyframe_static_doubt, up to 2 * keyframe_max_frames (a still camera's periodic keyframe
 ///     waits for a pose the static scene does not dispute).

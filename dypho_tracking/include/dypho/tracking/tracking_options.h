@@ -161,15 +161,15 @@ struct TrackingOptions {
   double keyframe_min_tracked_ratio = 0.6;
   /// On a sharp frame (the camera turned less than keyframe_sharp_max_frame_rotation_deg since
   /// the previous frame) the tracked-ratio trigger fires already below this fraction (ORB-SLAM's
-  /// RGB-D ratio), unless the tracker is in catch-up mode [-]; default 0.75, range
-  /// [keyframe_min_tracked_ratio, 1]; equal to keyframe_min_tracked_ratio = one ratio for every
-  /// frame. Where people hide the background, an earlier keyframe adds the background they
-  /// uncover; on a blurred frame each extra keyframe is one more blurred, skewed frame that
-  /// anchors the next ones, so blurred frames keep keyframe_min_tracked_ratio. 0.75 on every
-  /// frame: Bonn and the generator's crowds gained, the generator's fast turns lost (seeds 2-5
-  /// 5.97 -> 7.57 cm); on sharp frames only, every case gained (docs/journal/benchmarks-2026.md,
-  /// section 31).
-  double keyframe_sharp_tracked_ratio = 0.75;
+  /// RGB-D ratio) when the camera is not still, unless the tracker is in catch-up mode [-];
+  /// range [keyframe_min_tracked_ratio, 1]; default 0.6 = keyframe_min_tracked_ratio, one ratio
+  /// for every frame. Where people hide the background of a moving camera, an earlier keyframe
+  /// adds the background they uncover; on a blurred frame each extra keyframe is one more
+  /// blurred, skewed frame that anchors the next ones. 0.75 on sharp frames gains offline on
+  /// Bonn (fifteen inputs: flow 1.36 -> 1.20, detector 1.31 -> 1.14 cm), fr1/rpy's window and
+  /// the generator's moving crowds, but three of the suite's still-camera crowds lose (e.g. 0.36
+  /// -> 0.52 cm), so it is not the default yet (docs/journal/benchmarks-2026.md, section 31).
+  double keyframe_sharp_tracked_ratio = 0.6;
   /// A frame counts as sharp for keyframe_sharp_tracked_ratio while the camera turned less than
   /// this since the previous frame [deg/frame]; default 1 (30 deg/s at 30 Hz: a blur streak of
   /// a few pixels in a 10 ms exposure, the dense refinement's limit too), range (0, 180].

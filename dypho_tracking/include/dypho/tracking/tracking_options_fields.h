@@ -128,8 +128,8 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("keyframe_sharp_tracked_ratio", options.keyframe_sharp_tracked_ratio,
           "On a sharp frame (the camera turned less than keyframe_sharp_max_frame_rotation_deg since the previous "
           "frame) the tracked-ratio trigger fires already below this fraction (ORB-SLAM's RGB-D ratio), unless the "
-          "tracker is in catch-up mode [-]; default 0.75, range [keyframe_min_tracked_ratio, 1]; equal to "
-          "keyframe_min_tracked_ratio = one ratio for every frame. Blurred frames keep keyframe_min_tracked_ratio.");
+          "tracker is in catch-up mode or the camera still [-]; range [keyframe_min_tracked_ratio, 1]; default 0.6 = "
+          "keyframe_min_tracked_ratio, one ratio for every frame (0.75 gains on moving crowds, loses on still ones).");
   visitor("keyframe_sharp_max_frame_rotation_deg", options.keyframe_sharp_max_frame_rotation_deg,
           "A frame counts as sharp for keyframe_sharp_tracked_ratio while the camera turned less than this since the "
           "previous frame [deg/frame]; default 1, range (0, 180].");
