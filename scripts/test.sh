@@ -80,7 +80,8 @@ if [ -s "$failed_tests" ]; then
     sed 's/^/  /' "$failed_tests"
     echo "test.sh: their failures (gtest assertions, and the rostest nodes' logs that hold one):"
     { grep -hE -A2 ": Failure$" "$ctest_log" || true; } | cut -c1-300 | head -40 | sed 's/^/  /'
-    for log in $(grep -l ": Failure$" "$ROS_HOME"/log/*/*-stdout.log 2>/dev/null || true); do
+    # One log name per line (the workspace path may hold spaces).
+    { grep -l ": Failure$" "$ROS_HOME"/log/*/*-stdout.log 2>/dev/null || true; } | while IFS= read -r log; do
       echo "  -- $(basename "$log")"
       { grep -hE -A2 ": Failure$|^(live test|graph test|in process|graph vs)" "$log" || true; } | cut -c1-300 | head -40 | sed 's/^/    /'
     done

@@ -233,6 +233,43 @@ TEST(OrbGrid, LevelGridTilesTheUsableArea) {
   EXPECT_FALSE(levelGrid(cv::Size(45, 480), OrbExtractor::kEdgePx, 40).has_value());
 }
 
+// The distance to the mask on the dynamic pixels' grown box only: below the reach exactly what
+// cv::distanceTransform gives on the whole image (same chamfer arithmetic, so equality is exact),
+// at or beyond it at least the reach. Masks: a blob, two far apart (a box spanning the image),
+// one touching the border, a single pixel.
+TEST(OrbGrid, DistanceToDynamicMatchesTheWholeImageTransformWithinTheReach) {
+  const double reach_px = 14.4;  // 4 px border at the coarsest of 8 levels of scale factor 1.2
+  std::vector<cv::Mat> masks;
+  for (int k = 0; k < 4; ++k) masks.emplace_back(cv::Mat::zeros(480, 640, CV_8UC1));
+  cv::circle(masks[0], cv::Point(300, 200), 40, cv::Scalar(255), cv::FILLED);
+  cv::rectangle(masks[1], cv::Rect(50, 60, 30, 100), cv::Scalar(255), cv::FILLED);
+  cv::rectangle(masks[1], cv::Rect(500, 300, 60, 40), cv::Scalar(255), cv::FILLED);
+  cv::rectangle(masks[2], cv::Rect(0, 400, 120, 80), cv::Scalar(255), cv::FILLED);
+  masks[3].at<uchar>(240, 320) = 255;
+  for (const cv::Mat& mask : masks) {
+    cv::Mat is_static, whole;
+    cv::compare(mask, 0, is_static, cv::CMP_EQ);
+    cv::distanceTransform(is_static, whole, cv::DIST_L2, 3);
+    const cv::Mat boxed = distanceToDynamic(mask, reach_px);
+    ASSERT_EQ(boxed.size(), mask.size());
+    ASSERT_EQ(boxed.type(), CV_32FC1);
+    int within = 0, mismatched = 0;
+    for (int y = 0; y < mask.rows; ++y) {
+      for (int x = 0; x < mask.cols; ++x) {
+        const float expected = whole.at<float>(y, x), got = boxed.at<float>(y, x);
+        if (expected < reach_px) {
+          ++within;
+          if (got != expected) ++mismatched;
+        } else if (got < reach_px) {
+          ++mismatched;
+        }
+      }
+    }
+    EXPECT_GT(within, cv::countNonZero(mask));  // the ring around the mask was compared too
+    EXPECT_EQ(mismatched, 0);
+  }
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -2,8 +2,9 @@
 /// Gaussian map and the keyframe point cloud out. All the work and its policy are in
 /// dypho::mapping::MappingStage (kLive: a full queue drops the oldest waiting keyframe, counted;
 /// R_d and views are rendered from map snapshots, outside the map's lock), the same stage the
-/// in-process pipeline runs. Renders run on this nodelet's own render thread, so no ROS callback
-/// waits for the optimiser. The clouds are built and published on a cloud thread of their own at
+/// in-process pipeline runs. Renders run on this nodelet's own threads, so no ROS callback waits
+/// for the optimiser: R_d at normal priority (the mask waits for it), the views for viewers at the
+/// training's nice value. The clouds are built and published on a cloud thread of their own at
 /// the training's nice value: the voxel filter over every keyframe grows with the map and must
 /// neither hold a callback thread of the manager nor take a core from the camera-rate threads.
 ///
@@ -106,7 +107,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
     render_cv_.notify_all();
     cloud_cv_.notify_all();
-    if (render_thread_.joinable()) render_thread_.join();
+    if (predict_thread_.joinable()) predict_thread_.join();
+    if (view_thread_.joinable()) view_thread_.join();
     if (cloud_thread_.joinable()) cloud_thread_.join();
     if (!stage_) return;
     const mapping::MappingStageStats stats = stage_->stats();
@@ -206,7 +208,8 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
       if (!r.success) throw std::runtime_error("~session: " + r.message);
       NODELET_INFO_STREAM("~session: " << r.message);
     }
-    render_thread_ = std::thread([this] { renderLoop(); });
+    predict_thread_ = std::thread([this] { predictLoop(); });
+    view_thread_ = std::thread([this, nice = options.gaussian.training_nice] { viewLoop(nice); });
 
     // 3. Outputs.
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
@@ -271,52 +274,74 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (!update.trusted) return;
     {
       std::lock_guard<std::mutex> lock(render_mutex_);
-      request_ = RenderRequest{update.T_world_camera, msg->header.stamp};
+      predict_request_ = RenderRequest{update.T_world_camera, msg->header.stamp};
+      view_request_ = predict_request_;
     }
-    render_cv_.notify_one();
+    render_cv_.notify_all();
   }
 
-  /// Render thread: serves the newest request (older ones are superseded).
-  void renderLoop() {
-    nameCurrentThread("dypho_render");
-    ros::WallTime last_view = ros::WallTime(0);
-    for (;;) {
-      RenderRequest r;
-      CameraIntrinsics camera;
-      std::string frame_id;
-      {
-        std::unique_lock<std::mutex> lock(render_mutex_);
-        render_cv_.wait(lock, [&] { return stop_ || request_.has_value(); });
-        if (stop_) return;
-        r = *request_;
-        request_.reset();
-        camera = camera_;
-        frame_id = frame_id_;
-      }
-      if (!camera.valid()) continue;
+  /// What a render thread takes: the newest request (older ones are superseded) with the camera.
+  struct RenderJob {
+    RenderRequest request;
+    CameraIntrinsics camera;
+    std::string frame_id;
+  };
+
+  /// Waits for a request in `slot` and takes it; nullopt when the nodelet stops.
+  std::optional<RenderJob> takeRequest(std::optional<RenderRequest>* slot) {
+    std::unique_lock<std::mutex> lock(render_mutex_);
+    render_cv_.wait(lock, [&] { return stop_ || slot->has_value(); });
+    if (stop_) return std::nullopt;
+    RenderJob job{**slot, camera_, frame_id_};
+    slot->reset();
+    return job;
+  }
+
+  /// Predicted-depth thread: R_d for the mask (when it subscribes), at normal priority: the mask
+  /// waits for it.
+  void predictLoop() {
+    nameCurrentThread("dypho_predict");
+    while (const std::optional<RenderJob> job = takeRequest(&predict_request_)) {
+      if (!job->camera.valid() || predicted_pub_.getNumSubscribers() == 0) continue;
       try {
-        if (predicted_pub_.getNumSubscribers() > 0) {
-          const auto [stamp_ns, depth] =
-              stage_->predictedDepthForNextFrame(scaledCamera(camera, params_.predicted_depth_scale));
-          if (!depth.empty()) {
-            std_msgs::Header header;
-            header.stamp = rc::toRosTime(stamp_ns);
-            header.frame_id = frame_id;
-            predicted_pub_.publish(rc::toImageMsg(depth, "32FC1", header));
-          }
-        }
-        const bool want_view = color_pub_.getNumSubscribers() > 0 || depth_pub_.getNumSubscribers() > 0;
-        if (want_view && (ros::WallTime::now() - last_view).toSec() >= params_.render_period_s) {
-          last_view = ros::WallTime::now();
-          const mapping::RenderedView v = stage_->renderView(
-              r.T_world_camera, params_.rendered_scale < 1 ? scaledCamera(camera, params_.rendered_scale) : camera);
-          if (v.bgr.empty()) continue;
-          std_msgs::Header header;
-          header.stamp = r.stamp;
-          header.frame_id = frame_id;
-          color_pub_.publish(rc::toImageMsg(v.bgr, "bgr8", header));
-          depth_pub_.publish(rc::toImageMsg(v.depth_m, "32FC1", header));
-        }
+        const auto [stamp_ns, depth] =
+            stage_->predictedDepthForNextFrame(scaledCamera(job->camera, params_.predicted_depth_scale));
+        if (depth.empty()) continue;
+        std_msgs::Header header;
+        header.stamp = rc::toRosTime(stamp_ns);
+        header.frame_id = job->frame_id;
+        predicted_pub_.publish(rc::toImageMsg(depth, "32FC1", header));
+      } catch (const std::exception& e) {
+        NODELET_ERROR_STREAM_THROTTLE(5.0, "rendering the predicted depth failed: " << e.what());
+      }
+    }
+  }
+
+  /// View thread: rendered/color and rendered/depth for viewers, every render_period_s at most.
+  /// Niced like the cloud thread: on a machine without an idle core a viewer never takes CPU from
+  /// the mask or tracking (the views then come less often).
+  void viewLoop(int nice_increment) {
+    nameCurrentThread("dypho_render");
+    const std::string failed = lowerCurrentThreadPriority(ThreadPriority{nice_increment, false});
+    if (!failed.empty()) NODELET_WARN_STREAM("view thread keeps its priority: " << failed);
+    ros::WallTime last_view = ros::WallTime(0);
+    while (const std::optional<RenderJob> job = takeRequest(&view_request_)) {
+      const bool want_view = color_pub_.getNumSubscribers() > 0 || depth_pub_.getNumSubscribers() > 0;
+      if (!job->camera.valid() || !want_view || (ros::WallTime::now() - last_view).toSec() < params_.render_period_s) {
+        continue;
+      }
+      try {
+        last_view = ros::WallTime::now();
+        const CameraIntrinsics& camera = job->camera;
+        const mapping::RenderedView v =
+            stage_->renderView(job->request.T_world_camera,
+                               params_.rendered_scale < 1 ? scaledCamera(camera, params_.rendered_scale) : camera);
+        if (v.bgr.empty()) continue;
+        std_msgs::Header header;
+        header.stamp = job->request.stamp;
+        header.frame_id = job->frame_id;
+        color_pub_.publish(rc::toImageMsg(v.bgr, "bgr8", header));
+        depth_pub_.publish(rc::toImageMsg(v.depth_m, "32FC1", header));
       } catch (const std::exception& e) {
         NODELET_ERROR_STREAM_THROTTLE(5.0, "rendering failed: " << e.what());
       }
@@ -538,13 +563,15 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
   // Render thread state (render_mutex_).
   std::mutex render_mutex_;
   std::condition_variable render_cv_;
-  std::condition_variable cloud_cv_;  ///< wakes the cloud thread to stop (with render_mutex_)
-  std::optional<RenderRequest> request_;
+  std::condition_variable cloud_cv_;              ///< wakes the cloud thread to stop (with render_mutex_)
+  std::optional<RenderRequest> predict_request_;  ///< for predictLoop
+  std::optional<RenderRequest> view_request_;     ///< for viewLoop
   CameraIntrinsics camera_;
   std::string frame_id_;
-  bool stop_ = false;  ///< ends the render and cloud threads
-  std::thread render_thread_;
-  std::thread cloud_thread_;  ///< builds and publishes map_cloud and gaussian_cloud (cloudLoop)
+  bool stop_ = false;           ///< ends the render and cloud threads
+  std::thread predict_thread_;  ///< rendered/depth_predicted (predictLoop)
+  std::thread view_thread_;     ///< rendered/color and rendered/depth (viewLoop)
+  std::thread cloud_thread_;    ///< builds and publishes map_cloud and gaussian_cloud (cloudLoop)
   ros::Publisher cloud_pub_, gaussian_cloud_pub_, color_pub_, depth_pub_, predicted_pub_;
   ros::Subscriber keyframe_sub_, corrections_sub_, status_sub_;
   ros::ServiceServer save_srv_, reset_srv_, load_srv_;

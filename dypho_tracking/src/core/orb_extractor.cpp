@@ -73,9 +73,9 @@ std::optional<ExtractionSettings> extractionSettings(const cv::Mat& mask, const 
     out->masked_fraction = static_cast<double>(dynamic) / static_cast<double>(mask.total());
     if (dynamic == static_cast<int>(mask.total())) return std::nullopt;  // nothing static to describe
     if (dynamic > 0) {
-      cv::Mat is_static;
-      cv::compare(mask, 0, is_static, cv::CMP_EQ);
-      cv::distanceTransform(is_static, settings.dist_to_dynamic, cv::DIST_L2, 3);
+      // AwayFromMask compares against at most the coarsest level's border.
+      const double coarsest_scale = std::pow(options.scale_factor, options.num_levels - 1);
+      settings.dist_to_dynamic = distanceToDynamic(mask, std::max(1.0, options.mask_border_px * coarsest_scale));
     }
   }
   settings.threshold =

@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace dypho {
 namespace tracking {
@@ -45,6 +47,26 @@ inline std::optional<LevelGrid> levelGrid(const cv::Size& level_size, int edge_p
   g.cell_w = static_cast<double>(g.x_hi - g.x_lo) / g.ncols;
   g.cell_h = static_cast<double>(g.y_hi - g.y_lo) / g.nrows;
   return g;
+}
+
+/// Distance of every pixel to the nearest dynamic pixel (`mask` != 0) as cv::distanceTransform
+/// (DIST_L2, 3x3 chamfer) gives it on the whole image, for the distances below `reach_px`; a pixel
+/// farther than that may get any value >= reach_px (float max). The transform runs only on the
+/// dynamic pixels' bounding box grown by the reach: a 3x3 chamfer path from a dynamic pixel never
+/// leaves the box of its two ends, and every axial step costs at least 0.955 px. `mask` CV_8UC1
+/// with at least one dynamic pixel; returns CV_32FC1 [px].
+inline cv::Mat distanceToDynamic(const cv::Mat& mask, double reach_px) {
+  constexpr double kSmallestChamferStep = 0.955;  // OpenCV's axial step of DIST_L2 with a 3x3 mask
+  const int margin = static_cast<int>(std::ceil(reach_px / kSmallestChamferStep)) + 1;
+  cv::Rect box = cv::boundingRect(mask);
+  box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+        cv::Rect(0, 0, mask.cols, mask.rows);
+  cv::Mat distance(mask.size(), CV_32FC1, cv::Scalar(std::numeric_limits<float>::max()));
+  cv::Mat is_static;
+  cv::compare(mask(box), 0, is_static, cv::CMP_EQ);
+  cv::Mat distance_in_box = distance(box);
+  cv::distanceTransform(is_static, distance_in_box, cv::DIST_L2, 3);
+  return distance;
 }
 
 /// Keeps up to `budget` keypoints, taking cells round-robin (best response first in each round).
