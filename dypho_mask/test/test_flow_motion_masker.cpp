@@ -233,6 +233,40 @@ TEST(FlowMotionMasker, MovingSquareOverShiftedBackgroundIsMasked) {
   }
 }
 
+// Catch-up mode (a live caller fell behind): the flow skips its variational refinement. The
+// moving square is still found with the same bound as above (IoU >= 0.7: the refinement only
+// polishes the flow inside the DIS patches), and the flow really is another one (the mode is
+// not a no-op); switched off again, the flow is the refined one again (less than half the
+// catch-up flow's distance from it).
+TEST(FlowMotionMasker, CatchUpModeSkipsTheRefinementAndStillFindsTheMover) {
+  FlowMaskOptions options;
+  options.dilate_px = 0;
+  ASSERT_GT(options.dis_refinement_iterations, 0);
+  FlowMotionMasker refined(options), catching_up(options), toggled(options);
+  catching_up.setCatchingUp(true);
+  const cv::Mat bg = makeTexture(kSize, 4);
+  const cv::Mat sq = makeTexture(cv::Size(160, 160), 5);
+  for (int k = 0; k < 5; ++k) {
+    const cv::Rect square(200 + 8 * k, 150 + 5 * k, 120, 120);
+    const cv::Mat frame = squareScene(bg, cv::Point2d(3.0 * k, 1.0 * k), sq, square);
+    toggled.setCatchingUp(k % 2 == 1);
+    const FlowMaskResult r = refined.compute(frameOf(frame));
+    const FlowMaskResult c = catching_up.compute(frameOf(frame));
+    const FlowMaskResult t = toggled.compute(frameOf(frame));
+    if (k == 0) continue;
+    ASSERT_FALSE(c.degraded) << c.message;
+    cv::Mat truth = cv::Mat::zeros(kSize, CV_8UC1);
+    truth(square).setTo(255);
+    EXPECT_GE(iou(c.mask, truth), 0.7) << "frame " << k << " masked " << c.masked_fraction;
+    EXPECT_GT(cv::norm(refined.lastFlow(), catching_up.lastFlow(), cv::NORM_L1), 0.0) << "frame " << k;
+    if (k % 2 == 0) {  // back out of the mode: the refined flow again (DIS keeps some state: not bit-exact)
+      EXPECT_LT(cv::norm(refined.lastFlow(), toggled.lastFlow(), cv::NORM_L1),
+                0.5 * cv::norm(refined.lastFlow(), catching_up.lastFlow(), cv::NORM_L1))
+          << "frame " << k;
+    }
+  }
+}
+
 TEST(FlowMotionMasker, StaticMedianFlowIsTheCameraMotionWhenMoversFillMostOfTheView) {
   // The camera pans (3, 1) px per frame (3.16 px); four textured squares of 200 x 200 px, 52 % of
   // the view together, each move 12 px per frame their own way. Each is smaller than the

@@ -3,6 +3,9 @@
 // DynamicMaskOptions::moving_point_seeds).
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "dypho/mask/mask_stage.h"
@@ -76,5 +79,29 @@ TEST(MovingPointSeeds, IgnoreOldPointsAndOtherSurfaces) {
   EXPECT_LT(personCoverage(true, {personCentre(camera)}, frameAt(2).stamp_ns - 200'000'000), 0.3);
   cv::Point3f farther = personCentre(camera) * (2.5f / 1.5f);  // same pixel, 1 m behind the person
   EXPECT_LT(personCoverage(true, {farther}, frameAt(1).stamp_ns), 0.3);
-}  // namespace DYPHO_UNITY_ID
+}
+
+// The stage's catch-up mode (DynamicMaskOptions::catch_up_frames_waiting): a frame is masked in it
+// when the caller holds at least that many frames behind it, counted; 0 switches it off; offline
+// callers (frames_waiting 0) never enter it. The mask is still produced.
+TEST(MaskStageCatchUp, FramesWaitingBehindAFramePutItInCatchUpMode) {
+  const auto caught_up = [](int catch_up_frames_waiting, const std::vector<std::size_t>& waiting) {
+    DynamicMaskOptions options;
+    options.catch_up_frames_waiting = catch_up_frames_waiting;
+    MaskStage stage(options);
+    for (std::size_t i = 0; i < waiting.size(); ++i) {
+      const MaskResult result = stage.process(frameAt(static_cast<int>(i)), waiting[i]);
+      EXPECT_FALSE(result.dropped);
+      if (i > 0) EXPECT_FALSE(result.mask.empty()) << "frame " << i;
+    }
+    return stage.stats().frames_caught_up;
+  };
+  EXPECT_EQ(caught_up(1, {0, 0, 0}), 0u);
+  EXPECT_EQ(caught_up(1, {0, 1, 2}), 2u);
+  EXPECT_EQ(caught_up(2, {0, 1, 2}), 1u);
+  EXPECT_EQ(caught_up(0, {0, 1, 2}), 0u);
+  DynamicMaskOptions bad;
+  bad.catch_up_frames_waiting = -1;
+  EXPECT_THROW(MaskStage{bad}, std::invalid_argument);
+}
 }  // namespace DYPHO_UNITY_ID

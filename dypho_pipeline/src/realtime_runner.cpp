@@ -205,7 +205,8 @@ class RealtimeRun {
     while (std::optional<ToMask> m = camera_to_mask_.pop()) {
       if (aborted_) continue;  // drain: the run ends
       try {
-        auto masked = std::make_shared<MaskedFrame>(pipeline_.maskFrame(m->input.frame, m->input.external_mask));
+        auto masked = std::make_shared<MaskedFrame>(
+            pipeline_.maskFrame(m->input.frame, m->input.external_mask, camera_to_mask_.size()));
         const Timestamp stamp_ns = masked->frame.stamp_ns;
         if (!masked->report.dropped) live_.addMask(stamp_ns, std::move(masked));
       } catch (...) {

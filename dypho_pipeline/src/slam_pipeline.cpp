@@ -28,7 +28,7 @@ FrameReport SlamPipeline::process(const RgbdFrame& frame, const cv::Mat& externa
   return trackFrame(maskFrame(frame, external_mask));
 }
 
-MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask) {
+MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask, std::size_t frames_waiting) {
   MaskedFrame out;
   out.frame = frame;
   FrameReport& report = out.report;
@@ -40,7 +40,7 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
   }
   const auto t_mask = std::chrono::steady_clock::now();
   if (options_.mask_source == MaskSource::kFlow) {
-    const mask::MaskResult result = mask_.process(frame);
+    const mask::MaskResult result = mask_.process(frame, frames_waiting);
     if (result.dropped) {
       report.dropped = true;
       report.message = result.message;

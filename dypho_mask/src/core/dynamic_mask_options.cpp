@@ -89,6 +89,8 @@ void DynamicMaskOptions::validate() const {
   flow.validate();
   background.validate();
   require(margin_px >= 0, "margin_px must be >= 0, got " + std::to_string(margin_px));
+  require(catch_up_frames_waiting >= 0 && catch_up_frames_waiting <= 1000,
+          "catch_up_frames_waiting must be in [0, 1000], got " + std::to_string(catch_up_frames_waiting));
   require(permanence_frames >= 0 && permanence_frames <= 10000,
           "permanence_frames must be in [0, 10000], got " + std::to_string(permanence_frames));
   require(depth_layers >= 1, "depth_layers must be >= 1, got " + std::to_string(depth_layers));

@@ -125,6 +125,7 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
                  frame.camera.valid();
   f.run_background = options_.background.enabled && f.have_depth;
   f.small = workingSize(f.size);
+  flow_.setCatchingUp(prior.catching_up);
 
   // 1. Motion mask: flow and ego-motion (beside the background's consistency test).
   computeMotionAndConsistency(f);

@@ -157,6 +157,7 @@ void FlowMotionMasker::computeFlow(FlowMaskResult& result) {
   // Backward flow: defined on current pixels, pointing to where they were in the previous image,
   // so that the mask lies on the objects' current positions.
   const auto t_flow = Clock::now();
+  dis_->setVariationalRefinementIterations(catching_up_ ? 0 : options_.dis_refinement_iterations);
   dis_->calc(cur_small_, prev_small_, flow_);
   result.flow_ms = msSince(t_flow);
   last_flow_valid_ = true;

@@ -42,9 +42,11 @@ std::optional<Eigen::Isometry3d> MaskStage::poseAt(Timestamp stamp_ns) const {
   return motion_.predict(stamp_ns);
 }
 
-MaskResult MaskStage::process(const RgbdFrame& frame) {
+MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting) {
   std::lock_guard<std::mutex> process_lock(process_mutex_);
   MaskPrior prior;
+  const int catch_up_from = masker_.options().catch_up_frames_waiting;
+  prior.catching_up = catch_up_from > 0 && frames_waiting >= static_cast<std::size_t>(catch_up_from);
   bool restarted = false;
   {
     std::lock_guard<std::mutex> lock(prior_mutex_);
@@ -110,6 +112,7 @@ MaskResult MaskStage::process(const RgbdFrame& frame) {
   if (prior.T_prev_cur) ++stats_.frames_with_ego_motion;
   if (result.rendered_depth_used) ++stats_.frames_with_rendered_depth;
   if (result.degraded) ++stats_.degraded_frames;
+  if (prior.catching_up) ++stats_.frames_caught_up;
   return result;
 }
 

@@ -212,7 +212,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
     mask::MaskResult result;
     try {
-      result = stage_->process(frame);
+      result = stage_->process(frame, waiting_->size());
     } catch (const std::exception& e) {  // never let a core error reach the manager's thread
       const std::string message = std::string("mask failed on this frame, dropped: ") + e.what();
       if (input_log_.pass(message)) NODELET_ERROR_STREAM(message);
@@ -252,6 +252,7 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     status->rendered_depth_unmatched = stats.rendered_depth_unmatched;
     status->frames_dropped_out_of_order = stats.dropped_out_of_order;
     status->restarts = stats.restarts;
+    status->frames_caught_up = stats.frames_caught_up;
     status->message = result.message;
     status->segment_source = result.segment_fresh               ? dypho_slam::MaskStatus::SEGMENT_FRESH
                              : !result.raw_segment_mask.empty() ? dypho_slam::MaskStatus::SEGMENT_CARRIED

@@ -176,7 +176,7 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
-                                       bool use_verified_first, const CameraRates& rates_prior) const {
+                                       bool use_verified_first, const CameraRates& rates_prior, bool tight_pass) const {
   const KeyframePoints& global_ref = brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
@@ -223,6 +223,7 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   }
 
   // 3. Tight projection pass around the estimate for more (and better) matches.
+  if (!tight_pass) return result;
   t0 = Clock::now();
   const std::vector<FeatureMatch> tight =
       matcher_.matchByProjection(reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px);

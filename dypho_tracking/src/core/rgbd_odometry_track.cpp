@@ -225,7 +225,8 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
     rates_prior.velocity_m_s = step.rotation().transpose() * step.translation() / dt_s;
   }
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
-                                 &work->result.times, &own_view_, !cameraStill(), rates_prior);
+                                 &work->result.times, &own_view_, !cameraStill(), rates_prior,
+                                 /*tight_pass=*/!catching_up_);
 }
 
 double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {

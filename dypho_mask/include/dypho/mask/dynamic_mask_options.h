@@ -176,6 +176,12 @@ struct DynamicMaskOptions {
   /// still or stood there from the start (8 people crossing a still camera's view, seed 2, with
   /// object permanence: 1.10 -> 0.53 cm). Default false.
   bool veto_flow_while_still = false;
+  /// A live caller (the mask nodelet, the realtime runner) masks a frame in catch-up mode when at
+  /// least this many frames wait behind it (MaskStage::process): the dense flow skips its
+  /// variational refinement (FlowMaskOptions::dis_refinement_iterations), about a quarter of the
+  /// mask's time on a 2-core machine, instead of a later frame being skipped for want of time.
+  /// 0 = never, else in [1, 1000]. Default 1. Offline runs never wait, so never catch up.
+  int catch_up_frames_waiting = 1;
 
   /// Throws std::invalid_argument naming the first bad field (of any part).
   void validate() const;

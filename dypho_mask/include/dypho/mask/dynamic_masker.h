@@ -64,6 +64,9 @@ struct MaskPrior {
   /// Points tracking saw move (MovingPoints), carried into the current camera optical frame [m]
   /// (DynamicMaskOptions::moving_point_seeds); empty = none.
   std::vector<cv::Point3f> moving_points_camera_m;
+  /// Frames wait behind this one (DynamicMaskOptions::catch_up_frames_waiting): the flow runs
+  /// without its variational refinement.
+  bool catching_up = false;
 };
 
 /// Output of `DynamicMasker::compute`. All masks CV_8UC1, input size, 255 = dynamic.

@@ -148,6 +148,10 @@ class FlowMotionMasker {
   /// segmentation network is running: the network finds slow people whatever their speed.
   void setResidualMemoryEnabled(bool enabled);
 
+  /// Catch-up mode (MaskPrior::catching_up) from the next compute() on: the flow runs without its
+  /// variational refinement (FlowMaskOptions::dis_refinement_iterations), until switched off.
+  void setCatchingUp(bool catching_up) { catching_up_ = catching_up; }
+
   /// The options in use.
   const FlowMaskOptions& options() const { return options_; }
 
@@ -236,6 +240,7 @@ class FlowMotionMasker {
   cv::Mat memory_carried_;      ///< memory_ moved along the flow into the current frame
   cv::Mat memory_gate_;         ///< pixels that move too little now to keep their memory
   bool memory_enabled_ = true;  ///< see setResidualMemoryEnabled()
+  bool catching_up_ = false;    ///< see setCatchingUp()
   cv::Mat fit_usable_;          ///< usable cells outside carried_ (the retried fit's samples)
   cv::Mat rigid_usable_;        ///< textured cells outside carried_ (fitRigid's samples)
   cv::Mat empty_;

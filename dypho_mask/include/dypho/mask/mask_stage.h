@@ -56,6 +56,7 @@ struct MaskStageStats {
   std::size_t degraded_frames = 0;             ///< MaskResult::degraded
   std::size_t restarts = 0;                    ///< restarts after a stamp jumped back
   std::size_t dropped_out_of_order = 0;        ///< frames dropped for a repeated or late stamp
+  std::size_t frames_caught_up = 0;            ///< frames masked in catch-up mode (MaskPrior::catching_up)
 };
 
 class MaskStage {
@@ -76,7 +77,10 @@ class MaskStage {
   CameraIntrinsics workingCamera(const CameraIntrinsics& input) const;
 
   /// The mask of `frame` (DynamicMasker::compute with the prior described above).
-  MaskResult process(const RgbdFrame& frame);
+  /// `frames_waiting`: frames a live caller holds behind this one; from
+  /// DynamicMaskOptions::catch_up_frames_waiting on, the frame is masked in catch-up mode
+  /// (MaskPrior::catching_up). Offline callers pass 0.
+  MaskResult process(const RgbdFrame& frame, std::size_t frames_waiting = 0);
 
   /// Forgets the masker's history, the motion prior and any waiting R_d.
   void reset();

@@ -80,7 +80,9 @@ class SlamPipeline {
 
   /// Steps 1-2 of process(): R_d for the frame, then its mask (or `external_mask`, see process()).
   /// A frame the mask stage drops (repeated or late stamp) comes back with report.dropped set.
-  MaskedFrame maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat());
+  /// `frames_waiting`: frames a live caller holds behind this one (MaskStage::process; 0 offline).
+  MaskedFrame maskFrame(const RgbdFrame& frame, const cv::Mat& external_mask = cv::Mat(),
+                        std::size_t frames_waiting = 0);
   /// Steps 3-5 of process(): tracks a masked frame, hands its pose to the mask and mapping stages
   /// and its corrections and keyframe to mapping. A frame already dropped by the mask stage is
   /// returned as it is.

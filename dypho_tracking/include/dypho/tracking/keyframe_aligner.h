@@ -69,11 +69,12 @@ class KeyframeAligner {
   /// points first (false: every match carries the pose; the verdicts of the inliers are still
   /// given). Never throws on data.
   /// `rates_prior`: the camera's predicted velocities, for a rolling shutter
-  /// (PoseOptimizer::optimize).
+  /// (PoseOptimizer::optimize). `tight_pass` false skips step 3 (a tracker catching up with the
+  /// camera: about a quarter of its time per frame, for precision).
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                         const Eigen::Isometry3d& T_camera_world_predicted, TrackingTimesMs* times,
                         const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true,
-                        const CameraRates& rates_prior = CameraRates()) const;
+                        const CameraRates& rates_prior = CameraRates(), bool tight_pass = true) const;
 
  private:
   /// Projection-guided matching within `radius_px` of T_camera_world_predicted, then refine();

@@ -364,8 +364,10 @@ struct TrackingOptions {
   /// A frame is tracked in catch-up mode when at least this many frames wait behind it (the live
   /// graph fell behind the camera, e.g. on a loaded machine): a keyframe made then skips its local
   /// BA, its heaviest work (ORB-SLAM's local mapping aborts its BA when keyframes queue up; the
-  /// next keyframe's window covers this one). The tracker then catches up instead of dropping
-  /// frames. The static check still runs: without it a crowd can carry the pose [frames];
+  /// next keyframe's window covers this one), and every frame skips the aligner's tight second
+  /// projection pass (KeyframeAligner::align step 3, about a quarter of the tracking thread's
+  /// time). The tracker then catches up instead of dropping frames. The static check still runs:
+  /// without it a crowd can carry the pose [frames];
   /// default 4 (about 130 ms behind at 30 Hz), range [0, 1000]; 0 = never.
   int catch_up_frames_waiting = 4;
 

@@ -291,8 +291,10 @@ void visitBackEndOptions(TrackingOptions& options, Visitor&& visitor) {
           "A frame is tracked in catch-up mode when at least this many frames wait behind it (the live graph fell "
           "behind the camera, e.g. on a loaded machine): a keyframe made then skips its local BA, its heaviest work "
           "(ORB-SLAM's local mapping aborts its BA when keyframes queue up; the next keyframe's window covers this "
-          "one). The tracker then catches up instead of dropping frames. The static check still runs: without it a "
-          "crowd can carry the pose [frames]; default 4 (about 130 ms behind at 30 Hz), range [0, 1000]; 0 = never. "
+          "one), and every frame skips the aligner's tight second projection pass (about a quarter of the tracking "
+          "thread's time). The tracker then catches up instead of dropping frames. The static check still runs: "
+          "without it a crowd can carry the pose [frames]; default 4 (about 130 ms behind at 30 Hz), range [0, 1000]; "
+          "0 = never. "
           "The offline runner never waits.");
   visitor(
       "relocalization_max_keyframes", options.relocalization_max_keyframes,
