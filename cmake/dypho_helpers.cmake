@@ -21,6 +21,10 @@ endfunction()
 # DYPHO_TEST_COMPILE_OPTIONS (cache list, default empty): extra compile options of the test
 # executables' own files only, not of the libraries they test (scripts/test_sanitized.sh compiles
 # the test files without UBSan: -fno-sanitize=undefined).
+# DYPHO_HOT_LOOP_COMPILE_OPTIONS (cache list, default empty): extra compile options of the code
+# whose loops take most of the tests' time, the rasterizer's tile kernels and the synthetic
+# generator's ray caster (scripts/test_sanitized.sh compiles them at -O2 under the sanitizers,
+# which keep all their checks there).
 # Every test made here is labelled `unit` (ctest -L unit), or `whole_system` with WHOLE_SYSTEM:
 # scripts/test.sh runs the unit tests two at a time and the rest (rostests, launch and dataset
 # runs, which play at real time or keep both cores busy) one at a time.

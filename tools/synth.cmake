@@ -1,7 +1,7 @@
 # dypho_synth_core: ROS-free synthetic RGB-D dynamic scene (ray-cast room + walking people) and
 # its TUM-layout writer; dypho_synth: the command-line generator (bag output added by bag.cmake
 # when dypho_bag is built); unit tests.
-add_library(dypho_synth_core
+set(_dypho_synth_sources
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_scene.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_camera_effects.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_geometry.cpp
@@ -10,11 +10,28 @@ add_library(dypho_synth_core
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_people_starts.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_texture.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/synthetic_writer.cpp)
-target_include_directories(dypho_synth_core PUBLIC
-  $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
-target_link_libraries(dypho_synth_core PUBLIC dypho_common Threads::Threads ${OpenCV_LIBS})
-target_compile_features(dypho_synth_core PUBLIC cxx_std_17)
-dypho_set_warnings(dypho_synth_core)
+function(dypho_add_synth_library name)
+  add_library(${name} ${_dypho_synth_sources})
+  target_include_directories(${name} PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
+  target_link_libraries(${name} PUBLIC dypho_common Threads::Threads ${OpenCV_LIBS})
+  target_compile_features(${name} PUBLIC cxx_std_17)
+  dypho_set_warnings(${name})
+  target_compile_options(${name} PRIVATE ${ARGN})
+endfunction()
+dypho_add_synth_library(dypho_synth_core ${DYPHO_HOT_LOOP_COMPILE_OPTIONS})  # cmake/dypho_helpers.cmake
+# dypho_synth_input: the generator as the other modules' tests link it to render their input
+# frames. It is dypho_synth_core, unless DYPHO_SYNTH_INPUT_COMPILE_OPTIONS (cache list, default
+# empty) is set: then a second build of the same sources with those options. Under the sanitizers
+# (scripts/test_sanitized.sh: -O2 without them) rendering the inputs took 60-90 % of the
+# tracking and pipeline tests' time; the code under test keeps every check, and the generator's
+# own tests (test_synthetic_*) keep the sanitized dypho_synth_core.
+add_library(dypho_synth_input INTERFACE)
+if(DYPHO_SYNTH_INPUT_COMPILE_OPTIONS)
+  dypho_add_synth_library(dypho_synth_input_build ${DYPHO_SYNTH_INPUT_COMPILE_OPTIONS})
+  target_link_libraries(dypho_synth_input INTERFACE dypho_synth_input_build)
+else()
+  target_link_libraries(dypho_synth_input INTERFACE dypho_synth_core)
+endif()
 install(TARGETS dypho_synth_core
   ARCHIVE DESTINATION ${DYPHO_LIB_DEST} LIBRARY DESTINATION ${DYPHO_LIB_DEST})
 
