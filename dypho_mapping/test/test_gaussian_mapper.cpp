@@ -589,5 +589,43 @@ TEST(MappingStage, PredictedDepthNeedsAVelocityAndAMap) {
   EXPECT_TRUE(stage.predictedDepth(4 * dt, camera).empty());
 }
 
+// R_d and the views for viewers render with renderers of their own (a view render must not keep
+// the mask waiting): rendered at once from two threads, each gives the same bits as alone.
+TEST(MappingStage, PredictedDepthAndViewsRenderSideBySide) {
+  MappingOptions options;
+  options.gaussian = smallOptions();
+  options.gaussian.iterations_per_keyframe = 5;
+  options.gaussian.live_train_when_idle = false;  // the map stays as it is once its job is done
+  MappingStage stage(options, MappingMode::kLive);
+  const Keyframe kf = planeKeyframe(1, Eigen::Isometry3d::Identity());
+  const CameraIntrinsics camera = kf.frame.camera;
+  const Timestamp dt = 33'333'333;
+  stage.observePose({0, Eigen::Isometry3d::Identity(), true, false});
+  stage.observePose({dt, Eigen::Isometry3d::Identity(), true, false});
+  stage.addKeyframe(std::make_shared<Keyframe>(kf));
+  stage.gaussians().waitUntilIdle();
+  const cv::Mat depth_alone = stage.predictedDepth(2 * dt, camera);
+  const RenderedView view_alone = stage.renderView(Eigen::Isometry3d::Identity(), camera);
+  ASSERT_FALSE(depth_alone.empty());
+  ASSERT_FALSE(view_alone.bgr.empty());
+  constexpr int kRenders = 20;
+  int depth_differs = 0, view_differs = 0;
+  std::thread viewer([&] {
+    for (int i = 0; i < kRenders; ++i) {
+      const RenderedView v = stage.renderView(Eigen::Isometry3d::Identity(), camera);
+      if (cv::norm(v.bgr, view_alone.bgr, cv::NORM_INF) != 0 ||
+          cv::norm(v.depth_m, view_alone.depth_m, cv::NORM_INF) != 0)
+        ++view_differs;
+    }
+  });
+  for (int i = 0; i < kRenders; ++i) {
+    if (cv::norm(stage.predictedDepth(2 * dt, camera), depth_alone, cv::NORM_INF) != 0) ++depth_differs;
+  }
+  viewer.join();
+  EXPECT_EQ(depth_differs, 0) << "of " << kRenders;
+  EXPECT_EQ(view_differs, 0) << "of " << kRenders;
+  EXPECT_EQ(stage.stats().predicted_depth_rendered, static_cast<std::size_t>(kRenders + 1));
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

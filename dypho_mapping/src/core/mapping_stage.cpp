@@ -15,7 +15,8 @@ MappingStage::MappingStage(const MappingOptions& options, MappingMode mode, cons
       gaussians_(options.gaussian),
       cloud_(options.cloud),
       motion_(stage.motion_max_gap_s),
-      renderer_(1, gaussians_.computeDevice()) {
+      depth_renderer_(1, gaussians_.computeDevice()),
+      view_renderer_(1, gaussians_.computeDevice()) {
   options.validate();
   if (stage.keyframe_queue_size < 1) throw std::invalid_argument("keyframe_queue_size must be >= 1");
   gaussians_.start(static_cast<std::size_t>(stage.keyframe_queue_size), mode == MappingMode::kLive);
@@ -86,8 +87,8 @@ cv::Mat MappingStage::predictedDepth(Timestamp stamp_ns, const CameraIntrinsics&
   if (!T_world_predicted || !snapshot.map || snapshot.map->size() == 0 || !camera.valid()) return cv::Mat();
   cv::Mat depth;
   {
-    std::lock_guard<std::mutex> lock(render_mutex_);
-    depth = renderer_.renderDepth(snapshot.map, *T_world_predicted, camera);
+    std::lock_guard<std::mutex> lock(depth_render_mutex_);
+    depth = depth_renderer_.renderDepth(snapshot.map, *T_world_predicted, camera);
   }
   std::lock_guard<std::mutex> lock(mutex_);
   ++counters_.predicted_depth_rendered;
@@ -104,8 +105,8 @@ std::pair<Timestamp, cv::Mat> MappingStage::predictedDepthForNextFrame(const Cam
 RenderedView MappingStage::renderView(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) {
   const MapSnapshot snapshot = gaussians_.latestSnapshot();
   if (!snapshot.map || snapshot.map->size() == 0 || !camera.valid()) return RenderedView();
-  std::lock_guard<std::mutex> lock(render_mutex_);
-  return renderer_.render(snapshot.map, T_world_camera, camera);
+  std::lock_guard<std::mutex> lock(view_render_mutex_);
+  return view_renderer_.render(snapshot.map, T_world_camera, camera);
 }
 
 double MappingStage::finish(std::optional<double> budget_s) {

@@ -137,8 +137,13 @@ class MappingStage {
   std::int64_t refined_after_keyframes_ = -1;  ///< keyframes_received when finish() last refined
   MappingStageStats counters_;
 
-  std::mutex render_mutex_;  ///< one render at a time
-  MapRenderer renderer_;
+  /// R_d (predictedDepth) and the views for viewers (renderView) each have a renderer of their
+  /// own: the views' thread runs at the training's nice value, and a view render holding a shared
+  /// renderer would keep the mask waiting for R_d behind it.
+  std::mutex depth_render_mutex_;  ///< one R_d render at a time
+  MapRenderer depth_renderer_;
+  std::mutex view_render_mutex_;  ///< one view render at a time
+  MapRenderer view_renderer_;
 };
 
 }  // namespace dypho::mapping
