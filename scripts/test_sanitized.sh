@@ -25,7 +25,7 @@ TEST_FLAGS="-fno-sanitize=undefined"
 HOT_FLAGS="-O2"
 # The other modules' tests render their synthetic input frames with a second build of the
 # generator at -O2 without the sanitizers (DYPHO_SYNTH_INPUT_COMPILE_OPTIONS, tools/synth.cmake):
-# the renders were 60-90 % of the tracking and pipeline tests' time under them. The generator's
+# the renders were 27-80 % of the pipeline and tracking tests' samples under them. The generator's
 # own tests (test_synthetic_*) use its sanitized build.
 SYNTH_INPUT_FLAGS="-O2;-fno-sanitize=all"
 mkdir -p "$BUILD"

@@ -22,8 +22,8 @@ dypho_add_synth_library(dypho_synth_core ${DYPHO_HOT_LOOP_COMPILE_OPTIONS})  # c
 # dypho_synth_input: the generator as the other modules' tests link it to render their input
 # frames. It is dypho_synth_core, unless DYPHO_SYNTH_INPUT_COMPILE_OPTIONS (cache list, default
 # empty) is set: then a second build of the same sources with those options. Under the sanitizers
-# (scripts/test_sanitized.sh: -O2 without them) rendering the inputs took 60-90 % of the
-# tracking and pipeline tests' time; the code under test keeps every check, and the generator's
+# (scripts/test_sanitized.sh: -O2 without them) rendering the inputs took 27-80 % of the
+# pipeline and tracking tests' samples; the code under test keeps every check, and the generator's
 # own tests (test_synthetic_*) keep the sanitized dypho_synth_core.
 add_library(dypho_synth_input INTERFACE)
 if(DYPHO_SYNTH_INPUT_COMPILE_OPTIONS)
