@@ -395,6 +395,30 @@ TEST(GaussianMapper, FinishRunsTheFinalRefinementOverAllKeyframes) {
   EXPECT_EQ(empty.stats().iterations, 0);
 }
 
+// The evaluation at shutdown has a time budget (mapping nodelet ~shutdown_evaluation_budget_s):
+// past it no keyframe is rendered, every stored one is still counted; within it the result is
+// the unbounded one, per keyframe in keyframe order.
+TEST(GaussianMapper, EvaluationStopsAtItsBudgetAndCountsTheStoredKeyframes) {
+  GaussianMapper mapper(smallOptions());
+  for (int i = 0; i < 5; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation().x() = 0.05 * i;
+    ASSERT_TRUE(mapper.addKeyframe(planeKeyframe(i, T)).added);
+  }
+  mapper.optimize(3);
+  const KeyframeEvaluation all = mapper.evaluateKeyframes();
+  EXPECT_EQ(all.num_keyframes, 5u);
+  EXPECT_EQ(all.num_keyframes_stored, 5u);
+  ASSERT_EQ(all.psnr_per_keyframe_db.size(), 5u);
+  const KeyframeEvaluation none = mapper.evaluateKeyframes("", 0.0);  // the budget is spent at once
+  EXPECT_EQ(none.num_keyframes, 0u);
+  EXPECT_EQ(none.num_keyframes_stored, 5u);
+  const KeyframeEvaluation ample = mapper.evaluateKeyframes("", 3600.0);
+  ASSERT_EQ(ample.psnr_per_keyframe_db.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(ample.psnr_per_keyframe_db[i], all.psnr_per_keyframe_db[i]) << i;
+  EXPECT_EQ(ample.psnr_db, all.psnr_db);
+}
+
 TEST(GaussianMapper, StaticPixelsWithoutDepthAreCoveredAtTheNeighbouringDepth) {
   // A 40x30 px hole without depth (a black screen for the depth camera) in the textured plane.
   Keyframe kf = planeKeyframe(1, Eigen::Isometry3d::Identity());

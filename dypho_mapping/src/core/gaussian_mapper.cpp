@@ -261,9 +261,10 @@ cv::Mat GaussianMapper::renderDepth(const Eigen::Isometry3d& T_world_camera, con
   return render(T_world_camera, camera).depth_m;
 }
 
-KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_side_dir) const {
+KeyframeEvaluation GaussianMapper::evaluateKeyframes(const std::string& side_by_side_dir,
+                                                     std::optional<double> budget_s) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return mapping::evaluateKeyframes(*trainer_, side_by_side_dir);
+  return mapping::evaluateKeyframes(*trainer_, side_by_side_dir, budget_s);
 }
 
 std::vector<GaussianCentre> GaussianMapper::centres() const {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <random>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -159,8 +160,11 @@ struct GaussianTrainer {
 };
 
 /// PSNR on static pixels and depth L1 of `trainer`'s map at its stored keyframes; with
-/// `side_by_side_dir`, writes kf_<id>.png there (GaussianMapper::evaluateKeyframes).
-KeyframeEvaluation evaluateKeyframes(GaussianTrainer& trainer, const std::string& side_by_side_dir);
+/// `side_by_side_dir`, writes kf_<id>.png there (GaussianMapper::evaluateKeyframes). With
+/// `budget_s`, no keyframe is started after that wall time; the keyframes are taken in an order
+/// spread over the run, so those evaluated sample all of it.
+KeyframeEvaluation evaluateKeyframes(GaussianTrainer& trainer, const std::string& side_by_side_dir,
+                                     std::optional<double> budget_s = std::nullopt);
 
 /// True when the pose is finite and its rotation orthonormal (1e-3).
 bool isRigidPose(const Eigen::Isometry3d& T);

@@ -134,11 +134,12 @@ std::vector<std::string> MappingStage::save(const std::string& dir, bool refine,
   return paths;
 }
 
-KeyframeEvaluation MappingStage::writeEvaluation(const std::string& dir) {
-  const KeyframeEvaluation eval = gaussians_.evaluateKeyframes();
+KeyframeEvaluation MappingStage::writeEvaluation(const std::string& dir, std::optional<double> budget_s) {
+  const KeyframeEvaluation eval = gaussians_.evaluateKeyframes("", budget_s);
   const MappingStageStats counts = stats();
   writeFileAtomically(dir + "/" + kEvaluationFile, [&](std::ostream& os) {
-    os << "psnr_db: " << eval.psnr_db << "\nkeyframes: " << eval.num_keyframes << "\ndepth_l1_m: " << eval.depth_l1_m
+    os << "psnr_db: " << eval.psnr_db << "\nkeyframes: " << eval.num_keyframes
+       << "\nkeyframes_stored: " << eval.num_keyframes_stored << "\ndepth_l1_m: " << eval.depth_l1_m
        << "\nkeyframes_received: " << counts.keyframes_received
        << "\nkeyframes_in_map: " << counts.gaussians.num_keyframes << "\nmerged_jobs: " << counts.gaussians.merged_jobs
        << "\n";

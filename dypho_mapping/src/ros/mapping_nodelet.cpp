@@ -83,6 +83,12 @@ struct MappingRosParams {
   /// are written. Default 6: roslaunch escalates to SIGTERM 15 s after Ctrl-C, and tracking's
   /// trajectory is written after the map. > 0.
   double shutdown_refine_budget_s = 6.0;
+  /// Wall time map_evaluation.txt may take when the nodelet shuts down [s]: no keyframe is
+  /// rendered for it after that (keyframes taken spread over the run; the file says how many of
+  /// the stored ones). Default 2: unbounded, 53 keyframes took 7-8 s on a loaded 2-core machine,
+  /// and the manager stops its nodelets one at a time, so tracking's final global BA and
+  /// trajectory.txt could come after roslaunch's SIGTERM. > 0.
+  double shutdown_evaluation_budget_s = 2.0;
   /// Cores of the thread budget (thread_budget.h; 0 = every core): with num_threads 0 the
   /// rasterizer/optimiser pool gets them all, at the lower priority of training_nice.
   int cores = 0;
@@ -112,14 +118,15 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     if (cloud_thread_.joinable()) cloud_thread_.join();
     if (!stage_) return;
     const mapping::MappingStageStats stats = stage_->stats();
-    rc::saveOnShutdown(getName(), params_.output_dir,
-                       stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0,
-                       "no keyframe and no Gaussian", [&] {
-                         stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
-                         const mapping::KeyframeEvaluation eval = stage_->writeEvaluation(params_.output_dir);
-                         NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of "
-                                                         << eval.num_keyframes << " keyframes (map_evaluation.txt)");
-                       });
+    rc::saveOnShutdown(
+        getName(), params_.output_dir, stats.keyframes_received == 0 && stats.gaussians.num_gaussians == 0,
+        "no keyframe and no Gaussian", [&] {
+          stage_->save(params_.output_dir, params_.refine_before_save, params_.shutdown_refine_budget_s);
+          const mapping::KeyframeEvaluation eval =
+              stage_->writeEvaluation(params_.output_dir, params_.shutdown_evaluation_budget_s);
+          NODELET_INFO_STREAM("map PSNR " << eval.psnr_db << " dB on static pixels of " << eval.num_keyframes << " of "
+                                          << eval.num_keyframes_stored << " keyframes (map_evaluation.txt)");
+        });
     // The map half of the session (also a loaded map that got no keyframe: see tracking).
     rc::saveOnShutdown(getName(), params_.output_dir,
                        params_.localization_only || stage_->stats().gaussians.num_gaussians == 0,
@@ -151,8 +158,12 @@ class GaussianMappingNodelet : public nodelet::Nodelet {
     }
     reader("refine_before_save", params_.refine_before_save, "");
     reader("shutdown_refine_budget_s", params_.shutdown_refine_budget_s, "");
+    reader("shutdown_evaluation_budget_s", params_.shutdown_evaluation_budget_s, "");
     reader("cores", params_.cores, "");
     if (!(params_.shutdown_refine_budget_s > 0)) throw std::invalid_argument("~shutdown_refine_budget_s must be > 0");
+    if (!(params_.shutdown_evaluation_budget_s > 0)) {
+      throw std::invalid_argument("~shutdown_evaluation_budget_s must be > 0");
+    }
     if (!(params_.publish_period_s > 0)) throw std::invalid_argument("~publish_period_s must be > 0");
     reader.checkNoUnknownKeys();
     // Empty output_dir: $ROS_HOME/dypho (~/.ros/dypho); the shutdown save writes there.

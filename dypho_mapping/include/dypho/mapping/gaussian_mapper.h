@@ -144,8 +144,10 @@ class GaussianMapper {
   cv::Mat renderDepth(const Eigen::Isometry3d& T_world_camera, const CameraIntrinsics& camera) const;
   /// PSNR on static pixels and depth L1 at the stored keyframes. When `side_by_side_dir` is not
   /// empty, writes `kf_<id>.png` there (input | rendered colour (after the keyframe's exposure)
-  /// over input depth | rendered depth).
-  KeyframeEvaluation evaluateKeyframes(const std::string& side_by_side_dir = "") const;
+  /// over input depth | rendered depth). With `budget_s`, no keyframe is started after that wall
+  /// time (keyframes taken in an order spread over the run).
+  KeyframeEvaluation evaluateKeyframes(const std::string& side_by_side_dir = "",
+                                       std::optional<double> budget_s = std::nullopt) const;
   /// Centres and DC colours of all Gaussians.
   std::vector<GaussianCentre> centres() const;
   /// Writes the map as a 3DGS PLY, atomically. Throws std::runtime_error naming the path.

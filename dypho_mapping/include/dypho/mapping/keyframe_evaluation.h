@@ -9,7 +9,8 @@ namespace dypho::mapping {
 
 /// PSNR and depth error of the map rendered at the stored keyframes (training resolution).
 struct KeyframeEvaluation {
-  std::size_t num_keyframes = 0;  ///< keyframes evaluated
+  std::size_t num_keyframes = 0;         ///< keyframes evaluated
+  std::size_t num_keyframes_stored = 0;  ///< keyframes with images (more than evaluated past a time budget)
   /// Mean over keyframes of the PSNR on static pixels [dB]; with exposure_compensation the
   /// rendered colour goes through the keyframe's exposure first (exp(k) * rendered + b).
   double psnr_db = 0.0;

@@ -21,7 +21,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <optional>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -98,8 +97,9 @@ class MappingStage {
   static constexpr const char* kEvaluationFile = "map_evaluation.txt";
   /// map_evaluation.txt in `dir`: the map's quality at the stored keyframes, as the offline
   /// runner reports it (PSNR on static pixels, depth L1), and the keyframes received, in the map
-  /// and merged jobs, written atomically; returns the quality.
-  KeyframeEvaluation writeEvaluation(const std::string& dir);
+  /// and merged jobs, written atomically; returns the quality. With `budget_s`, no keyframe is
+  /// started after that wall time (GaussianMapper::evaluateKeyframes).
+  KeyframeEvaluation writeEvaluation(const std::string& dir, std::optional<double> budget_s = std::nullopt);
   /// Replaces the Gaussian map with a 3DGS PLY (GaussianMapper::loadPly); returns the count.
   std::size_t loadMap(const std::string& path, std::string* note = nullptr);
   /// Clears both maps and the motion prior.
