@@ -11,6 +11,8 @@ export PATH=/usr/bin:/bin:$PATH   # a python first on PATH (pyenv, conda) breaks
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 0; fi
 BUILD="${1:-$ROOT/build}"
+# Absolute: a relative folder (`build.sh build`) hides the spaces of the path it lies in.
+mkdir -p "$BUILD" && BUILD="$(cd "$BUILD" && pwd)"
 TARGETS=("${@:2}")
 JOBS="${DYPHO_JOBS:-$(nproc)}"
 CONFIG=(-DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3)
