@@ -48,4 +48,17 @@ inline Keyframe texturedPlaneKeyframe(std::int64_t id, const Eigen::Isometry3d& 
   return kf;
 }
 
+/// Mapper options for the plane keyframes: training at full resolution, dense coverage seeds, no
+/// feature samples. Nice only, not the idle class: the worker tests wait for training against the
+/// wall clock, and in the idle class a test running beside them (ctest -j) could hold the training
+/// off altogether (GaussianMapper.TrainingThreadsRunInTheIdleClass checks the class).
+inline GaussianMapperOptions smallMapperOptions() {
+  GaussianMapperOptions o;
+  o.train_downsample = 1;
+  o.coverage_stride_px = 4;
+  o.feature_samples = 0;
+  o.training_idle_class = false;
+  return o;
+}
+
 }  // namespace dypho::mapping::test
