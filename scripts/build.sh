@@ -40,7 +40,6 @@ if [[ "$BUILD" =~ [[:space:]] ]]; then
   CONFIG+=(-DCATKIN_TEST_RESULTS_DIR="${TMPDIR:-/tmp}/dypho-test-results-$(printf '%s' "$BUILD" | md5sum | cut -c1-12)")
 fi
 # Configure twice: catkin caches an empty PYTHONPATH in setup_cached.sh on the first configure.
-mkdir -p "$BUILD"
 LOG="$BUILD/configure.log"
 cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" > "$LOG" 2>&1 || { cat "$LOG"; exit 1; }
 cmake -S "$ROOT" -B "$BUILD" "${CONFIG[@]}" >> "$LOG" 2>&1 || { cat "$LOG"; exit 1; }
