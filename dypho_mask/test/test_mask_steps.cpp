@@ -2,6 +2,7 @@
 // of the depth-layer cut (depth_layers.h).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -24,6 +25,33 @@ TEST(MaskInternal, ValidDepthIsPositiveAndFinite) {
 TEST(MaskInternal, MsSinceIsNonNegative) {
   const auto t0 = internal::Clock::now();
   EXPECT_GE(internal::msSince(t0), 0.0);
+}
+
+// sortDepths (the radix sort of the depth-layer steps) gives std::sort's order, element for
+// element, for depths > 0: short and long vectors (it switches at 256), repeated values, depths
+// across the sensor's range and beyond, the smallest positive floats and +inf.
+TEST(MaskInternal, SortDepthsMatchesStdSort) {
+  cv::RNG rng(7);
+  for (const std::size_t n : {0u, 1u, 2u, 255u, 256u, 257u, 5000u, 40000u}) {
+    std::vector<float> z(n);
+    for (float& v : z) {
+      const int kind = rng.uniform(0, 20);
+      if (kind == 0) {
+        v = std::numeric_limits<float>::infinity();
+      } else if (kind == 1) {
+        v = std::numeric_limits<float>::denorm_min() * static_cast<float>(rng.uniform(1, 4));
+      } else if (kind == 2) {
+        v = 1.25f;  // many equal depths
+      } else {
+        v = rng.uniform(0.05f, 60.f);
+      }
+    }
+    std::vector<float> want = z;
+    std::sort(want.begin(), want.end());
+    internal::sortDepths(z);
+    ASSERT_EQ(z.size(), want.size());
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(z[i], want[i]) << "n " << n << " index " << i;
+  }
 }
 
 TEST(DepthLayers, RegionFarDepthIsThe95thPercentileOfValidDepths) {

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "depth_layers.h"
+#include "mask_internal.h"
 
 namespace dypho {
 namespace mask {
@@ -78,7 +79,7 @@ bool chooseLayerWindows(RestComponents& c, const BoxDepthSettings& s, const BoxD
   for (int i = 1; i < n; ++i) {
     std::vector<float>& z = c.z[i];
     if (!c.has_core[i] || z.empty() || static_cast<double>(z.size()) < s.min_valid_share * c.total[i]) continue;
-    std::sort(z.begin(), z.end());
+    internal::sortDepths(z);
     float near_lo = 0.f, near_hi = 0.f;
     nearestCluster(z, layer_settings, near_lo, near_hi);
     if (near_hi < region_far[c.parent[i]] - kLayerInFrontM) {
@@ -130,7 +131,7 @@ bool paintBoxForeground(const cv::Mat& depth_m, const cv::Rect& box_in, const Bo
     roi.setTo(255);
     return false;
   }
-  std::sort(z.begin(), z.end());
+  internal::sortDepths(z);
   float lo = 0.f, hi = 0.f;
   nearestCluster(z, s, lo, hi);
   cv::Mat fg(box.size(), CV_8UC1);
@@ -163,7 +164,7 @@ void cutRegionsToDepthForeground(const cv::Mat& depth_m, const BoxDepthSettings&
   std::vector<float> lo(n, -1.f), hi(n, 1e30f);
   for (int i = 1; i < n; ++i) {
     if (z[i].empty() || static_cast<double>(z[i].size()) < s.min_valid_share * total[i]) continue;
-    std::sort(z[i].begin(), z[i].end());
+    internal::sortDepths(z[i]);
     nearestCluster(z[i], s, lo[i], hi[i]);
   }
   for (int y = 0; y < mask.rows; ++y) {
@@ -254,7 +255,7 @@ void growRegionsInDepth(const cv::Mat& depth_m, const cv::Mat& background_m, con
   std::vector<float> lo(n, 1.f), hi(n, -1.f);  // empty range: regions without depth do not grow
   for (int i = 1; i < n; ++i) {
     if (z[i].empty() || static_cast<int>(z[i].size()) < g.min_seed_area_px) continue;
-    std::sort(z[i].begin(), z[i].end());
+    internal::sortDepths(z[i]);
     nearestCluster(z[i], s, lo[i], hi[i]);
   }
   // Breadth-first growth from every region pixel that has depth in its cluster.
