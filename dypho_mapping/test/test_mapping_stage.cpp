@@ -116,6 +116,5 @@ TEST(MappingStage, PredictedDepthAndViewsRenderSideBySide) {
   EXPECT_EQ(stage.stats().predicted_depth_rendered, static_cast<std::size_t>(kRenders + 1));
 }
 
-
 }  // namespace DYPHO_UNITY_ID
 }  // namespace dypho::mapping

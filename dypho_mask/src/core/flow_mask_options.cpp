@@ -37,6 +37,10 @@ void FlowMaskOptions::validate() const {
           "residual_memory must be in [0, 1), got " + std::to_string(residual_memory));
   require(dis_refinement_iterations >= 0 && dis_refinement_iterations <= 100,
           "dis_refinement_iterations must be in [0, 100], got " + std::to_string(dis_refinement_iterations));
+  require(dis_catch_up_patch_stride >= 1 && dis_catch_up_patch_stride <= 64,
+          "dis_catch_up_patch_stride must be in [1, 64], got " + std::to_string(dis_catch_up_patch_stride));
+  require(dis_catch_up_iterations >= 1 && dis_catch_up_iterations <= 100,
+          "dis_catch_up_iterations must be in [1, 100], got " + std::to_string(dis_catch_up_iterations));
 }
 
 std::string FlowMaskOptions::toString() const {
@@ -48,7 +52,9 @@ std::string FlowMaskOptions::toString() const {
     << " ransac_max_iterations=" << ransac_max_iterations << " min_inlier_ratio=" << min_inlier_ratio
     << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
     << " residual_memory=" << residual_memory << " fit_rigid_motion=" << (fit_rigid_motion ? "true" : "false")
-    << " ultrafast=" << (ultrafast ? "true" : "false") << " dis_refinement_iterations=" << dis_refinement_iterations;
+    << " ultrafast=" << (ultrafast ? "true" : "false") << " dis_refinement_iterations=" << dis_refinement_iterations
+    << " dis_catch_up_patch_stride=" << dis_catch_up_patch_stride
+    << " dis_catch_up_iterations=" << dis_catch_up_iterations;
   return s.str();
 }
 

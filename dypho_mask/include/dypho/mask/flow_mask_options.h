@@ -74,6 +74,17 @@ struct FlowMaskOptions {
   /// whole FAST flow at 160x120; beyond 2 the mask does not change measurably
   /// (bench/mask_synth_bench, docs/journal/benchmarks-2026.md section 3). Default 2.
   int dis_refinement_iterations = 2;
+  /// Catch-up mode (FlowMotionMasker::setCatchingUp: a live caller fell behind): DIS places its
+  /// patches this far apart [flow px], in [1, 64] (the presets: FAST 4, ULTRAFAST 5). With 6 (and 8
+  /// descent iterations) a catch-up frame's flow takes a third of a normal frame's instructions,
+  /// and the whole mask 103 M against 134 M (120 M with the refinement skipped alone; callgrind,
+  /// synthetic halfsphere frames); the masks meet the issue's bounds as before
+  /// (MaskRegression.MeetsTheIssueBoundsWhileCatchingUp). 8 failed a moving square's bound
+  /// (FlowMotionMasker.CatchUpModeSkipsTheRefinementAndStillFindsTheMover). Default 6.
+  int dis_catch_up_patch_stride = 6;
+  /// Catch-up mode: gradient-descent iterations of each DIS patch, in [1, 100] (the presets: FAST
+  /// 16, ULTRAFAST 12). Default 8.
+  int dis_catch_up_iterations = 8;
 
   /// Throws std::invalid_argument naming the first field that is out of range and its range.
   void validate() const;

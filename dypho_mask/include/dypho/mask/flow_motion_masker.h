@@ -149,7 +149,8 @@ class FlowMotionMasker {
   void setResidualMemoryEnabled(bool enabled);
 
   /// Catch-up mode (MaskPrior::catching_up) from the next compute() on: the flow runs without its
-  /// variational refinement (FlowMaskOptions::dis_refinement_iterations), until switched off.
+  /// variational refinement (FlowMaskOptions::dis_refinement_iterations) and with fewer patches
+  /// (FlowMaskOptions::dis_catch_up_patch_stride, dis_catch_up_iterations), until switched off.
   void setCatchingUp(bool catching_up) { catching_up_ = catching_up; }
 
   /// The options in use.
@@ -230,19 +231,21 @@ class FlowMotionMasker {
   cv::Mat grad_x_;
   cv::Mat grad_y_;
   cv::Mat texture_energy_;
-  cv::Mat txx_, txy_, tyy_;     ///< structure tensor (5x5 box) at flow resolution
-  cv::Mat residual_vec_;        ///< residual vectors [full-res px], CV_32FC2
-  cv::Mat depth_small_;         ///< depth at flow resolution [m] (nearest sample)
-  cv::Mat predicted_px_;        ///< rigid prediction of the previous position, CV_32FC2
-  cv::Mat usable_;              ///< textured cells with a rigid prediction
-  cv::Mat carried_;             ///< previous final mask carried along the flow (flow resolution)
-  cv::Mat memory_;              ///< residual memory [full-res px], CV_32FC2 (FlowMaskOptions::residual_memory)
-  cv::Mat memory_carried_;      ///< memory_ moved along the flow into the current frame
-  cv::Mat memory_gate_;         ///< pixels that move too little now to keep their memory
-  bool memory_enabled_ = true;  ///< see setResidualMemoryEnabled()
-  bool catching_up_ = false;    ///< see setCatchingUp()
-  cv::Mat fit_usable_;          ///< usable cells outside carried_ (the retried fit's samples)
-  cv::Mat rigid_usable_;        ///< textured cells outside carried_ (fitRigid's samples)
+  cv::Mat txx_, txy_, tyy_;      ///< structure tensor (5x5 box) at flow resolution
+  cv::Mat residual_vec_;         ///< residual vectors [full-res px], CV_32FC2
+  cv::Mat depth_small_;          ///< depth at flow resolution [m] (nearest sample)
+  cv::Mat predicted_px_;         ///< rigid prediction of the previous position, CV_32FC2
+  cv::Mat usable_;               ///< textured cells with a rigid prediction
+  cv::Mat carried_;              ///< previous final mask carried along the flow (flow resolution)
+  cv::Mat memory_;               ///< residual memory [full-res px], CV_32FC2 (FlowMaskOptions::residual_memory)
+  cv::Mat memory_carried_;       ///< memory_ moved along the flow into the current frame
+  cv::Mat memory_gate_;          ///< pixels that move too little now to keep their memory
+  bool memory_enabled_ = true;   ///< see setResidualMemoryEnabled()
+  bool catching_up_ = false;     ///< see setCatchingUp()
+  int preset_patch_stride_ = 4;  ///< the DIS preset's patch stride, used outside catch-up
+  int preset_iterations_ = 16;   ///< the DIS preset's gradient-descent iterations, used outside catch-up
+  cv::Mat fit_usable_;           ///< usable cells outside carried_ (the retried fit's samples)
+  cv::Mat rigid_usable_;         ///< textured cells outside carried_ (fitRigid's samples)
   cv::Mat empty_;
   bool last_flow_valid_ = false;
   cv::Mat textured_;  ///< CV_8UC1 at flow resolution, 255 = enough texture to trust the flow

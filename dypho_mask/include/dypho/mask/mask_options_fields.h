@@ -72,6 +72,14 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
   visitor("dis_refinement_iterations", options.dis_refinement_iterations,
           "Variational refinement iterations of DIS on every pyramid level, in [0, 100]; replaces the preset's count "
           "(FAST 5, ULTRAFAST 0). Beyond 2 the mask does not change measurably. Default 2.");
+  visitor(
+      "dis_catch_up_patch_stride", options.dis_catch_up_patch_stride,
+      "In catch-up mode (catch_up_frames_waiting: a live caller fell behind) DIS places its patches this far apart "
+      "[flow px], in [1, 64] (the presets: FAST 4, ULTRAFAST 5); with 6 and 8 descent iterations a catch-up frame's "
+      "flow takes a third of the instructions and the masks still meet the issue's bounds. Default 6.");
+  visitor("dis_catch_up_iterations", options.dis_catch_up_iterations,
+          "In catch-up mode: gradient-descent iterations of each DIS patch, in [1, 100] (the presets: FAST 16, "
+          "ULTRAFAST 12). Default 8.");
 }
 
 /// Calls `visitor(key, field, doc)` for every field of `options` (keys without prefix).
@@ -225,8 +233,9 @@ void visitOptions(DynamicMaskOptions& options, Visitor&& visitor) {
   visitor("catch_up_frames_waiting", options.catch_up_frames_waiting,
           "A live caller (the mask nodelet, the realtime runner) masks a frame in catch-up mode when at least this "
           "many frames wait behind it: the dense flow skips its variational refinement "
-          "(flow_dis_refinement_iterations), about a quarter of the mask's time on a 2-core machine, instead of a "
-          "later frame being skipped for want of time. 0 = never, else in [1, 1000]. Default 1. Offline runs never "
+          "(flow_dis_refinement_iterations) and places fewer patches (flow_dis_catch_up_patch_stride), about a "
+          "quarter of the mask's instructions per frame, instead of a later frame being skipped for want of time. 0 = "
+          "never, else in [1, 1000]. Default 1. Offline runs never "
           "wait, so never catch up.");
 }
 
