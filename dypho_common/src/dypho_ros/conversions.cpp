@@ -81,10 +81,15 @@ cv::Mat toDepthMetres(const sensor_msgs::Image& image) {
                           "'; accepted: 32FC1 (metres) or 16UC1 (millimetres). Is the depth topic "
                           "remapped to a colour image?");
   }
-  // NaN / inf / negative mean "no measurement": store them as 0.
-  depth_m.forEach<float>([](float& d, const int*) {
-    if (!std::isfinite(d) || d < 0.f) d = 0.f;
-  });
+  // NaN / inf / negative mean "no measurement": store them as 0. A plain loop over the rows:
+  // cv::Mat::forEach computed each pixel's position for a lambda that does not use it, 2 % of
+  // the mask and feature threads' samples live.
+  for (int y = 0; y < depth_m.rows; ++y) {
+    float* d = depth_m.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (!std::isfinite(d[x]) || d[x] < 0.f) d[x] = 0.f;
+    }
+  }
   return depth_m;
 }
 
