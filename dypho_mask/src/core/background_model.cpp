@@ -31,8 +31,10 @@ void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camer
       if (!valid(z)) continue;
       const Eigen::Vector3f X = R * Eigen::Vector3f(z * (x - cx) / fx, z * (y - cy) / fy, z) + t;
       if (X.z() <= 0.01f) continue;
-      const int u = static_cast<int>(std::lround(fx * X.x() / X.z() + cx));
-      const int v = static_cast<int>(std::lround(fy * X.y() / X.z() + cy));
+      const float u_px = fx * X.x() / X.z() + cx, v_px = fy * X.y() / X.z() + cy;
+      constexpr float kFar = 1e9f;  // far outside the image (and NaN): not rounded
+      if (!(std::abs(u_px) < kFar && std::abs(v_px) < kFar)) continue;
+      const int u = internal::roundHalfAway(u_px), v = internal::roundHalfAway(v_px);
       if (u < 0 || v < 0 || u >= w || v >= h) continue;
       float& zb = zbuf.at<float>(v, u);
       if (X.z() < zb) zb = X.z();
