@@ -247,8 +247,9 @@ Eigen::Isometry3d FlowMotionMasker::fitRigid(const RgbdFrame& frame, const cv::S
   // In catch-up mode on every third cell across and down instead of every second: still over a
   // thousand samples for six unknowns, at less than half the cost (the live mask thread's
   // largest cost after the flow: 10 % of its samples).
+  constexpr int kCatchUpRigidSampleStride = 3;
   RigidFitSettings rigid;
-  if (catching_up_) rigid.sample_stride = 3;
+  if (catching_up_) rigid.sample_stride = kCatchUpRigidSampleStride;
   const RigidFit fit = fitRigidMotion(grid_px_, depth_small_, prev_px_, rigid_usable_, frame.camera, T_prev_cur, rigid);
   if (!fit.ok) return T_prev_cur;
   // The fit replaces the prediction only when it explains clearly more cells: people in view,
