@@ -4,7 +4,9 @@
 /// working-resolution grey, depth and mask, the matching pinhole, bilinear sampling
 /// (internal to dypho_tracking_core).
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -53,6 +55,14 @@ inline Pinhole reducedPinhole(const RgbdFrame& frame, const cv::Mat& reduced) {
 
 /// A small rigid motion exp([v, w]) applied on the left (v [m], w [rad]; rotation by angle-axis).
 Eigen::Isometry3d leftStep(const Eigen::Matrix<double, 6, 1>& delta);
+
+/// Median of `values` (reordered; the upper one of an even count); 0 when empty.
+inline double median(std::vector<double>* values) {
+  if (values->empty()) return 0.0;
+  auto mid = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
+  std::nth_element(values->begin(), mid, values->end());
+  return *mid;
+}
 
 }  // namespace dense
 }  // namespace tracking

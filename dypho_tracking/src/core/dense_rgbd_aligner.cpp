@@ -21,14 +21,6 @@ constexpr float kNoValue = std::numeric_limits<float>::quiet_NaN();
 /// Fewest residuals at a level for a step; fewer leave the pose where it is [count].
 constexpr int kMinResiduals = 60;
 
-/// Median of `values` (reordered); 0 when empty.
-double median(std::vector<double>* values) {
-  if (values->empty()) return 0.0;
-  auto mid = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
-  std::nth_element(values->begin(), mid, values->end());
-  return *mid;
-}
-
 /// t-distribution weight of a residual of `sigmas` standard deviations (DVO-SLAM), zero beyond
 /// `max_sigmas`.
 double tWeight(double sigmas, double dof, double max_sigmas) {
@@ -203,9 +195,9 @@ void DenseRgbdAligner::addPhotometric(const Level& level, const Eigen::Isometry3
   }
   if (residuals.size() < static_cast<std::size_t>(kMinResiduals)) return;
   std::vector<double> sorted = residuals;
-  const double offset = median(&sorted);  // exposure change between the two images
+  const double offset = dense::median(&sorted);  // exposure change between the two images
   for (double& r : sorted) r = std::abs(r - offset);
-  *sigma = std::max(settings_.photometric_sigma_floor, 1.4826 * median(&sorted));
+  *sigma = std::max(settings_.photometric_sigma_floor, 1.4826 * dense::median(&sorted));
   for (std::size_t i = 0; i < residuals.size(); ++i) {
     const double e = residuals[i] - offset;
     const double w = tWeight(e / *sigma, settings_.t_dof, settings_.max_residual_sigmas) / (*sigma * *sigma);
@@ -243,7 +235,7 @@ void DenseRgbdAligner::addDepth(const Level& level, const Eigen::Isometry3d& T, 
   // the robust spread of the normalised residuals widens the weights until it is the noise.
   std::vector<double> spread(sigmas.size());
   for (std::size_t i = 0; i < sigmas.size(); ++i) spread[i] = std::abs(sigmas[i]);
-  const double k = std::max(1.0, 1.4826 * median(&spread));
+  const double k = std::max(1.0, 1.4826 * dense::median(&spread));
   for (std::size_t i = 0; i < sigmas.size(); ++i) {
     const double w = tWeight(sigmas[i] / k, settings_.t_dof, settings_.max_residual_sigmas);
     if (w <= 0.0) continue;

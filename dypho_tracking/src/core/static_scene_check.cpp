@@ -14,17 +14,10 @@ namespace tracking {
 namespace {
 
 using dense::bilinear;
+using dense::median;
 using dense::reduce;
 using dense::scaledPinhole;
 using dense::validDepth;
-
-/// Median of `values` (reordered); 0 when empty.
-double median(std::vector<double>* values) {
-  if (values->empty()) return 0.0;
-  auto mid = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
-  std::nth_element(values->begin(), mid, values->end());
-  return *mid;
-}
 
 }  // namespace
 
