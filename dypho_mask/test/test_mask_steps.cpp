@@ -27,17 +27,6 @@ TEST(MaskInternal, MsSinceIsNonNegative) {
   EXPECT_GE(internal::msSince(t0), 0.0);
 }
 
-// roundHalfAway gives std::lround's integer: halves away from zero, negatives, the floats at
-// 2^22-2^24 whose fraction is 0 or a half, and random values of image coordinates.
-TEST(MaskInternal, RoundHalfAwayMatchesLround) {
-  std::vector<float> values = {0.f,  0.5f,   -0.5f,  1.5f,      -1.5f,      2.5f,       0.49999997f, -0.49999997f,
-                               -0.f, 319.5f, 639.5f, -1.00001f, 4194304.5f, 8388607.5f, 16777216.f,  -4194304.5f};
-  cv::RNG rng(3);
-  for (int i = 0; i < 100000; ++i) values.push_back(rng.uniform(-2000.f, 2000.f));
-  for (int i = 0; i < 2000; ++i) values.push_back(static_cast<float>(rng.uniform(-4000, 4000)) + 0.5f);
-  for (const float v : values) ASSERT_EQ(internal::roundHalfAway(v), std::lround(v)) << v;
-}
-
 // sortDepths (the radix sort of the depth-layer steps) gives std::sort's order, element for
 // element, for depths > 0: short and long vectors (it switches at 256), repeated values, depths
 // across the sensor's range and beyond, the smallest positive floats and +inf.

@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "dypho/common/rounding.h"
 #include "mask_internal.h"
 
 namespace dypho {
@@ -34,7 +35,7 @@ void warpDepthForward(const cv::Mat& depth_prev_m, const CameraIntrinsics& camer
       const float u_px = fx * X.x() / X.z() + cx, v_px = fy * X.y() / X.z() + cy;
       constexpr float kFar = 1e9f;  // far outside the image (and NaN): not rounded
       if (!(std::abs(u_px) < kFar && std::abs(v_px) < kFar)) continue;
-      const int u = internal::roundHalfAway(u_px), v = internal::roundHalfAway(v_px);
+      const int u = roundHalfAway(u_px), v = roundHalfAway(v_px);
       if (u < 0 || v < 0 || u >= w || v >= h) continue;
       float& zb = zbuf.at<float>(v, u);
       if (X.z() < zb) zb = X.z();

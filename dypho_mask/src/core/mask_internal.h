@@ -25,15 +25,6 @@ inline double msSince(Clock::time_point t0) {
 /// A depth sample [m] that holds a value: positive and finite (0 and NaN mean none).
 inline bool valid(float z) { return z > 0.f && std::isfinite(z); }
 
-/// std::lround of `v` without the library call (the background warp rounds two coordinates per
-/// pixel: 2.4 % of the live mask thread's samples went to lroundf): halves away from zero.
-/// `v` finite with |v| < 2^31; v minus its truncation is exact for every such float.
-inline int roundHalfAway(float v) {
-  const int i = static_cast<int>(v);
-  const float fraction = v - static_cast<float>(i);
-  return i + (fraction >= 0.5f ? 1 : 0) - (fraction <= -0.5f ? 1 : 0);
-}
-
 /// Sorts depths in ascending order, as std::sort does, for values > 0 (finite or +inf; no NaN):
 /// their IEEE-754 bit patterns sort as unsigned integers, so a radix sort over the bits (three
 /// passes of 11 bits) gives the same order in linear time. The depth-layer steps sort every

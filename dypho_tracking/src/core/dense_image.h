@@ -21,14 +21,24 @@ namespace dense {
 /// A depth the dense steps use [m]: finite, in (0.1, 20).
 inline bool validDepth(float z) { return z > 0.1f && z < 20.f && std::isfinite(z); }
 
+/// Where bilinear() samples: the top-left pixel and the weights towards the next ones, so that
+/// images of one size are sampled at one point without computing them again.
+struct BilinearPoint {
+  /// (u, v) must lie in [0, cols - 1) x [0, rows - 1) of the images sampled.
+  BilinearPoint(double u, double v)
+      : x(static_cast<int>(u)), y(static_cast<int>(v)), a(static_cast<float>(u - x)), b(static_cast<float>(v - y)) {}
+  /// Bilinear sample of a CV_32FC1 image at this point.
+  float sample(const cv::Mat& img) const {
+    const float* r0 = img.ptr<float>(y) + x;
+    const float* r1 = img.ptr<float>(y + 1) + x;
+    return (1.f - b) * ((1.f - a) * r0[0] + a * r0[1]) + b * ((1.f - a) * r1[0] + a * r1[1]);
+  }
+  int x, y;    ///< top-left pixel
+  float a, b;  ///< weights of the right column and the lower row
+};
+
 /// Bilinear sample of a CV_32FC1 image; (u, v) must lie in [0, cols - 1) x [0, rows - 1).
-inline float bilinear(const cv::Mat& img, double u, double v) {
-  const int x = static_cast<int>(u), y = static_cast<int>(v);
-  const float a = static_cast<float>(u - x), b = static_cast<float>(v - y);
-  const float* r0 = img.ptr<float>(y) + x;
-  const float* r1 = img.ptr<float>(y + 1) + x;
-  return (1.f - b) * ((1.f - a) * r0[0] + a * r0[1]) + b * ((1.f - a) * r1[0] + a * r1[1]);
-}
+inline float bilinear(const cv::Mat& img, double u, double v) { return BilinearPoint(u, v).sample(img); }
 
 /// (u, v) [px] lies where bilinear() may sample `img`.
 inline bool insideForBilinear(const cv::Mat& img, double u, double v) {

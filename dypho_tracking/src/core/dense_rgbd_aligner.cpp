@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "dense_image.h"
+#include "dypho/common/rounding.h"
 
 namespace dypho {
 namespace tracking {
@@ -182,16 +183,17 @@ void DenseRgbdAligner::addPhotometric(const Level& level, const Eigen::Isometry3
     if (q.z() < 0.05) continue;
     const Eigen::Vector2d uv = level.pinhole.project(q);
     if (!dense::insideForBilinear(level.grey, uv.x(), uv.y())) continue;
-    const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+    const int u = roundHalfAway(uv.x()), v = roundHalfAway(uv.y());
     if (level.mask.at<uchar>(v, u) != 0) continue;
     // Occluded by something nearer (a person in front): not this sample's surface.
     const float z = level.depth_m.at<float>(v, u);
     if (dense::validDepth(z) && z < q.z() - occlusionToleranceM(q.z())) continue;
-    const double gx = dense::bilinear(level.grad_x, uv.x(), uv.y()), gy = dense::bilinear(level.grad_y, uv.x(), uv.y());
+    const dense::BilinearPoint at(uv.x(), uv.y());
+    const double gx = at.sample(level.grad_x), gy = at.sample(level.grad_y);
     const double iz = 1.0 / q.z();
     const Eigen::Vector3d dr_dq(gx * fx * iz, gy * fy * iz, -(gx * fx * q.x() + gy * fy * q.y()) * iz * iz);
     jacobians.push_back(leftJacobian(q, dr_dq));
-    residuals.push_back(dense::bilinear(level.grey, uv.x(), uv.y()) - level.grey_reference[i]);
+    residuals.push_back(at.sample(level.grey) - level.grey_reference[i]);
   }
   if (residuals.size() < static_cast<std::size_t>(kMinResiduals)) return;
   std::vector<double> sorted = residuals;

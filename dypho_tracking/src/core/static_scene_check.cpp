@@ -9,6 +9,8 @@
 #include <Eigen/Cholesky>
 #include <opencv2/imgproc.hpp>
 
+#include "dypho/common/rounding.h"
+
 namespace dypho {
 namespace tracking {
 namespace {
@@ -101,7 +103,7 @@ StaticAgreement StaticSceneCheck::score(const Eigen::Isometry3d& T_current_refer
     if (q.z() < 0.05) continue;
     const Eigen::Vector2d uv = level.pinhole.project(q);
     if (!(uv.x() >= 0.0 && uv.y() >= 0.0 && uv.x() < level.grey.cols - 1 && uv.y() < level.grey.rows - 1)) continue;
-    const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+    const int u = roundHalfAway(uv.x()), v = roundHalfAway(uv.y());
     const float z = level.depth_m.at<float>(v, u);
     if (level.mask.at<uchar>(v, u) != 0 || !validDepth(z)) continue;
     const double tolerance_m = std::max(settings_.depth_tolerance_m, 0.015 * q.z() * q.z());
@@ -122,20 +124,23 @@ void StaticSceneCheck::refineLevel(const Level& level, Eigen::Isometry3d* T_curr
   std::vector<double> r(static_cast<std::size_t>(n));
   std::vector<Eigen::Matrix<double, 1, 6>> J(static_cast<std::size_t>(n));
   std::vector<char> used(static_cast<std::size_t>(n));
+  std::vector<double> used_r;
+  used_r.reserve(static_cast<std::size_t>(n));
   for (int it = 0; it < settings_.iterations; ++it) {
-    std::vector<double> used_r;
+    used_r.clear();
     for (int i = 0; i < n; ++i) {
       used[static_cast<std::size_t>(i)] = 0;
       const Eigen::Vector3d q = *T_current_reference * level.p_reference_m[static_cast<std::size_t>(i)];
       if (q.z() < 0.05) continue;
       const Eigen::Vector2d uv = level.pinhole.project(q);
       if (!(uv.x() >= 0.0 && uv.y() >= 0.0 && uv.x() < level.grey.cols - 1 && uv.y() < level.grey.rows - 1)) continue;
-      const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+      const int u = roundHalfAway(uv.x()), v = roundHalfAway(uv.y());
       if (level.mask.at<uchar>(v, u) != 0) continue;
       const float z = level.depth_m.at<float>(v, u);
       // Occluded by something nearer (a person in front): not this sample's surface.
       if (validDepth(z) && z < q.z() - std::max(settings_.depth_tolerance_m, 0.015 * q.z() * q.z())) continue;
-      const double gx = bilinear(level.grad_x, uv.x(), uv.y()), gy = bilinear(level.grad_y, uv.x(), uv.y());
+      const dense::BilinearPoint at(uv.x(), uv.y());
+      const double gx = at.sample(level.grad_x), gy = at.sample(level.grad_y);
       const double iz = 1.0 / q.z();
       const double fx = level.pinhole.fx, fy = level.pinhole.fy;
       // d r / d(v, w) for q' = q + v + w x q (left perturbation of T_current_reference).
@@ -144,8 +149,7 @@ void StaticSceneCheck::refineLevel(const Level& level, Eigen::Isometry3d* T_curr
       j.head<3>() = dr_dq.transpose();
       j.tail<3>() = q.cross(dr_dq).transpose();
       J[static_cast<std::size_t>(i)] = j;
-      r[static_cast<std::size_t>(i)] =
-          bilinear(level.grey, uv.x(), uv.y()) - level.grey_reference[static_cast<std::size_t>(i)];
+      r[static_cast<std::size_t>(i)] = at.sample(level.grey) - level.grey_reference[static_cast<std::size_t>(i)];
       used[static_cast<std::size_t>(i)] = 1;
       used_r.push_back(r[static_cast<std::size_t>(i)]);
     }
