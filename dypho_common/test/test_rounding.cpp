@@ -23,9 +23,9 @@ TEST(Rounding, FloatMatchesLround) {
 
 // The same for doubles: the one below a half, halves, and large values whose fraction is exact.
 TEST(Rounding, DoubleMatchesLround) {
-  std::vector<double> values = {0.0,    0.5,    -0.5,   1.5,          -1.5,        2.5, 0.49999999999999994,
-                                -0.0,   319.5,  639.5,  -1.0000001,   1073741823.5, -1073741823.5,
-                                2.5e-9, 159.49999999999997};
+  std::vector<double> values = {
+      0.0,   0.5,   -0.5,       1.5,          -1.5,          2.5,    0.49999999999999994, -0.0,
+      319.5, 639.5, -1.0000001, 1073741823.5, -1073741823.5, 2.5e-9, 159.49999999999997};
   cv::RNG rng(5);
   for (int i = 0; i < 100000; ++i) values.push_back(rng.uniform(-2000.0, 2000.0));
   for (int i = 0; i < 2000; ++i) values.push_back(rng.uniform(-4000, 4000) + 0.5);
