@@ -1,8 +1,9 @@
 /// mask_bonn_bench: how many of the tracker's ORB features land on people in a real dynamic
 /// RGB-D sequence (Bonn rgbd_bonn_crowd), with and without the dynamic mask.
 ///
-///   mask_bonn_bench [--data DIR] [--model ONNX] [--frames N] [--variants LIST] [--pose cv|none]
-///                   [--every-n N] [--async] [--rate-hz HZ] [--threads T] [--verbose]
+///   mask_bonn_bench [--data DIR] [--model ONNX] [--frames N] [--variants LIST]
+///                   [--pose cv|cv-fresh|none] [--no-warp-fit] [--every-n N] [--async] [--rate-hz HZ]
+///                   [--threads T] [--verbose]
 ///
 /// Defaults: --data /work/shared/data/rgbd_bonn_crowd_frames200to399, --model
 /// /work/shared/models/yolox_nano.onnx, all frames, --variants none,flow,flow_bg,full, --pose cv,
@@ -22,7 +23,10 @@
 /// Pose prior for the mask (--pose cv): T_prev_cur by constant velocity from the two previous
 /// frames' ground-truth poses (groundtruth.txt with the Bonn marker-to-camera correction,
 /// interpolated at the colour stamps), i.e. what tracking hands over; --pose none: no prior (the
-/// flow masker removes a global homography instead).
+/// flow masker removes a global homography instead); --pose cv-fresh: the same prediction marked
+/// fresh (MaskPrior::prediction_fresh, as the offline runner's tracking hands it over once it
+/// posed the previous frame; without it the mask takes it as stale and fits it to the flow).
+/// --no-warp-fit: background_warp_with_flow_fit off (a fresh prediction warps B as it is).
 /// --rate-hz HZ: frames arrive at this rate (the loop sleeps until frame i's arrival time i/HZ),
 /// so that an async network sees real frame spacing; 0 (default) = as fast as possible.
 ///
@@ -92,7 +96,8 @@ struct VariantStats {
 
 /// What -h / --help prints (the usage of the file comment above).
 const char* const kUsage =
-    "usage: mask_bonn_bench [--data DIR] [--model ONNX] [--frames N] [--variants LIST] [--pose cv|none]\n"
+    "usage: mask_bonn_bench [--data DIR] [--model ONNX] [--frames N] [--variants LIST] [--pose cv|cv-fresh|none]\n"
+    "                       [--no-warp-fit]\n"
     "                       [--every-n N] [--async] [--rate-hz HZ] [--threads T] [--verbose]\n"
     "How many of the tracker's ORB features land on people in a Bonn crowd sequence, with and without\n"
     "the dynamic mask. Defaults: --data /work/shared/data/rgbd_bonn_crowd_frames200to399, --model\n"
@@ -106,7 +111,7 @@ int main(int argc, char** argv) {
   std::string variants_arg = "none,flow,flow_bg,full", pose = "cv";
   int max_frames = -1, threads = 2, every_n = 1;
   double rate_hz = 0.0;
-  bool async = false, verbose = false;
+  bool async = false, verbose = false, warp_fit = true;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     auto value = [&]() -> std::string {
@@ -137,6 +142,8 @@ int main(int argc, char** argv) {
         threads = std::stoi(value());
       else if (k == "--verbose")
         verbose = true;
+      else if (k == "--no-warp-fit")
+        warp_fit = false;
       else {
         std::cerr << "unknown argument " << k << " (see the file comment)\n";
         return 2;
@@ -146,8 +153,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (pose != "cv" && pose != "none") {
-    std::cerr << "--pose cv|none\n";
+  if (pose != "cv" && pose != "cv-fresh" && pose != "none") {
+    std::cerr << "--pose cv|cv-fresh|none\n";
     return 2;
   }
   std::vector<std::string> variants;
@@ -227,6 +234,7 @@ int main(int argc, char** argv) {
   for (const std::string& variant : variants) {
     mask::DynamicMaskOptions mo;
     if (variant == "flow") mo.background.enabled = false;
+    mo.background.warp_with_flow_fit = warp_fit;
     if (variant == "full") {
       mo.yolo.model_path = model;
       mo.yolo.every_n_frames = every_n;
@@ -252,7 +260,8 @@ int main(int argc, char** argv) {
         mask::MaskPrior prior;
         const auto& a = i >= 2 ? T_world_cam[static_cast<size_t>(i - 2)] : std::nullopt;
         const auto& b = i >= 2 ? T_world_cam[static_cast<size_t>(i - 1)] : std::nullopt;
-        if (pose == "cv" && a && b) prior.T_prev_cur = a->inverse() * *b;
+        if (pose != "none" && a && b) prior.T_prev_cur = a->inverse() * *b;
+        prior.prediction_fresh = pose == "cv-fresh";
         r = masker->compute(f, prior);
         mask = r.mask;
       }

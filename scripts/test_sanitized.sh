@@ -106,6 +106,10 @@ REALTIME='RealtimeRunner.*'
 # (from identity and from a stale pose), and the masker's fit-then-warp path with stale poses in
 # DynamicMaskRealData.TumRpyFirstFastTurnsWithPosesThreeFramesOld:
 #  - DynamicMasker.WithoutAPredictionTheBackgroundFollowsTheFlowsMotion.
+# and the mask on the same turns three times over with fresh predictions that miss jerks (3 s
+# optimised): the masker's flow-then-warp path with fresh poses runs here in
+# DynamicMaskRealData.TumRpyStaticDeskIsNotMaskedOnTheFirstFastTurns (true poses, 40 frames):
+#  - DynamicMasker.AFreshPredictionThatMissedAJerkDoesNotMaskTheStaticView.
 # and the tracker twice over the same frames, with local BA on its own thread and without (33 s
 # here): the threaded local BA runs here in SyntheticTracking.LocalBaOnItsOwnThreadIsApplied...
 #  - SyntheticTracking.LocalBaOnItsOwnThreadGivesTheSameMap.
@@ -122,6 +126,7 @@ OPTIMISED_ONLY+=':SynthPeople.EveryPersonIsInsideTheFirstImage'
 OPTIMISED_ONLY+=':ExposureGauge.TheMapMovesIntoTheMeanExposureAndKeyframeRendersStay'
 OPTIMISED_ONLY+=':SyntheticScene.PeopleCoverAGoodPartOfTheImage'
 OPTIMISED_ONLY+=':DynamicMasker.WithoutAPredictionTheBackgroundFollowsTheFlowsMotion'
+OPTIMISED_ONLY+=':DynamicMasker.AFreshPredictionThatMissedAJerkDoesNotMaskTheStaticView'
 OPTIMISED_ONLY+=':SyntheticTracking.LocalBaOnItsOwnThreadGivesTheSameMap'
 echo "test_sanitized.sh: not run under the sanitizers (optimised build only): $OPTIMISED_ONLY"
 status=0

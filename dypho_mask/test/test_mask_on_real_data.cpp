@@ -282,11 +282,11 @@ TEST(DynamicMaskRealData, TumRpyDeskEdgesStayBehindTheBackgroundOnFastTurns) {
   // each edge was "in front of the background": with the paper's per-pixel test the consistency
   // mask alone held 2.5 % of the static view on average over the 150 frames (12.8 % on the worst
   // frame), with the ground-truth pose; the whole mask 3.5 %. With the tolerance
-  // (background_motion_tolerance 0.25 of the median flow): 1.1 % (8.4 %) and 2.3 %. With the
-  // motion fitted to the flow (flow_fit_rigid_motion) both are lower: 1.4 % -> 0.5 % and
-  // 2.1 % -> 1.4 %. Bounds, with room for another machine's flow: the tolerance removes at least
-  // 40 % of the consistency mask and 20 % of the whole mask (measured 66 % and 30 %); every masked
-  // pixel here is a false positive.
+  // (background_motion_tolerance 0.25 of the median flow): 1.1 % (8.4 %) and 2.3 %. With B
+  // warped with the motion fitted to the flow from the true pose (background_warp_with_flow_fit,
+  // the default) both are lower: 1.40 % -> 0.47 % and 2.00 % -> 1.31 %. Bounds, with room for
+  // another machine's flow: the tolerance removes at least 40 % of the consistency mask and 20 %
+  // of the whole mask (measured 66 % and 35 %); every masked pixel here is a false positive.
   DynamicMaskOptions per_pixel;
   per_pixel.background.motion_tolerance = 0.0;
   const DynamicMaskOptions tolerant;  // the defaults

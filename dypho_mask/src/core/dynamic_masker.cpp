@@ -107,10 +107,10 @@ struct DynamicMasker::FrameState {
   bool run_background = false;    ///< background model on, with usable depth
   bool network = false;           ///< a network mask was in use on the last frame (crowd aids off)
   bool rendered_ignored = false;  ///< R_d was given at an unusable type or size
-  double test_ms = 0.0;           ///< the consistency test's wall time, beside the flow [ms]
+  double test_ms = 0.0;           ///< the consistency test's wall time [ms]
   FlowMaskResult flow;            ///< this frame's motion mask
-  /// The relative pose B is warped with: the flow's fitted one (FlowMaskOptions::fit_rigid_motion)
-  /// when it has one, else the prior's.
+  /// The relative pose B is warped with: the flow's fitted one (FlowMaskOptions::fit_rigid_motion,
+  /// BackgroundOptions::warp_with_flow_fit) when it has one, else the prior's.
   std::optional<Eigen::Isometry3d> T_prev_cur;
   SegmentStep seg;                    ///< this frame's segment mask
   bool background_restarted = false;  ///< B started again at this frame (motion since B unknown)
@@ -153,54 +153,73 @@ MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior
 }
 
 void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
-  // The flow masker checks the colour image, depth size and camera size. Exceptions of either
-  // task are rethrown here, after both finished.
-  std::exception_ptr failure[2];
   // The crowd aids of the flow mask (residual memory, depth layers) serve the flow-only mask; a
   // running network segments people whatever their speed and depth, and with it they only cost
   // accuracy (Bonn crowd with YOLOX-nano: 1.45 cm without, 1.7-2.7 cm with them). A network
   // whose newest mask was too old to use (YoloOptions::max_age_frames) leaves them on.
   f.network = segment_->ready() && network_mask_in_use_;
+  flow_.setResidualMemoryEnabled(!f.network);
   f.T_prev_cur = f.prior.T_prev_cur;
   // No prediction once the background model is established: tracking was lost (its motion model
   // starts again). (The first frames have none either; their B is still being built.)
   const bool no_prediction =
       !f.prior.T_prev_cur && f.run_background && background_updates_ >= options_.background.veto_after_updates;
   if (options_.flow.fit_rigid_motion && (no_prediction || (f.prior.T_prev_cur && !f.prior.prediction_fresh))) {
-    // The background is warped with the motion fitted to the flow, so the test waits for it: a
-    // prediction made from older poses (a live graph's mask runs before tracking has posed the
-    // previous frame) or none at all (the first frames, after a loss) puts B's depth edges off
-    // and the static view in front of them fails the test. Without a prediction the fit starts
-    // from a still camera; an unwarped B behind a turning camera would mark the whole static
-    // view dynamic, tracking would find no features in it, stay lost and give no prediction
-    // (docs/journal/benchmarks-2026.md section 29).
-    flow_.setResidualMemoryEnabled(!f.network);
-    const Eigen::Isometry3d start = f.prior.T_prev_cur.value_or(Eigen::Isometry3d::Identity());
-    f.flow = flow_.compute(f.frame, start, previous_mask_, true);
-    if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
-    if (!f.run_background) return;
-    testAgainstBackground(f);
-    // The camera's motion since B is unknown (lost, or frames missing) and the flow did not find
-    // it: B was carried with a guess. When the guess put B off the view (far more of it fails the
-    // test than the last mask held), B starts again here: a static region masked once is not
-    // learnt, and the view stayed dynamic for twenty frames (docs/journal/benchmarks-2026.md
-    // section 30). A guess that fits keeps B: in a crowd, a new B would learn the people.
-    const bool guessed = (no_prediction || f.prior.after_gap) && !f.flow.ego_motion_from_pose;
-    if (guessed && background_updates_ > 0 && backgroundLostTheView()) {
-      background_.reset();
-      background_updates_ = 0;
-      f.background_restarted = true;
-      testAgainstBackground(f);  // against the new, empty B: nothing fails it
-    }
-    return;
+    motionFittedFromAGuess(f, no_prediction);
+  } else if (options_.background.warp_with_flow_fit && f.run_background && f.prior.T_prev_cur &&
+             f.prior.prediction_fresh) {
+    motionThenConsistencyWithTheFit(f);
+  } else {
+    motionBesideConsistency(f);
   }
+}
+
+void DynamicMasker::motionFittedFromAGuess(FrameState& f, bool no_prediction) {
+  // The background is warped with the motion fitted to the flow, so the test waits for it: a
+  // prediction made from older poses (a live graph's mask runs before tracking has posed the
+  // previous frame) or none at all (the first frames, after a loss) puts B's depth edges off
+  // and the static view in front of them fails the test. Without a prediction the fit starts
+  // from a still camera; an unwarped B behind a turning camera would mark the whole static
+  // view dynamic, tracking would find no features in it, stay lost and give no prediction
+  // (docs/journal/benchmarks-2026.md section 29).
+  const Eigen::Isometry3d start = f.prior.T_prev_cur.value_or(Eigen::Isometry3d::Identity());
+  f.flow = flow_.compute(f.frame, start, previous_mask_, PoseFitUse::kEgoMotion);
+  if (f.flow.T_prev_cur) f.T_prev_cur = f.flow.T_prev_cur;
+  if (!f.run_background) return;
+  testAgainstBackground(f);
+  // The camera's motion since B is unknown (lost, or frames missing) and the flow did not find
+  // it: B was carried with a guess. When the guess put B off the view (far more of it fails the
+  // test than the last mask held), B starts again here: a static region masked once is not
+  // learnt, and the view stayed dynamic for twenty frames (docs/journal/benchmarks-2026.md
+  // section 30). A guess that fits keeps B: in a crowd, a new B would learn the people.
+  const bool guessed = (no_prediction || f.prior.after_gap) && !f.flow.ego_motion_from_pose;
+  if (guessed && background_updates_ > 0 && backgroundLostTheView()) {
+    background_.reset();
+    background_updates_ = 0;
+    f.background_restarted = true;
+    testAgainstBackground(f);  // against the new, empty B: nothing fails it
+  }
+}
+
+void DynamicMasker::motionThenConsistencyWithTheFit(FrameState& f) {
+  // A fresh prediction: the flow's ego-motion starts from it (its homography absorbs a rotation
+  // error); B, which has no such absorber, is warped with the motion fitted to the flow from it
+  // (BackgroundOptions::warp_with_flow_fit), so the test waits for the flow.
+  f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_, PoseFitUse::kReport);
+  if (f.flow.T_prev_cur_fitted) f.T_prev_cur = f.flow.T_prev_cur_fitted;
+  testAgainstBackground(f);
+}
+
+void DynamicMasker::motionBesideConsistency(FrameState& f) {
+  // The flow masker checks the colour image, depth size and camera size. Exceptions of either
+  // task are rethrown here, after both finished.
+  std::exception_ptr failure[2];
   cv::parallel_for_(
       cv::Range(0, 2),
       [&](const cv::Range& range) {
         for (int task = range.start; task < range.end; ++task) {
           try {
             if (task == 0) {
-              flow_.setResidualMemoryEnabled(!f.network);
               f.flow = flow_.compute(f.frame, f.prior.T_prev_cur, previous_mask_);
             } else if (f.run_background) {
               testAgainstBackground(f);

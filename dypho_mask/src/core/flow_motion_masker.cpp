@@ -94,7 +94,7 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
 }
 
 FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur,
-                                         const cv::Mat& previous_dynamic, bool fit_motion) {
+                                         const cv::Mat& previous_dynamic, PoseFitUse fit) {
   const auto t0 = Clock::now();
   last_flow_valid_ = false;
   FlowMaskResult result;
@@ -112,7 +112,7 @@ FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::opti
   computeFlow(result);
   computeCorrespondences(size, small, frame.camera);
   carryPrevious(previous_dynamic);
-  if (!fitEgoMotion(frame, small, T_prev_cur, fit_motion, result)) {
+  if (!fitEgoMotion(frame, small, T_prev_cur, fit, result)) {
     result.total_ms = msSince(t0);
     return result;
   }
@@ -186,7 +186,7 @@ void FlowMotionMasker::computeCorrespondences(const cv::Size& input_size, const 
 }
 
 bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& small,
-                                    const std::optional<Eigen::Isometry3d>& T_prev_cur, bool fit_motion,
+                                    const std::optional<Eigen::Isometry3d>& T_prev_cur, PoseFitUse fit_use,
                                     FlowMaskResult& result) {
   // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
   // plain homography. It is tried again without the previous frame's dynamic pixels when it
@@ -198,7 +198,10 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   std::optional<Eigen::Isometry3d> T_used = has_depth ? T_prev_cur : std::nullopt;
   // Depth at flow resolution, once, for the fit and the rigid prediction.
   if (has_depth && T_prev_cur) cv::resize(frame.depth_m, depth_small_, small, 0, 0, cv::INTER_NEAREST);
-  if (has_depth && T_prev_cur && fit_motion) T_used = fitRigid(frame, small, *T_prev_cur);
+  if (has_depth && T_prev_cur && fit_use != PoseFitUse::kNone) {
+    result.T_prev_cur_fitted = fitRigid(frame, small, *T_prev_cur);
+    if (fit_use == PoseFitUse::kEgoMotion) T_used = result.T_prev_cur_fitted;
+  }
   const bool with_pose = T_used.has_value();
   if (with_pose) predictFromPose(frame, *T_used);
   const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;

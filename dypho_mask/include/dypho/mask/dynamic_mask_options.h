@@ -86,6 +86,18 @@ struct BackgroundOptions {
   /// tracked ATE over the window and 14 frame-removal variants 3.70 -> 2.23 cm
   /// (docs/journal/benchmarks-2026.md, section 15).
   double motion_tolerance = 0.25;
+  /// With a fresh prediction (the tracker posed the previous frame), B is warped with the relative
+  /// pose fitted to the flow and the depth from it (as FlowMaskOptions::fit_rigid_motion does for
+  /// a stale one), and the consistency test waits for the flow instead of running beside it. The
+  /// flow's own ego-motion keeps the prediction: its homography absorbs a rotation error, B's warp
+  /// does not. A constant-velocity prediction misses a hand's jerk; B's depth edges land off, the
+  /// static surface in front of them fails the test, is not learnt and stays masked. Default true:
+  /// on TUM fr1/rpy's static desk the offline runner's mask went from 3.2 % of the view on average
+  /// (30 % on the worst frame) to 1.3 % (14 %); against the ground truth the fit's relative
+  /// rotation is 0.66 deg (rms) off on fr1 and 0.25 deg on Bonn, the prediction's 0.92 and 0.31
+  /// deg. Costs 1-2 ms per frame on the mask thread (offline on fr1: 8.2-8.7 -> 9.7-10.4 ms;
+  /// docs/journal/benchmarks-2026.md, section 36).
+  bool warp_with_flow_fit = true;
   /// Grow the dynamic regions over their depth-connected surface where the background has no
   /// value or lies behind (fills the textureless inside of a person the flow outlined; the grown
   /// pixels are not learnt into B). Default true.

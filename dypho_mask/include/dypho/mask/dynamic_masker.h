@@ -139,9 +139,18 @@ class DynamicMasker {
  private:
   struct FrameState;  ///< one frame as compute() hands it from step to step (dynamic_masker.cpp)
 
-  /// Step 1: the flow masker's motion mask (flow, ego-motion) into f.flow, beside the
-  /// consistency test (when f.run_background) on OpenCV's pool; rethrows either task's exception.
+  /// Step 1: the flow masker's motion mask (flow, ego-motion) into f.flow and the consistency
+  /// test (when f.run_background), in one of the three ways below.
   void computeMotionAndConsistency(FrameState& f);
+  /// Without a prediction or with a stale one (FlowMaskOptions::fit_rigid_motion): the flow's
+  /// ego-motion and B's warp both use the motion fitted to the flow from the guess; B starts
+  /// again when the guess put it off the view.
+  void motionFittedFromAGuess(FrameState& f, bool no_prediction);
+  /// With a fresh prediction (BackgroundOptions::warp_with_flow_fit): the flow from the
+  /// prediction, then the test with B warped with the motion fitted to the flow.
+  void motionThenConsistencyWithTheFit(FrameState& f);
+  /// Otherwise: the flow beside the test on OpenCV's pool; rethrows either task's exception.
+  void motionBesideConsistency(FrameState& f);
   /// The consistency test of D_i against the prior: depth_small_, rendered_small_ and
   /// consistency_small_ at background resolution; f.test_ms, f.rendered_ignored.
   void testAgainstBackground(FrameState& f);

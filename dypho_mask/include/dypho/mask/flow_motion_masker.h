@@ -8,9 +8,10 @@
 /// residual flow: the motion is fitted robustly to the flow field (RANSAC on a grid of flow
 /// samples), from depth and the tracked pose where they exist (ego_motion.h), else as a
 /// homography, exact for a rotating camera and close for small translations or distant scenes.
-/// With depth and a stale prediction (`compute`'s fit_motion), the relative pose itself is first
-/// fitted to the flow (fit_rigid_motion), so that the prediction's translation error does not
-/// stay in the residual.
+/// With depth and a stale prediction (`compute`'s PoseFitUse::kEgoMotion), the relative pose itself
+/// is first fitted to the flow (fit_rigid_motion), so that the prediction's translation error does
+/// not stay in the residual; with a fresh one (PoseFitUse::kReport) the fit is only reported, for
+/// the background model's warp (BackgroundOptions::warp_with_flow_fit).
 /// The YOLO segment mask and the background model B_i are fused with this mask by DynamicMasker.
 ///
 /// Pipeline per frame: grey -> resize by flow_scale -> DIS flow current->previous (so the mask
@@ -42,6 +43,13 @@ class DISOpticalFlow;
 namespace dypho {
 namespace mask {
 
+/// What `FlowMotionMasker::compute` fits the given relative pose to the flow for.
+enum class PoseFitUse {
+  kNone,       ///< no fit: the ego-motion uses the given pose
+  kReport,     ///< fitted and reported (FlowMaskResult::T_prev_cur_fitted); the ego-motion uses the given pose
+  kEgoMotion,  ///< fitted, reported and used for the ego-motion
+};
+
 /// Output of `FlowMotionMasker::compute`.
 struct FlowMaskResult {
   /// Final mask, CV_8UC1, input size, 255 = dynamic, 0 = static. When degraded: the previous
@@ -70,6 +78,10 @@ struct FlowMaskResult {
   /// The relative pose (current camera in the previous one) behind the rigid prediction when
   /// ego_motion_from_pose: fitted to the flow (FlowMaskOptions::fit_rigid_motion) or as given.
   std::optional<Eigen::Isometry3d> T_prev_cur;
+  /// The relative pose fitted to the flow and the depth from the given one, when compute() was
+  /// asked to fit (PoseFitUse other than kNone) and had depth, a valid camera and a pose; the
+  /// given pose itself when the fit did not explain clearly more of the flow.
+  std::optional<Eigen::Isometry3d> T_prev_cur_fitted;
   /// True when the global motion was found only without the previous frame's dynamic pixels
   /// (the plain fit had too few inliers; see compute()).
   bool fit_excluded_previous_mask = false;
@@ -131,10 +143,11 @@ class FlowMotionMasker {
   /// mask (shrunk by the margin, which the caller grows again) instead of an empty one: an empty
   /// mask would hand every person to the tracker.
   ///
-  /// `fit_motion`: the relative pose `T_prev_cur` (when given) is first fitted to the flow and
-  /// the depth (FlowMaskOptions::fit_rigid_motion decides in DynamicMasker when).
+  /// `fit`: whether the relative pose `T_prev_cur` (when given) is fitted to the flow and the
+  /// depth, and what for (PoseFitUse; DynamicMasker decides from FlowMaskOptions::fit_rigid_motion
+  /// and BackgroundOptions::warp_with_flow_fit).
   FlowMaskResult compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
-                         const cv::Mat& previous_dynamic = cv::Mat(), bool fit_motion = false);
+                         const cv::Mat& previous_dynamic = cv::Mat(), PoseFitUse fit = PoseFitUse::kNone);
 
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
   /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
@@ -172,7 +185,7 @@ class FlowMotionMasker {
   /// The camera's own motion: the fit (pose + depth, else homography; retried without the carried
   /// pixels) and its residual_. False (result degraded, carried mask) when no fit was found.
   bool fitEgoMotion(const RgbdFrame& frame, const cv::Size& small_size,
-                    const std::optional<Eigen::Isometry3d>& T_prev_cur, bool fit_motion, FlowMaskResult& result);
+                    const std::optional<Eigen::Isometry3d>& T_prev_cur, PoseFitUse fit, FlowMaskResult& result);
   /// predicted_px_ = rigid prediction of the previous positions from depth_small_ (fitEgoMotion
   /// reduces the depth once per frame) and `T_prev_cur`;
   /// usable_ = textured cells that have one.

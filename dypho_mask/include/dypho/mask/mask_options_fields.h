@@ -145,6 +145,12 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
           "background depth within "
           "that radius (a fast turn puts depth edges a few pixels off), in [0, 2]; 0 = the pixel's own background "
           "(the paper). Default 0.25 (measured: docs/journal/benchmarks-2026.md, section 15).");
+  visitor("warp_with_flow_fit", options.warp_with_flow_fit,
+          "With a fresh prediction (the tracker posed the previous frame), the background is warped with the relative "
+          "pose fitted to the flow and the depth from it, and the consistency test waits for the flow; the flow's "
+          "ego-motion keeps the prediction. A constant-velocity prediction misses a hand's jerk and puts the "
+          "background's depth edges off: the static surface in front of them stays masked. Default true (TUM "
+          "fr1/rpy's static desk: 3.2 % of the view masked -> 1.3 %; docs/journal/benchmarks-2026.md, section 36).");
   visitor("grow_in_depth", options.grow_in_depth,
           "Grow the dynamic regions over their depth-connected surface where the background has no value or lies "
           "behind (fills the textureless inside of a person the flow outlined; grown pixels are not learnt into the "
