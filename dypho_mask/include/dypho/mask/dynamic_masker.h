@@ -13,8 +13,11 @@
 /// between); (3) at background resolution: consistency mask of D_i against the warped B_{i-1}
 /// (+ rendered depth), final = consistency OR raw, then B_i is updated (background_model.h);
 /// (4) open + small-region removal + margin, upsampled to the input size.
-/// The consistency test of (3) needs no flow and runs beside (1) on OpenCV's thread pool
-/// (cv::parallel_for_ with two tasks; serially when cv::getNumThreads() is 1).
+/// The consistency test of (3) warps B with the relative pose the flow's rigid fit found (with a
+/// prediction: BackgroundOptions::warp_with_flow_fit, FlowMaskOptions::fit_rigid_motion) and
+/// then runs after (1); with the fit off for the frame's kind of prediction, or none yet, it needs
+/// no flow and runs beside (1) on OpenCV's thread pool (cv::parallel_for_ with two tasks; serially
+/// when cv::getNumThreads() is 1).
 /// Degraded modes (documented, never a crash): no depth or a size mismatch -> no background
 /// model and no depth-based ego-motion (flow homography + segment boxes painted whole); depth all
 /// zero -> the background model has nothing to compare (raw masks only); no/failed network ->
@@ -94,8 +97,8 @@ struct MaskResult {
   std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
   double flow_ms = 0.0;                   ///< flow masker, whole [ms]
   double segment_ms = 0.0;                ///< network (sync) + carrying [ms]
-  /// background model + combination + clean-up [ms]; its consistency test runs beside the flow,
-  /// so flow_ms + background_ms can exceed the wall time (total_ms - segment_ms)
+  /// background model + combination + clean-up [ms]; when its consistency test runs beside the
+  /// flow, flow_ms + background_ms can exceed the wall time (total_ms - segment_ms)
   double background_ms = 0.0;
   double total_ms = 0.0;  ///< whole compute(), wall time [ms]
 };
