@@ -79,6 +79,7 @@ void RgbdOdometry::reset() {
   reference_inliers_ = 0;
   lost_frames_ = 0;
   searching_map_ = false;
+  uncompensated_start_.reset();
 }
 
 std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFeatures& orb,

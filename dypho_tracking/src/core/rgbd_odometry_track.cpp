@@ -100,6 +100,7 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   }
   if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
     acceptPose(&work);
+    compensateStartKeyframe(&work);
     if (options_.localization_only) {  // the map stays as loaded: only the reference follows
       followMap(work);
       return finishFrame(&work);
@@ -194,6 +195,7 @@ void RgbdOdometry::startMap(TrackingFrame* work) {
     return;
   }
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
+  holdUncompensatedStart(*work);
   if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
     unverified_keyframe_id_ = reference_id_;
   result.state = TrackingState::kOk;
@@ -218,11 +220,7 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
   CameraRates rates_prior;
   const bool moving_camera_model = options_.rolling_shutter_readout_ms > 0.0 || options_.motion_blur_exposure_ms > 0.0;
   if (moving_camera_model && motion_.hasVelocity() && motion_.stepNs() > 0) {
-    const Eigen::Isometry3d& step = *motion_.lastStep();
-    const double dt_s = timestampToSeconds(motion_.stepNs());
-    const Eigen::AngleAxisd turn(step.rotation());
-    rates_prior.omega_rad_s = turn.axis() * turn.angle() / dt_s;
-    rates_prior.velocity_m_s = step.rotation().transpose() * step.translation() / dt_s;
+    rates_prior = ratesOfStep(*motion_.lastStep(), timestampToSeconds(motion_.stepNs()));
   }
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
                                  &work->result.times, &own_view_, !cameraStill(), rates_prior,
@@ -449,6 +447,7 @@ void RgbdOdometry::reinitialise(TrackingFrame* work) {
   const std::int64_t first_new_keyframe_id = next_keyframe_id_;
   searching_map_ = false;  // not found in a restored map: a new segment, as after any loss
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
+  holdUncompensatedStart(*work);
   if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
     unverified_keyframe_id_ = reference_id_;
   // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
@@ -463,6 +462,47 @@ void RgbdOdometry::reinitialise(TrackingFrame* work) {
                     "unknown); poses are not anchored to the map until relocalisation or a loop "
                     "closure";
   lost_frames_ = 0;
+}
+
+void RgbdOdometry::holdUncompensatedStart(const TrackingFrame& work) {
+  uncompensated_start_.reset();
+  if (!(options_.rolling_shutter_readout_ms > 0.0) || reference_id_ < 0) return;
+  uncompensated_start_ =
+      UncompensatedStart{reference_id_, work.frame.stamp_ns, work.frame.depth_m.clone(), work.frame.camera};
+}
+
+void RgbdOdometry::compensateStartKeyframe(TrackingFrame* work) {
+  if (!uncompensated_start_) return;
+  const UncompensatedStart start = std::move(*uncompensated_start_);
+  uncompensated_start_.reset();
+  // Only the first frame tracked after the start, against that keyframe, within a few frame
+  // intervals (a longer step says less about the turn); only the points the keyframe alone has
+  // seen are moved (a re-initialised segment's keyframe may have fused older points).
+  constexpr double kMaxStepS = 0.1;
+  const double dt_s = timestampToSeconds(work->frame.stamp_ns - start.stamp_ns);
+  MapKeyframe* keyframe = map_.mutableKeyframe(start.keyframe_id);
+  if (keyframe == nullptr || reference_id_ != start.keyframe_id || pending_ba_.valid() || !(dt_s > 0.0) ||
+      dt_s > kMaxStepS) {
+    return;
+  }
+  const CameraRates rates = ratesOfStep(keyframe->T_world_camera.inverse() * work->T_world_camera, dt_s);
+  // The skew the turn makes between the top and the bottom row [px]. One step's rotation is
+  // uncertain by 0.3-0.5 deg (the first steps of fr1 and Bonn), 3-4 px of skew at 30 Hz: a smaller
+  // skew would be remade by noise (the Bonn window's slow start, 2.4 px, remade: 1.04 -> 1.35 cm).
+  constexpr double kMinSkewPx = 10.0;
+  const double skew_px = rates.omega_rad_s.norm() * options_.rolling_shutter_readout_ms * 1e-3 * work->pinhole.fx;
+  if (skew_px < kMinSkewPx) return;
+  // The frame was matched against the skewed points, so its own estimate is the difference of
+  // the two skews (about none); under constant velocity it turns as the step did.
+  work->aligned.rates = rates;
+  keyframe->features = compensateRollingShutter(keyframe->features, start.depth_m, start.camera, rates.omega_rad_s,
+                                                options_.rolling_shutter_readout_ms * 1e-3, rates.velocity_m_s);
+  for (std::size_t i = 0; i < keyframe->map_point_ids.size(); ++i) {
+    MapPoint* point = map_.mutablePoint(keyframe->map_point_ids[i]);
+    if (point == nullptr || point->first_keyframe_id != keyframe->id || point->observations.size() != 1) continue;
+    point->p_world_m = keyframe->T_world_camera * keyframe->features.p_camera_m[i];
+  }
+  setReference(reference_id_);
 }
 
 }  // namespace tracking

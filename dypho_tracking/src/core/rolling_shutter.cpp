@@ -10,6 +10,15 @@
 namespace dypho {
 namespace tracking {
 
+CameraRates ratesOfStep(const Eigen::Isometry3d& T_prev_cur, double dt_s) {
+  CameraRates rates;
+  if (!(dt_s > 0.0)) return rates;
+  const Eigen::AngleAxisd turn(T_prev_cur.rotation());
+  rates.omega_rad_s = turn.axis() * turn.angle() / dt_s;
+  rates.velocity_m_s = T_prev_cur.rotation().transpose() * T_prev_cur.translation() / dt_s;
+  return rates;
+}
+
 FrameFeatures compensateRollingShutter(const FrameFeatures& features, const cv::Mat& depth_m,
                                        const CameraIntrinsics& camera, const Eigen::Vector3d& omega_camera_rad_s,
                                        double readout_s, const Eigen::Vector3d& velocity_camera_m_s) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <future>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <map>
@@ -205,6 +206,17 @@ class RgbdOdometry {
   void markLost(TrackingFrame* work);
   /// A new keyframe at the last good pose after too many lost frames (not anchored to the map).
   void reinitialise(TrackingFrame* work);
+  /// With a rolling shutter, after startMap / reinitialise: the new keyframe's frame is kept until
+  /// a frame is tracked against it (uncompensated_start_).
+  void holdUncompensatedStart(const TrackingFrame& work);
+  /// The first frame tracked against a keyframe that started a map without a velocity: the step
+  /// between them gives the start's velocities. When their skew stands above the step's noise
+  /// (10 px top to bottom), the keyframe's keypoints and its own points are remade as its camera
+  /// at the stamp saw them (compensateRollingShutter), as every later keyframe's are. The frame
+  /// keeps its pose and takes the step's velocities: it was matched against the skewed points, so
+  /// its own estimate is the difference of two skews. The following frames match the remade
+  /// points; the keyframe mapping already received keeps its keypoints.
+  void compensateStartKeyframe(TrackingFrame* work);
   /// The result's map and reference fields and the total time; returns the result.
   TrackingResult finishFrame(TrackingFrame* work) const;
 
@@ -305,6 +317,15 @@ class RgbdOdometry {
   std::int64_t last_loop_keyframe_id_ = -1;  ///< keyframe where the last loop closed
   /// First keyframe of a re-initialised segment not yet tied to the earlier map; -1 = anchored.
   std::int64_t unanchored_from_keyframe_id_ = -1;
+  /// A keyframe that started a map (or a re-initialised segment) under a rolling shutter: its
+  /// keypoints carry the skew of a turn not yet known, until compensateStartKeyframe.
+  struct UncompensatedStart {
+    std::int64_t keyframe_id = -1;
+    Timestamp stamp_ns = 0;
+    cv::Mat depth_m;  ///< its depth image (a copy: the caller may reuse the frame's buffer)
+    CameraIntrinsics camera;
+  };
+  std::optional<UncompensatedStart> uncompensated_start_;
   /// First keyframe after a start / re-initialisation while its points are unverified
   /// (TrackingOptions::first_keyframe_moving_hits); -1 when none.
   std::int64_t unverified_keyframe_id_ = -1;
