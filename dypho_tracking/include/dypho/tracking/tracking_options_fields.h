@@ -358,6 +358,12 @@ void visitGlobalBaOptions(TrackingOptions& options, Visitor&& visitor) {
           "Wall-time budget of one global BA, both rounds together [s] (each round stops with its best solution so "
           "far); default 4: the tracking nodelet runs the final global BA in its shutdown and roslaunch sends SIGTERM "
           "15 s after SIGINT. Range [0.1, 3600].");
+  visitor("trajectory_smoothing_s", options.trajectory_smoothing_s,
+          "The saved trajectory (trajectory.txt, not the poses published at frame time): each frame's position is "
+          "the straight line fitted in time through its segment's positions within +- this many seconds [s]; default "
+          "0.075 (+-2 frames at 30 Hz): the per-frame translation noise is white, a camera's motion smooth; the "
+          "window divides the noise by about sqrt(5) and follows a 1 m/s^2 acceleration to about 1 mm. Rotations are "
+          "kept. 0 = off; range [0, 1].");
 }
 
 /// Localisation in a loaded map (TrackingOptions), after the global BA block.
