@@ -111,10 +111,10 @@ struct RunVariant {
 /// `config` with the saved trajectory's smoothing off (trajectory_smoothing_s: 0), added to its
 /// tracking: block or as one.
 std::string withRawTrajectory(const std::string& config) {
-  const std::string key = "  trajectory_smoothing_s: 0\n";
-  const std::size_t at = config.find("tracking:\n");
-  if (at == std::string::npos) return config + "tracking:\n" + key;
-  return config.substr(0, at + 10) + key + config.substr(at + 10);
+  const std::string block = "tracking:\n", key = "  trajectory_smoothing_s: 0\n";
+  const std::size_t at = config.find(block);
+  if (at == std::string::npos) return config + block + key;
+  return std::string(config).insert(at + block.size(), key);
 }
 
 /// One option's effect on `data`: runs it with `with.config` and with `without.config` (config
