@@ -502,6 +502,35 @@ TEST(FlowMotionMasker, StageTimesArePartsOfTheTotal) {
   }
 }
 
+// prepareFlow (the flow before the pose is known, MaskStage's live wait) then compute() of the
+// same frame gives exactly what compute() alone gives: the same mask, flow and times' parts.
+TEST(FlowMotionMasker, FlowPreparedBeforeTheComputeGivesTheSameResult) {
+  FlowMotionMasker alone{FlowMaskOptions()};
+  FlowMotionMasker prepared{FlowMaskOptions()};
+  const cv::Mat bg = makeTexture(kSize, 4);
+  const cv::Mat sq = makeTexture(cv::Size(160, 160), 5);
+  for (int k = 0; k < 4; ++k) {
+    RgbdFrame frame = frameOf(squareScene(bg, cv::Point2d(3.0 * k, 1.0 * k), sq, cv::Rect(200 + 8 * k, 150, 120, 120)));
+    frame.stamp_ns = (k + 1) * 33'333'333;
+    const FlowMaskResult a = alone.compute(frame);
+    prepared.prepareFlow(frame);
+    const FlowMaskResult b = prepared.compute(frame);
+    ASSERT_EQ(a.degraded, b.degraded) << "frame " << k;
+    EXPECT_EQ(a.message, b.message) << "frame " << k;
+    ASSERT_EQ(a.mask.size(), b.mask.size()) << "frame " << k;
+    EXPECT_EQ(cv::countNonZero(a.mask != b.mask), 0) << "frame " << k;
+    ASSERT_EQ(alone.lastFlow().empty(), prepared.lastFlow().empty()) << "frame " << k;
+    if (!alone.lastFlow().empty()) {
+      EXPECT_EQ(cv::norm(alone.lastFlow(), prepared.lastFlow(), cv::NORM_INF), 0.0) << "frame " << k;
+    }
+    if (k > 0) {
+      EXPECT_GT(cv::countNonZero(b.mask), 0) << "frame " << k;  // the square is found
+      EXPECT_GT(b.flow_ms, 0.0) << "frame " << k;
+      EXPECT_LE(b.flow_ms, b.total_ms) << "frame " << k;  // the prepared part counts in the total
+    }
+  }
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace mask
 }  // namespace dypho

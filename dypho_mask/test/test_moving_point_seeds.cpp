@@ -1,9 +1,12 @@
-// Moving points (tracking -> mask): the features the static check found carried along with people
-// the mask missed are grown over the surface they lie on in the next mask (MaskStage hand-over,
-// DynamicMaskOptions::moving_point_seeds).
+// MaskStage's hand-overs from tracking. Moving points: the features the static check found
+// carried along with people the mask missed are grown over the surface they lie on in the next
+// mask (DynamicMaskOptions::moving_point_seeds). Catch-up mode, and the wait for the previous
+// frame's pose.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -92,7 +95,9 @@ TEST(MaskStageCatchUp, FramesWaitingBehindAFramePutItInCatchUpMode) {
     for (std::size_t i = 0; i < waiting.size(); ++i) {
       const MaskResult result = stage.process(frameAt(static_cast<int>(i)), waiting[i]);
       EXPECT_FALSE(result.dropped);
-      if (i > 0) EXPECT_FALSE(result.mask.empty()) << "frame " << i;
+      if (i > 0) {
+        EXPECT_FALSE(result.mask.empty()) << "frame " << i;
+      }
     }
     return stage.stats().frames_caught_up;
   };
@@ -103,5 +108,49 @@ TEST(MaskStageCatchUp, FramesWaitingBehindAFramePutItInCatchUpMode) {
   DynamicMaskOptions bad;
   bad.catch_up_frames_waiting = -1;
   EXPECT_THROW(MaskStage{bad}, std::invalid_argument);
+}
+// Live (MaskStageOptions::previous_pose_wait_s): a frame's mask waits for the pose of the frame
+// masked before it, which tracking hands on a few milliseconds later, so that its ego-motion prior
+// is fresh. Not when frames wait behind it (the graph is behind), not with 0, and a pose that
+// never comes costs one bounded wait. The pose arrives 30 ms after the frame from another thread.
+struct PoseWait {
+  std::size_t fresh = 0;      ///< frames with a fresh prior among the last one
+  std::size_t timed_out = 0;  ///< waits in vain
+};
+PoseWait lastFrameWithLatePose(double wait_s, std::size_t frames_waiting, bool pose_comes) {
+  MaskStageOptions stage_options;
+  stage_options.previous_pose_wait_s = wait_s;
+  MaskStage stage(DynamicMaskOptions(), stage_options);
+  const auto still = [](int i) { return PoseUpdate{frameAt(i).stamp_ns, Eigen::Isometry3d::Identity(), true, false}; };
+  for (int i = 0; i < 3; ++i) {  // offline: each pose is there before the next frame
+    stage.process(frameAt(i));
+    stage.observePose(still(i));
+  }
+  stage.process(frameAt(3));
+  const std::size_t fresh_before = stage.stats().frames_with_fresh_prior;
+  std::thread tracking([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    if (pose_comes) stage.observePose(still(3));
+  });
+  const MaskResult result = stage.process(frameAt(4), frames_waiting);
+  tracking.join();
+  EXPECT_FALSE(result.mask.empty());
+  return {stage.stats().frames_with_fresh_prior - fresh_before, stage.stats().pose_waits_timed_out};
+}
+
+TEST(MaskStagePreviousPose, AFrameWaitsForThePreviousFramesPoseUnlessFramesWaitBehindIt) {
+  const PoseWait waited = lastFrameWithLatePose(1.0, 0, true);
+  EXPECT_EQ(waited.fresh, 1u);
+  EXPECT_EQ(waited.timed_out, 0u);
+  EXPECT_EQ(lastFrameWithLatePose(0.0, 0, true).fresh, 0u);  // never waits: predicted from older poses
+  EXPECT_EQ(lastFrameWithLatePose(1.0, 1, true).fresh, 0u);  // behind: does not wait
+  const PoseWait in_vain = lastFrameWithLatePose(0.005, 0, false);
+  EXPECT_EQ(in_vain.fresh, 0u);
+  EXPECT_EQ(in_vain.timed_out, 1u);
+  MaskStageOptions bad;
+  bad.previous_pose_wait_s = -0.01;
+  EXPECT_THROW((MaskStage{DynamicMaskOptions(), bad}), std::invalid_argument);
+  bad.previous_pose_wait_s = 2.0;
+  EXPECT_THROW((MaskStage{DynamicMaskOptions(), bad}), std::invalid_argument);
 }
 }  // namespace DYPHO_UNITY_ID

@@ -74,8 +74,9 @@ FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameRepor
     report.tracking = std::move(out.result);
     return report;
   }
-  mask_.observePose(out.pose);
+  // The points before the pose: a mask waiting for this pose (live) starts when it arrives.
   mask_.observeMovingPoints({out.result.stamp_ns, out.result.moving_points_camera_m});
+  mask_.observePose(out.pose);
   if (options_.build_map) mapping_.observePose(out.pose);
   if (mapsFrames()) {
     const auto t_map = std::chrono::steady_clock::now();

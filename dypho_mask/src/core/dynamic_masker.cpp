@@ -116,8 +116,19 @@ struct DynamicMasker::FrameState {
   bool background_restarted = false;  ///< B started again at this frame (motion since B unknown)
 };
 
-MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
+void DynamicMasker::prepareFlow(const RgbdFrame& frame, bool catching_up) {
   const auto t0 = Clock::now();
+  flow_.setCatchingUp(catching_up);
+  flow_.prepareFlow(frame);
+  prepared_stamp_ns_ = frame.stamp_ns;
+  prepared_ms_ = msSince(t0);
+}
+
+MaskResult DynamicMasker::compute(const RgbdFrame& frame, const MaskPrior& prior) {
+  // The flow prepared for this frame counts in its time.
+  const auto t0 = Clock::now() - std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(
+                                     prepared_stamp_ns_ == frame.stamp_ns ? prepared_ms_ : 0.0));
+  prepared_stamp_ns_ = -1;
   MaskResult result;
   FrameState f(frame, prior);
   f.size = frame.bgr.size();

@@ -64,6 +64,7 @@ FlowMotionMasker::FlowMotionMasker(const FlowMaskOptions& options)
 FlowMotionMasker::~FlowMotionMasker() = default;
 
 void FlowMotionMasker::reset() {
+  prepared_.reset();
   input_size_ = cv::Size();
   memory_.release();
   last_flow_valid_ = false;
@@ -93,34 +94,49 @@ bool FlowMotionMasker::checkInput(const RgbdFrame& frame, FlowMaskResult& result
   return false;
 }
 
+void FlowMotionMasker::prepareFlow(const RgbdFrame& frame) {
+  const auto t0 = Clock::now();
+  last_flow_valid_ = false;
+  PreparedFlow p;
+  p.stamp_ns = frame.stamp_ns;
+  if (checkInput(frame, p.result)) {
+    const cv::Size size = frame.bgr.size();
+    p.result.mask = cv::Mat::zeros(size, CV_8UC1);
+    p.small = reduceGrey(frame.bgr);
+    if (continueHistory(size, p.result)) {
+      computeFlow(p.result);
+      p.flow_ready = true;
+    }
+  }
+  p.ms = msSince(t0);
+  prepared_ = std::move(p);
+}
+
 FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur,
                                          const cv::Mat& previous_dynamic, PoseFitUse fit) {
   const auto t0 = Clock::now();
-  last_flow_valid_ = false;
-  FlowMaskResult result;
-  if (!checkInput(frame, result)) {
-    result.total_ms = msSince(t0);
+  if (!prepared_ || prepared_->stamp_ns != frame.stamp_ns) prepareFlow(frame);
+  PreparedFlow prepared = std::move(*prepared_);
+  prepared_.reset();
+  FlowMaskResult result = std::move(prepared.result);
+  const auto finished = [&] { result.total_ms = prepared.ms + msSince(t0); };
+  if (!prepared.flow_ready) {
+    finished();
     return result;
   }
   const cv::Size size = frame.bgr.size();
-  result.mask = cv::Mat::zeros(size, CV_8UC1);
-  const cv::Size small = reduceGrey(frame.bgr);
-  if (!continueHistory(size, result)) {
-    result.total_ms = msSince(t0);
-    return result;
-  }
-  computeFlow(result);
+  const cv::Size small = prepared.small;
   computeCorrespondences(size, small, frame.camera);
   carryPrevious(previous_dynamic);
   if (!fitEgoMotion(frame, small, T_prev_cur, fit, result)) {
-    result.total_ms = msSince(t0);
+    finished();
     return result;
   }
   weighStillCamera(result);
   accumulateResidual(result.still_camera_weight);
   thresholdResidual(size, result);
   finishMask(size, result);
-  result.total_ms = msSince(t0);
+  finished();
   return result;
 }
 

@@ -1,17 +1,36 @@
 /// MaskStage: the mask core with its motion prior, R_d hand-over and restart policy.
 #include "dypho/mask/mask_stage.h"
 
+#include <chrono>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 namespace dypho::mask {
 
 MaskStage::MaskStage(const DynamicMaskOptions& options, const MaskStageOptions& stage)
-    : stage_options_(stage), masker_(options), motion_(stage.motion_max_gap_s) {}
+    : stage_options_(stage), masker_(options), motion_(stage.motion_max_gap_s) {
+  if (!(stage.previous_pose_wait_s >= 0.0 && stage.previous_pose_wait_s <= 1.0)) {
+    throw std::invalid_argument("MaskStageOptions::previous_pose_wait_s must be in [0, 1] s, got " +
+                                std::to_string(stage.previous_pose_wait_s));
+  }
+}
 
 void MaskStage::observePose(const PoseUpdate& update) {
-  std::lock_guard<std::mutex> lock(prior_mutex_);
-  motion_.observe(update);
+  {
+    std::lock_guard<std::mutex> lock(prior_mutex_);
+    motion_.observe(update);
+    if (!newest_pose_ns_ || update.stamp_ns > *newest_pose_ns_) newest_pose_ns_ = update.stamp_ns;
+  }
+  pose_arrived_.notify_all();
+}
+
+bool MaskStage::waitForPreviousPose(std::unique_lock<std::mutex>& lock) {
+  const Timestamp previous_ns = *previous_frame_ns_;
+  const auto arrived = [&] { return newest_pose_ns_ && *newest_pose_ns_ >= previous_ns; };
+  if (arrived()) return true;
+  const auto wait = std::chrono::duration<double>(stage_options_.previous_pose_wait_s);
+  return pose_arrived_.wait_for(lock, std::chrono::duration_cast<std::chrono::nanoseconds>(wait), arrived);
 }
 
 void MaskStage::observeMovingPoints(MovingPoints points) {
@@ -42,6 +61,43 @@ std::optional<Eigen::Isometry3d> MaskStage::poseAt(Timestamp stamp_ns) const {
   return motion_.predict(stamp_ns);
 }
 
+void MaskStage::fillPrior(const RgbdFrame& frame, MaskPrior* prior) {
+  if (previous_frame_ns_) {
+    const std::optional<Eigen::Isometry3d> T_world_prev = poseAt(*previous_frame_ns_);
+    const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
+    if (T_world_prev && T_world_cur) prior->T_prev_cur = T_world_prev->inverse() * *T_world_cur;
+    // Fresh: the previous frame was tracked, and this frame is one interval after it.
+    const Timestamp interval_ns = motion_.frameIntervalNs();
+    const bool next_frame = interval_ns > 0 && frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
+    prior->prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && next_frame;
+    prior->after_gap = interval_ns > 0 && !next_frame;
+  }
+  if (!rendered_depth_m_.empty()) {
+    const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));
+    if (offset_s <= stage_options_.rendered_depth_tolerance_s) {
+      prior->rendered_depth_m = rendered_depth_m_;
+      rendered_depth_m_.release();
+    } else if (rendered_stamp_ns_ < frame.stamp_ns) {
+      rendered_depth_m_.release();  // rendered for an earlier frame: never used for this one
+      ++stats_.rendered_depth_unmatched;
+    }
+  }
+  if (!moving_points_.p_camera_m.empty() && moving_points_.stamp_ns < frame.stamp_ns &&
+      timestampToSeconds(frame.stamp_ns - moving_points_.stamp_ns) <= stage_options_.moving_points_max_age_s) {
+    const std::optional<Eigen::Isometry3d> T_world_seen = poseAt(moving_points_.stamp_ns);
+    const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
+    const Eigen::Isometry3f T_cur_seen = T_world_seen && T_world_cur
+                                             ? (T_world_cur->inverse() * *T_world_seen).cast<float>()
+                                             : Eigen::Isometry3f::Identity();
+    prior->moving_points_camera_m.reserve(moving_points_.p_camera_m.size());
+    for (const cv::Point3f& p : moving_points_.p_camera_m) {
+      const Eigen::Vector3f q = T_cur_seen * Eigen::Vector3f(p.x, p.y, p.z);
+      prior->moving_points_camera_m.emplace_back(q.x(), q.y(), q.z());
+    }
+  }
+  previous_frame_ns_ = frame.stamp_ns;
+}
+
 MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting) {
   std::lock_guard<std::mutex> process_lock(process_mutex_);
   MaskPrior prior;
@@ -62,46 +118,22 @@ MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting
       motion_.reset();
       rendered_depth_m_.release();
       previous_frame_ns_.reset();
+      newest_pose_ns_.reset();
       moving_points_ = MovingPoints();
       ++stats_.restarts;
       restarted = true;
     }
-    if (previous_frame_ns_) {
-      const std::optional<Eigen::Isometry3d> T_world_prev = poseAt(*previous_frame_ns_);
-      const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
-      if (T_world_prev && T_world_cur) prior.T_prev_cur = T_world_prev->inverse() * *T_world_cur;
-      // Fresh: the previous frame was tracked, and this frame is one interval after it.
-      const Timestamp interval_ns = motion_.frameIntervalNs();
-      const bool next_frame = interval_ns > 0 && frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
-      prior.prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && next_frame;
-      prior.after_gap = interval_ns > 0 && !next_frame;
-    }
-    if (!rendered_depth_m_.empty()) {
-      const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));
-      if (offset_s <= stage_options_.rendered_depth_tolerance_s) {
-        prior.rendered_depth_m = rendered_depth_m_;
-        rendered_depth_m_.release();
-      } else if (rendered_stamp_ns_ < frame.stamp_ns) {
-        rendered_depth_m_.release();  // rendered for an earlier frame: never used for this one
-        ++stats_.rendered_depth_unmatched;
-      }
-    }
-    if (!moving_points_.p_camera_m.empty() && moving_points_.stamp_ns < frame.stamp_ns &&
-        timestampToSeconds(frame.stamp_ns - moving_points_.stamp_ns) <= stage_options_.moving_points_max_age_s) {
-      const std::optional<Eigen::Isometry3d> T_world_seen = poseAt(moving_points_.stamp_ns);
-      const std::optional<Eigen::Isometry3d> T_world_cur = poseAt(frame.stamp_ns);
-      const Eigen::Isometry3f T_cur_seen = T_world_seen && T_world_cur
-                                               ? (T_world_cur->inverse() * *T_world_seen).cast<float>()
-                                               : Eigen::Isometry3f::Identity();
-      prior.moving_points_camera_m.reserve(moving_points_.p_camera_m.size());
-      for (const cv::Point3f& p : moving_points_.p_camera_m) {
-        const Eigen::Vector3f q = T_cur_seen * Eigen::Vector3f(p.x, p.y, p.z);
-        prior.moving_points_camera_m.emplace_back(q.x(), q.y(), q.z());
-      }
-    }
-    previous_frame_ns_ = frame.stamp_ns;
   }
   if (restarted) masker_.reset();
+  // Live, and not behind: the flow first, then the previous frame's pose, which tracking hands
+  // on meanwhile (usually a few milliseconds later).
+  const bool wait = frames_waiting == 0 && stage_options_.previous_pose_wait_s > 0.0;
+  if (wait) masker_.prepareFlow(frame, prior.catching_up);
+  {
+    std::unique_lock<std::mutex> lock(prior_mutex_);
+    if (wait && previous_frame_ns_ && !waitForPreviousPose(lock)) ++stats_.pose_waits_timed_out;
+    fillPrior(frame, &prior);
+  }
   MaskResult result = masker_.compute(frame, prior);
   if (restarted) {
     result.message = "time jumped backwards (bag looped?): mask history restarted" +
@@ -113,6 +145,7 @@ MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting
   if (result.rendered_depth_used) ++stats_.frames_with_rendered_depth;
   if (result.degraded) ++stats_.degraded_frames;
   if (prior.catching_up) ++stats_.frames_caught_up;
+  if (prior.T_prev_cur && prior.prediction_fresh) ++stats_.frames_with_fresh_prior;
   return result;
 }
 
@@ -122,6 +155,7 @@ void MaskStage::reset() {
   std::lock_guard<std::mutex> lock(prior_mutex_);
   motion_.reset();
   previous_frame_ns_.reset();
+  newest_pose_ns_.reset();
   stamp_gate_.reset();
   rendered_depth_m_.release();
   moving_points_ = MovingPoints();

@@ -100,6 +100,9 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     reader("camera_file", p.camera_file, "camera file whose intrinsics replace camera_info's; empty = camera_info");
     reader("rendered_depth_tolerance_s", p.stage_options.rendered_depth_tolerance_s,
            "R_d is used by the frame whose stamp is within this of its stamp [s]");
+    reader("previous_pose_wait_s", p.stage_options.previous_pose_wait_s,
+           "after its flow, a frame's mask waits at most this long for the previous frame's tracked pose, unless "
+           "frames wait behind it [s]; 0 = never");
     reader("max_waiting_frames", max_waiting_frames_,
            "frames waiting for the mask worker; beyond it the oldest is skipped and counted, >= 1");
     reader("cores", cores, "cores of the thread budget (0 = every core): OpenCV's pool gets half");

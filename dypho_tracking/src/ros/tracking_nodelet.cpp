@@ -270,6 +270,13 @@ class TrackingNodelet : public nodelet::Nodelet {
     if (!out.session_event.empty()) NODELET_WARN_STREAM("session: " << out.session_event);
     auto status = boost::make_shared<dypho_slam::TrackingStatus>(toStatusMsg(out, header, camera_frame, source, live));
     fillLiveFigures(*status);
+    // The moving points go out before the status: the mask's next frame waits for the status
+    // (previous_pose_wait_s) and then takes the newest points it has.
+    if (!result.moving_points_camera_m.empty()) {
+      std_msgs::Header points_header = header;
+      points_header.frame_id = camera_frame;
+      moving_points_pub_.publish(rc::toPointCloudMsg(result.moving_points_camera_m, points_header));
+    }
     status_pub_.publish(status);
     if (result.state != tracking::TrackingState::kOk) {
       const std::string message = std::string("tracking ") + tracking::toString(result.state) + ": " + result.message;
@@ -278,11 +285,6 @@ class TrackingNodelet : public nodelet::Nodelet {
       NODELET_INFO_STREAM("tracking: " << result.message);
     }
     timing_pub_.publish(toTimingMsg(result, header));
-    if (!result.moving_points_camera_m.empty()) {  // the mask grows them into its next masks
-      std_msgs::Header points_header = header;
-      points_header.frame_id = camera_frame;
-      moving_points_pub_.publish(rc::toPointCloudMsg(result.moving_points_camera_m, points_header));
-    }
     publishCorrections(out.corrections(), header.stamp);
     // Never publish a pose we do not trust, nor one not anchored to the map (re-initialised).
     if (!out.pose.trusted || !out.pose.anchored) return;

@@ -123,6 +123,12 @@ class DynamicMasker {
   /// Mask of `frame` (bgr CV_8UC3 or CV_8UC1; depth CV_32FC1 of the same size or empty).
   MaskResult compute(const RgbdFrame& frame, const MaskPrior& prior = {});
 
+  /// The part of compute() that needs no prior: the dense flow of `frame`
+  /// (FlowMotionMasker::prepareFlow), in catch-up mode when `catching_up`. A caller may then wait
+  /// for the pose the prior is made from; compute() of the same frame follows (with the same
+  /// catching_up) and gives what it gives without this call.
+  void prepareFlow(const RgbdFrame& frame, bool catching_up);
+
   /// Size at which the background model B_i works (input size times background.scale): R_d is
   /// best rendered at this size.
   cv::Size workingSize(const cv::Size& input) const;
@@ -196,6 +202,8 @@ class DynamicMasker {
 
   DynamicMaskOptions options_;
   FlowMotionMasker flow_;
+  Timestamp prepared_stamp_ns_ = -1;  ///< frame prepareFlow() ran for
+  double prepared_ms_ = 0.0;          ///< its time, counted in that frame's total_ms [ms]
   std::unique_ptr<SegmentScheduler> segment_;
   BackgroundModel background_;
   MaskCleaner full_cleaner_;

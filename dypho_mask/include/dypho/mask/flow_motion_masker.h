@@ -149,6 +149,11 @@ class FlowMotionMasker {
   FlowMaskResult compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur = std::nullopt,
                          const cv::Mat& previous_dynamic = cv::Mat(), PoseFitUse fit = PoseFitUse::kNone);
 
+  /// The part of compute() that needs no pose: the input check, the grey image and the dense
+  /// flow (most of its time). A compute() of the same frame (stamp) that follows starts after it
+  /// with the same result, so that a caller can wait for the pose meanwhile (MaskStage).
+  void prepareFlow(const RgbdFrame& frame);
+
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
   /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
   const cv::Mat& lastFlow() const { return last_flow_valid_ ? flow_ : empty_; }
@@ -222,7 +227,17 @@ class FlowMotionMasker {
   void applyAperture(const cv::Mat& residual_vec, cv::Mat& residual) const;
   void updatePixelGrid(const cv::Size& input_size, const cv::Size& small_size, const CameraIntrinsics& camera);
 
+  /// What prepareFlow() hands to the compute() of its frame.
+  struct PreparedFlow {
+    Timestamp stamp_ns = 0;
+    FlowMaskResult result;    ///< the mask's size, or why there is no flow (degraded, message)
+    cv::Size small;           ///< flow resolution
+    bool flow_ready = false;  ///< the flow was computed: compute() goes on from it
+    double ms = 0.0;          ///< time taken [ms]
+  };
+
   FlowMaskOptions options_;
+  std::optional<PreparedFlow> prepared_;  ///< prepareFlow()'s, until compute() takes it
   cv::Ptr<cv::DISOpticalFlow> dis_;
   GlobalMotionEstimator global_motion_;
   MaskCleaner cleaner_;

@@ -18,9 +18,13 @@
 ///    before the newest (a late frame), is dropped (MaskResult::dropped, no mask); a jump back by
 ///    more (a looped bag) restarts the masker: the flow, the background model B_i and the motion
 ///    prior are forgotten.
-/// Thread-safe: poses and R_d may arrive on other threads than process().
+///  - Live (previous_pose_wait_s): a frame's mask waits briefly for the previous frame's tracked
+///    pose, so that its prior is fresh; not when frames wait behind it.
+/// Thread-safe: poses and R_d may arrive on other threads than process(). A caller hands moving
+/// points on before the pose they belong to (the pose wakes a waiting process()).
 
 #include <cstddef>
+#include <condition_variable>
 #include <mutex>
 #include <optional>
 
@@ -44,6 +48,14 @@ struct MaskStageOptions {
   /// Moving points seen at most this long before a frame are grown into its mask [s]; default
   /// 0.1 (three 30 Hz frames: tracking may run a frame or two behind the mask).
   double moving_points_max_age_s = 0.1;
+  /// Live: after its dense flow, a frame's mask waits at most this long for the tracked pose of
+  /// the frame masked before it, unless frames wait behind it (the graph is behind) [s]; default
+  /// 0.033 (one frame at 30 Hz), range [0, 1]; 0 = never waits. With that pose the ego-motion
+  /// prior is fresh (one frame interval from a tracked pose) instead of predicted from older
+  /// poses, which on fast turns put the background's depth edges off and masked the static
+  /// scene; the price is pose latency (docs/journal/benchmarks-2026.md section 39). Offline
+  /// callers hand the pose on before the next frame: no wait.
+  double previous_pose_wait_s = 0.033;
 };
 
 /// Counters since construction or reset() (the graph test and diagnostics read them).
@@ -57,6 +69,9 @@ struct MaskStageStats {
   std::size_t restarts = 0;                    ///< restarts after a stamp jumped back
   std::size_t dropped_out_of_order = 0;        ///< frames dropped for a repeated or late stamp
   std::size_t frames_caught_up = 0;            ///< frames masked in catch-up mode (MaskPrior::catching_up)
+  std::size_t frames_with_fresh_prior =
+      0;  ///< of frames_with_ego_motion, those with a fresh one (MaskPrior::prediction_fresh)
+  std::size_t pose_waits_timed_out = 0;  ///< frames that waited previous_pose_wait_s in vain
 };
 
 class MaskStage {
@@ -90,6 +105,12 @@ class MaskStage {
  private:
   /// Pose at `stamp_ns` from the motion model (the last pose itself or a prediction).
   std::optional<Eigen::Isometry3d> poseAt(Timestamp stamp_ns) const;
+  /// Waits (at most previous_pose_wait_s, `lock` released meanwhile) until the pose of the frame
+  /// masked before arrived; false when it did not.
+  bool waitForPreviousPose(std::unique_lock<std::mutex>& lock);
+  /// The frame's ego-motion prior, R_d and moving points (prior_mutex_ held); the frame becomes
+  /// the previous one.
+  void fillPrior(const RgbdFrame& frame, MaskPrior* prior);
 
   MaskStageOptions stage_options_;
   std::mutex process_mutex_;  ///< one process() at a time (the masker is not thread-safe)
@@ -103,6 +124,8 @@ class MaskStage {
   Timestamp rendered_stamp_ns_ = 0;
   MovingPoints moving_points_;
   MaskStageStats stats_;
+  std::condition_variable pose_arrived_;     ///< signalled by observePose
+  std::optional<Timestamp> newest_pose_ns_;  ///< newest stamp observePose was given
 };
 
 }  // namespace dypho::mask
