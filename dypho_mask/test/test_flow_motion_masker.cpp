@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -512,9 +513,17 @@ TEST(FlowMotionMasker, FlowPreparedBeforeTheComputeGivesTheSameResult) {
   for (int k = 0; k < 4; ++k) {
     RgbdFrame frame = frameOf(squareScene(bg, cv::Point2d(3.0 * k, 1.0 * k), sq, cv::Rect(200 + 8 * k, 150, 120, 120)));
     frame.stamp_ns = (k + 1) * 33'333'333;
+    const auto t0 = std::chrono::steady_clock::now();
     const FlowMaskResult a = alone.compute(frame);
+    const auto t1 = std::chrono::steady_clock::now();
     prepared.prepareFlow(frame);
     const FlowMaskResult b = prepared.compute(frame);
+    const auto t2 = std::chrono::steady_clock::now();
+    // Each part counted once: a total never exceeds the wall time of the calls it covers.
+    using Ms = std::chrono::duration<double, std::milli>;
+    const double wall_alone_ms = Ms(t1 - t0).count(), wall_prepared_ms = Ms(t2 - t1).count();
+    EXPECT_LE(a.total_ms, wall_alone_ms) << "frame " << k;
+    EXPECT_LE(b.total_ms, wall_prepared_ms) << "frame " << k;
     ASSERT_EQ(a.degraded, b.degraded) << "frame " << k;
     EXPECT_EQ(a.message, b.message) << "frame " << k;
     ASSERT_EQ(a.mask.size(), b.mask.size()) << "frame " << k;

@@ -114,8 +114,8 @@ void FlowMotionMasker::prepareFlow(const RgbdFrame& frame) {
 
 FlowMaskResult FlowMotionMasker::compute(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_prev_cur,
                                          const cv::Mat& previous_dynamic, PoseFitUse fit) {
-  const auto t0 = Clock::now();
   if (!prepared_ || prepared_->stamp_ns != frame.stamp_ns) prepareFlow(frame);
+  const auto t0 = Clock::now();  // the prepared part's time is prepared.ms
   PreparedFlow prepared = std::move(*prepared_);
   prepared_.reset();
   FlowMaskResult result = std::move(prepared.result);
