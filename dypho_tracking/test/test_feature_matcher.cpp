@@ -75,6 +75,58 @@ TEST(FeatureMatcher, ProjectionSearchUsesThePrediction) {
   EXPECT_LT(bad.size(), good.size() / 4);
 }
 
+/// One reference point 2 m ahead and two frame keypoints at its projection, `offset_px` apart,
+/// at pyramid levels `level_a` and `level_b`, whose descriptors differ from the point's by 10 and
+/// 12 bits: a is the best candidate and b the second, 10 >= 0.8 * 12 fails the ratio test.
+Pair twoCandidates(int level_a, int level_b, double offset_px, const Pinhole& k) {
+  cv::RNG rng(7);
+  cv::Mat d(1, 32, CV_8UC1);
+  rng.fill(d, cv::RNG::UNIFORM, 0, 256);
+  const auto flipped = [&](int first_bit, int bits) {
+    cv::Mat out = d.clone();
+    for (int b = first_bit; b < first_bit + bits; ++b) out.at<uchar>(0, b / 8) ^= static_cast<uchar>(1u << (b % 8));
+    return out;
+  };
+  Pair p;
+  p.reference.p_world_m.push_back(Eigen::Vector3d(0.1, -0.05, kDepthM));
+  p.reference.keypoints.emplace_back(cv::Point2f(0, 0), 31.0f, 0.0f, 0.0f, 0);
+  p.reference.descriptors = d;
+  p.reference.map_point_ids.push_back(0);
+  const Eigen::Vector2d uv = k.project(p.reference.p_world_m[0]);
+  const Eigen::Vector2d uvs[2] = {uv, uv + Eigen::Vector2d(offset_px, 0.0)};
+  const int levels[2] = {level_a, level_b};
+  for (int c = 0; c < 2; ++c) {
+    p.frame.keypoints.emplace_back(cv::Point2f(uvs[c].x(), uvs[c].y()), 31.0f, 0.0f, 0.0f, levels[c]);
+    p.frame.uv_undistorted_px.push_back(uvs[c]);
+    p.frame.depth_m.push_back(static_cast<float>(kDepthM));
+    p.frame.p_camera_m.push_back(p.reference.p_world_m[0]);
+  }
+  cv::vconcat(flipped(0, 10), flipped(100, 12), p.frame.descriptors);
+  return p;
+}
+
+TEST(FeatureMatcher, TheSameCornerAtTheNextLevelIsNoAmbiguityWhenAsked) {
+  const FeatureMatcher matcher{TrackingOptions()};
+  const Pinhole k = Pinhole::fromIntrinsics(test::testCamera());
+  const Eigen::Isometry3d T_cw = Eigen::Isometry3d::Identity();
+  // The corner found at levels 1 and 0: the strict test rejects it, the same-level test keeps the
+  // best (level 1, 10 bits).
+  const Pair same_corner = twoCandidates(1, 0, 0.5, k);
+  EXPECT_TRUE(matcher.matchByProjection(same_corner.reference, same_corner.frame, T_cw, k, 4.0).empty());
+  const auto kept = matcher.matchByProjection(same_corner.reference, same_corner.frame, T_cw, k, 4.0, true);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_EQ(kept[0].frame_index, 0);
+  EXPECT_EQ(kept[0].distance, 10);
+  // Two corners 3 px apart at the same level are an ambiguity either way.
+  const Pair two_corners = twoCandidates(0, 0, 3.0, k);
+  EXPECT_TRUE(matcher.matchByProjection(two_corners.reference, two_corners.frame, T_cw, k, 4.0).empty());
+  EXPECT_TRUE(matcher.matchByProjection(two_corners.reference, two_corners.frame, T_cw, k, 4.0, true).empty());
+  // A clear best (10 bits against the inverted 244) passes.
+  Pair clear = twoCandidates(0, 0, 3.0, k);
+  cv::bitwise_not(clear.frame.descriptors.row(1), clear.frame.descriptors.row(1));
+  EXPECT_EQ(matcher.matchByProjection(clear.reference, clear.frame, T_cw, k, 4.0).size(), 1u);
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -80,7 +80,7 @@ TEST(KeyframeAlignerProbation, VerifiedPointsRefuteAMovingGroupAndConfirmTheStat
   Eigen::Isometry3d T_predicted = s.T_camera_world;
   T_predicted.translation() += Eigen::Vector3d(0.005, 0.0, 0.0);  // a constant-velocity prediction 5 mm off
 
-  const AlignmentResult with = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, true);
+  const AlignmentResult with = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr);
   ASSERT_TRUE(with.success) << with.message;
   ASSERT_TRUE(with.verified_first);
   ASSERT_EQ(with.probation.size(), with.matches.size());
@@ -111,7 +111,10 @@ TEST(KeyframeAlignerProbation, VerifiedPointsRefuteAMovingGroupAndConfirmTheStat
 
   // Without the verified-first estimate every match carries the pose: no point is refuted, and the
   // group of 70 pulls the pose towards its motion (it is mostly an inlier there).
-  const AlignmentResult without = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, false);
+  AlignmentSettings every_match;
+  every_match.verified_first = false;
+  const AlignmentResult without =
+      aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, every_match);
   ASSERT_TRUE(without.success) << without.message;
   EXPECT_FALSE(without.verified_first);
   for (std::int8_t v : without.probation) EXPECT_GE(v, 0);
@@ -134,12 +137,14 @@ TEST(KeyframeAlignerProbation, WithoutTheTightPassThePoseIsTheGuidedPasss) {
   Eigen::Isometry3d T_predicted = s.T_camera_world;
   T_predicted.translation() += Eigen::Vector3d(0.005, 0.0, 0.0);
 
+  AlignmentSettings no_tight_pass;
+  no_tight_pass.tight_pass = false;
   const AlignmentResult lean =
-      aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, true, CameraRates(), false);
+      aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, no_tight_pass);
   ASSERT_TRUE(lean.success) << lean.message;
-  const AlignmentResult full = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, true);
+  const AlignmentResult full = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr);
   ASSERT_TRUE(full.success) << full.message;
-  const AlignmentResult full_again = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr, nullptr, true);
+  const AlignmentResult full_again = aligner.align(s.reference, s.frame, kPinhole, T_predicted, nullptr);
   ASSERT_TRUE(full.T_camera_world.isApprox(full_again.T_camera_world, 0.0)) << "align is deterministic";
   EXPECT_FALSE(lean.T_camera_world.isApprox(full.T_camera_world, 0.0));
   int refuted = 0, moving = 0;
@@ -158,7 +163,7 @@ TEST(KeyframeAlignerProbation, TooFewVerifiedPointsLetEveryMatchCarryThePose) {
   for (auto& v : s.reference.verified) v = 0;  // a start: nothing verified yet
   TrackingOptions options;
   const KeyframeAligner aligner(options);
-  const AlignmentResult r = aligner.align(s.reference, s.frame, kPinhole, s.T_camera_world, nullptr, nullptr, true);
+  const AlignmentResult r = aligner.align(s.reference, s.frame, kPinhole, s.T_camera_world, nullptr);
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_FALSE(r.verified_first);
   for (size_t m = 0; m < r.matches.size(); ++m) {

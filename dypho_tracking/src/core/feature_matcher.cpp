@@ -82,7 +82,8 @@ FeatureMatcher::FeatureMatcher(const TrackingOptions& options) : options_(option
 
 std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints& reference, const FrameFeatures& frame,
                                                             const Eigen::Isometry3d& T_camera_world,
-                                                            const Pinhole& pinhole, double radius_px) const {
+                                                            const Pinhole& pinhole, double radius_px,
+                                                            bool ratio_same_level_only) const {
   std::vector<FeatureMatch> candidates;
   if (reference.size() == 0 || frame.size() == 0) return candidates;
   const KeypointGrid grid(frame.uv_undistorted_px, 16.0);
@@ -101,24 +102,27 @@ std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints
     }
     const double r = radius_px * std::pow(options_.scale_factor, level);
     const uchar* d_ref = reference.descriptors.ptr<uchar>(static_cast<int>(i));
-    int best = INT_MAX, second = INT_MAX, best_index = -1;
+    int best = INT_MAX, second = INT_MAX, best_index = -1, best_octave = -1, second_octave = -1;
     grid.forEachNear(uv, r, [&](int j) {
       const Eigen::Vector2d& q = frame.uv_undistorted_px[static_cast<size_t>(j)];
       if (std::abs(q.x() - uv.x()) > r || std::abs(q.y() - uv.y()) > r) return;
-      if (std::abs(frame.keypoints[static_cast<size_t>(j)].octave - level) > options_.max_level_difference) {
-        return;
-      }
+      const int octave = frame.keypoints[static_cast<size_t>(j)].octave;
+      if (std::abs(octave - level) > options_.max_level_difference) return;
       const int d = hamming256(d_ref, frame.descriptors.ptr<uchar>(j));
       if (d < best) {
         second = best;
+        second_octave = best_octave;
         best = d;
         best_index = j;
+        best_octave = octave;
       } else if (d < second) {
         second = d;
+        second_octave = octave;
       }
     });
     if (best_index < 0 || best > options_.max_hamming_distance) continue;
-    if (second != INT_MAX && best >= options_.ratio_test * second) continue;
+    const bool competing = !ratio_same_level_only || second_octave == best_octave;
+    if (second != INT_MAX && competing && best >= options_.ratio_test * second) continue;
     candidates.push_back({static_cast<int>(i), best_index, best});
   }
   return filterByRotationConsistency(makeOneToOne(candidates, frame.size()), reference, frame);

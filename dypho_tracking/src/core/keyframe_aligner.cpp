@@ -158,17 +158,17 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
 
 bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px,
-                                 bool use_verified_first, const CameraRates& rates_prior, std::size_t* num_guided,
-                                 AlignmentResult* result, TrackingTimesMs* times) const {
+                                 const AlignmentSettings& settings, std::size_t* num_guided, AlignmentResult* result,
+                                 TrackingTimesMs* times) const {
   auto t0 = Clock::now();
-  const std::vector<FeatureMatch> guided =
-      matcher_.matchByProjection(reference, frame, T_camera_world_predicted, pinhole, radius_px);
+  const std::vector<FeatureMatch> guided = matcher_.matchByProjection(
+      reference, frame, T_camera_world_predicted, pinhole, radius_px, settings.ratio_same_level_only);
   times->matching += msSince(t0);
   *num_guided = guided.size();
   if (static_cast<int>(guided.size()) < options_.min_inliers) return false;
   t0 = Clock::now();
-  const bool ok =
-      refine(reference, frame, pinhole, guided, T_camera_world_predicted, use_verified_first, rates_prior, result);
+  const bool ok = refine(reference, frame, pinhole, guided, T_camera_world_predicted, settings.verified_first,
+                         settings.rates_prior, result);
   times->refine += msSince(t0);
   return ok;
 }
@@ -176,7 +176,7 @@ bool KeyframeAligner::guidedPass(const KeyframePoints& reference, const FrameFea
 AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const FrameFeatures& frame,
                                        const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world_predicted,
                                        TrackingTimesMs* times, const KeyframePoints* brute_force_reference,
-                                       bool use_verified_first, const CameraRates& rates_prior, bool tight_pass) const {
+                                       const AlignmentSettings& settings) const {
   const KeyframePoints& global_ref = brute_force_reference != nullptr ? *brute_force_reference : reference;
   TrackingTimesMs local;
   TrackingTimesMs& t = times != nullptr ? *times : local;
@@ -186,11 +186,11 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
   // 1. Guided by the prediction; when that fails (a jerk of the hand, frames dropped before this
   // one), guided again over a wider radius before the global search.
   std::size_t num_guided = 0;
-  bool ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.search_radius_px,
-                       use_verified_first, rates_prior, &num_guided, &result, &t);
+  bool ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.search_radius_px, settings,
+                       &num_guided, &result, &t);
   if (!ok && options_.wide_search_radius_px > options_.search_radius_px) {
-    ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.wide_search_radius_px,
-                    use_verified_first, rates_prior, &num_guided, &result, &t);
+    ok = guidedPass(reference, frame, pinhole, T_camera_world_predicted, options_.wide_search_radius_px, settings,
+                    &num_guided, &result, &t);
   }
   auto t0 = Clock::now();
 
@@ -217,21 +217,23 @@ AlignmentResult KeyframeAligner::align(const KeyframePoints& reference, const Fr
     result.used_pnp = true;
     result.matches_refer_to_fallback = brute_force_reference != nullptr;
     t0 = Clock::now();
-    ok = refine(global_ref, frame, pinhole, global, T_pnp, use_verified_first, rates_prior, &result);
+    ok = refine(global_ref, frame, pinhole, global, T_pnp, settings.verified_first, settings.rates_prior, &result);
     t.refine += msSince(t0);
     if (!ok) return result;
   }
 
   // 3. Tight projection pass around the estimate for more (and better) matches.
-  if (!tight_pass) return result;
+  if (!settings.tight_pass) return result;
   t0 = Clock::now();
   const std::vector<FeatureMatch> tight =
-      matcher_.matchByProjection(reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px);
+      matcher_.matchByProjection(reference, frame, result.T_camera_world, pinhole, options_.refine_search_radius_px,
+                                 settings.ratio_same_level_only);
   t.matching += msSince(t0);
   if (static_cast<int>(tight.size()) >= options_.min_inliers) {
     AlignmentResult second = result;
     t0 = Clock::now();
-    if (refine(reference, frame, pinhole, tight, result.T_camera_world, use_verified_first, rates_prior, &second) &&
+    if (refine(reference, frame, pinhole, tight, result.T_camera_world, settings.verified_first, settings.rates_prior,
+               &second) &&
         second.num_inliers >= result.num_inliers / 2) {
       second.used_pnp = result.used_pnp;
       second.matches_refer_to_fallback = false;

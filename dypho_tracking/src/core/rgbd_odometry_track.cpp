@@ -222,9 +222,15 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
   if (moving_camera_model && motion_.hasVelocity() && motion_.stepNs() > 0) {
     rates_prior = ratesOfStep(*motion_.lastStep(), timestampToSeconds(motion_.stepNs()));
   }
+  AlignmentSettings settings;
+  settings.verified_first = !cameraStill();
+  settings.rates_prior = rates_prior;
+  settings.tight_pass = !catching_up_;
+  // The ratio test across pyramid levels only on a sharp frame: the motion model's last turn.
+  const std::optional<double> turn_deg = motion_.turnPerIntervalDeg();
+  settings.ratio_same_level_only = turn_deg && *turn_deg < options_.ratio_test_same_level_max_rotation_deg;
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
-                                 &work->result.times, &own_view_, !cameraStill(), rates_prior,
-                                 /*tight_pass=*/!catching_up_);
+                                 &work->result.times, &own_view_, settings);
 }
 
 double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
@@ -234,7 +240,7 @@ double RgbdOdometry::frameTurnDeg(const TrackingFrame& work) const {
   // matches that carry the pose also switch the check off.
   double turn_deg = -1.0;
   if (motion_.hasVelocity()) {
-    turn_deg = Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 / M_PI / motion_.stepIntervals();
+    turn_deg = *motion_.turnPerIntervalDeg();
   } else if (work.aligned.success && map_.keyframe(reference_id_) != nullptr) {
     const AlignmentResult& aligned = work.aligned;
     turn_deg = imageTurnDeg(aligned.matches, aligned.matches_refer_to_fallback ? own_view_ : local_view_,
@@ -337,9 +343,7 @@ KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
   query.catching_up = catching_up_;
   query.camera_still = cameraStill();
   // Inter-frame rotation; unknown (0) right after lost frames.
-  query.frame_rotation_deg = motion_.hasVelocity() ? Eigen::AngleAxisd(motion_.lastStep()->rotation()).angle() * 180.0 /
-                                                         M_PI / motion_.stepIntervals()
-                                                   : 0.0;
+  query.frame_rotation_deg = motion_.turnPerIntervalDeg().value_or(0.0);
   return selector_.decide(query);
 }
 

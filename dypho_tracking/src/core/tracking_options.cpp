@@ -90,6 +90,7 @@ void TrackingOptions::validate() const {
   requireRange("refine_search_radius_px", refine_search_radius_px, 0.5, 50.0);
   requireRange("wide_search_radius_px", wide_search_radius_px, 0.0, 300.0);
   requireRange("max_level_difference", max_level_difference, 0, num_levels - 1);
+  requireRange("ratio_test_same_level_max_rotation_deg", ratio_test_same_level_max_rotation_deg, 0.0, 180.0);
   requireRange("ransac_iterations", ransac_iterations, 10, 100000);
   requireRange("ransac_reprojection_px", ransac_reprojection_px, 0.0, 50.0, true);
   requireRange("min_inliers", min_inliers, 6, 10000);

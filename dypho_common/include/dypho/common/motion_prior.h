@@ -103,6 +103,11 @@ class ConstantVelocityModel {
   /// Whole frame intervals the last step spans (2 when one frame was dropped between them); 1
   /// without a velocity.
   double stepIntervals() const { return step_ ? wholeIntervals(step_ns_) : 1.0; }
+  /// The camera's turn per frame interval over the last step [deg]; empty without a velocity.
+  std::optional<double> turnPerIntervalDeg() const {
+    if (!step_) return std::nullopt;
+    return Eigen::AngleAxisd(step_->rotation()).angle() * 180.0 / M_PI / stepIntervals();
+  }
 
   /// Motion from the last pose to the camera at `stamp_ns`, T_last_predicted = delta T. With no
   /// usable velocity (none yet, stamp not after the last, or further than max_gap_s ahead): empty.

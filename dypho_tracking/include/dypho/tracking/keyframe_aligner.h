@@ -47,6 +47,23 @@ struct AlignmentResult {
 PoseObservation observationOf(const FeatureMatch& match, const KeyframePoints& reference, const FrameFeatures& frame,
                               double readout_s = 0.0);
 
+/// How one KeyframeAligner::align runs; the defaults suit a relocalisation or a loop check.
+struct AlignmentSettings {
+  /// With points on probation (KeyframePoints::verified), estimate the pose from the verified
+  /// points first (false: every match carries the pose; the verdicts of the inliers are still
+  /// given).
+  bool verified_first = true;
+  /// The camera's predicted velocities, for a rolling shutter (PoseOptimizer::optimize).
+  CameraRates rates_prior;
+  /// false skips step 3 (a tracker catching up with the camera: about a quarter of its time per
+  /// frame, for precision).
+  bool tight_pass = true;
+  /// The projection searches apply the ratio test only between candidates at the same pyramid
+  /// level (FeatureMatcher::matchByProjection); for a sharp frame, where a corner is found again
+  /// at the next level.
+  bool ratio_same_level_only = false;
+};
+
 /// Frame-to-keyframe pose estimation in three steps:
 ///  1. projection-guided matching around the predicted pose (search_radius_px) and Ceres
 ///     refinement from the prediction; accepted when >= min_inliers inliers remain; otherwise
@@ -64,24 +81,18 @@ class KeyframeAligner {
   /// T_camera_world_predicted: prediction (constant velocity or last pose). Adds stage times to
   /// `times` (matching, pnp, refine) when not null. `brute_force_reference` (may be null = use
   /// `reference`): the smaller point set used for the global search + PnP of step 2 (e.g. the
-  /// last keyframe's own points while `reference` is the whole local map). `verified_first`:
-  /// with points on probation (KeyframePoints::verified), estimate the pose from the verified
-  /// points first (false: every match carries the pose; the verdicts of the inliers are still
-  /// given). Never throws on data.
-  /// `rates_prior`: the camera's predicted velocities, for a rolling shutter
-  /// (PoseOptimizer::optimize). `tight_pass` false skips step 3 (a tracker catching up with the
-  /// camera: about a quarter of its time per frame, for precision).
+  /// last keyframe's own points while `reference` is the whole local map). Never throws on data.
   AlignmentResult align(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
                         const Eigen::Isometry3d& T_camera_world_predicted, TrackingTimesMs* times,
-                        const KeyframePoints* brute_force_reference = nullptr, bool verified_first = true,
-                        const CameraRates& rates_prior = CameraRates(), bool tight_pass = true) const;
+                        const KeyframePoints* brute_force_reference = nullptr,
+                        const AlignmentSettings& settings = AlignmentSettings()) const;
 
  private:
   /// Projection-guided matching within `radius_px` of T_camera_world_predicted, then refine();
   /// true when it found the pose. `num_guided`: the matches found.
   bool guidedPass(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
-                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px, bool use_verified_first,
-                  const CameraRates& rates_prior, std::size_t* num_guided, AlignmentResult* result,
+                  const Eigen::Isometry3d& T_camera_world_predicted, double radius_px,
+                  const AlignmentSettings& settings, std::size_t* num_guided, AlignmentResult* result,
                   TrackingTimesMs* times) const;
   /// Ceres refinement of `matches` from `T_init` into `result`; true when >= min_inliers.
   bool refine(const KeyframePoints& reference, const FrameFeatures& frame, const Pinhole& pinhole,
