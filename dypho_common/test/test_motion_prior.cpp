@@ -51,7 +51,11 @@ TEST(ConstantVelocityModel, AStepOverADroppedFrameIsOneMotionPerInterval) {
     const auto next = model.predict(4 * kFrameNs);
     ASSERT_TRUE(next.has_value());
     EXPECT_TRUE(next->isApprox(pose(4), 1e-9)) << next->matrix();
+    // The turn per frame interval is the step's over its two intervals: 0.02 rad per frame.
+    ASSERT_TRUE(model.turnPerIntervalDeg().has_value());
+    EXPECT_NEAR(*model.turnPerIntervalDeg(), turning ? 0.02 * 180.0 / M_PI : 0.0, 1e-9);
   }
+  EXPECT_FALSE(ConstantVelocityModel().turnPerIntervalDeg().has_value());  // no velocity, no turn
 
   ConstantVelocityModel gap_first;
   gap_first.observe({0, poseAt(0.0, 0.0), true, false});
