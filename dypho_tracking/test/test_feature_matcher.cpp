@@ -92,6 +92,7 @@ Pair twoCandidates(int level_a, int level_b, double offset_px, const Pinhole& k)
   p.reference.keypoints.emplace_back(cv::Point2f(0, 0), 31.0f, 0.0f, 0.0f, 0);
   p.reference.descriptors = d;
   p.reference.map_point_ids.push_back(0);
+  p.reference.verified.push_back(1);  // a point that carries the pose
   const Eigen::Vector2d uv = k.project(p.reference.p_world_m[0]);
   const Eigen::Vector2d uvs[2] = {uv, uv + Eigen::Vector2d(offset_px, 0.0)};
   const int levels[2] = {level_a, level_b};
@@ -105,7 +106,7 @@ Pair twoCandidates(int level_a, int level_b, double offset_px, const Pinhole& k)
   return p;
 }
 
-TEST(FeatureMatcher, TheSameCornerAtTheNextLevelIsNoAmbiguityWhenAsked) {
+TEST(FeatureMatcher, TheSameCornerAtTheNextLevelIsNoAmbiguityForAVerifiedPointWhenAsked) {
   const FeatureMatcher matcher{TrackingOptions()};
   const Pinhole k = Pinhole::fromIntrinsics(test::testCamera());
   const Eigen::Isometry3d T_cw = Eigen::Isometry3d::Identity();
@@ -117,6 +118,13 @@ TEST(FeatureMatcher, TheSameCornerAtTheNextLevelIsNoAmbiguityWhenAsked) {
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_EQ(kept[0].frame_index, 0);
   EXPECT_EQ(kept[0].distance, 10);
+  // A point on probation (it may lie on a person the mask missed), or one of a reference without
+  // probation, keeps the strict test.
+  Pair on_probation = twoCandidates(1, 0, 0.5, k);
+  on_probation.reference.verified[0] = 0;
+  EXPECT_TRUE(matcher.matchByProjection(on_probation.reference, on_probation.frame, T_cw, k, 4.0, true).empty());
+  on_probation.reference.verified.clear();
+  EXPECT_TRUE(matcher.matchByProjection(on_probation.reference, on_probation.frame, T_cw, k, 4.0, true).empty());
   // Two corners 3 px apart at the same level are an ambiguity either way.
   const Pair two_corners = twoCandidates(0, 0, 3.0, k);
   EXPECT_TRUE(matcher.matchByProjection(two_corners.reference, two_corners.frame, T_cw, k, 4.0).empty());

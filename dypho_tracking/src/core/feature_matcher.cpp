@@ -121,7 +121,10 @@ std::vector<FeatureMatch> FeatureMatcher::matchByProjection(const KeyframePoints
       }
     });
     if (best_index < 0 || best > options_.max_hamming_distance) continue;
-    const bool competing = !ratio_same_level_only || second_octave == best_octave;
+    // The relaxed test only for a point proven static (verified); a fresh point may lie on a
+    // person the mask missed, and the strict test keeps its ambiguous matches out.
+    const bool verified = !reference.verified.empty() && reference.verified[i] != 0;
+    const bool competing = !(ratio_same_level_only && verified) || second_octave == best_octave;
     if (second != INT_MAX && competing && best >= options_.ratio_test * second) continue;
     candidates.push_back({static_cast<int>(i), best_index, best});
   }

@@ -223,12 +223,15 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
     rates_prior = ratesOfStep(*motion_.lastStep(), timestampToSeconds(motion_.stepNs()));
   }
   AlignmentSettings settings;
-  settings.verified_first = !cameraStill();
+  const bool still = cameraStill();
+  settings.verified_first = !still;
   settings.rates_prior = rates_prior;
   settings.tight_pass = !catching_up_;
-  // The ratio test across pyramid levels only on a sharp frame: the motion model's last turn.
+  // The ratio test across pyramid levels only on a sharp frame (the motion model's last turn) of
+  // a moving camera: a still one sees its corners at their levels, and the people before it drag
+  // the pose with any extra match.
   const std::optional<double> turn_deg = motion_.turnPerIntervalDeg();
-  settings.ratio_same_level_only = turn_deg && *turn_deg < options_.ratio_test_same_level_max_rotation_deg;
+  settings.ratio_same_level_only = !still && turn_deg && *turn_deg < options_.ratio_test_same_level_max_rotation_deg;
   work->aligned = aligner_.align(local_view_, work->features(), work->pinhole, work->T_world_predicted.inverse(),
                                  &work->result.times, &own_view_, settings);
 }

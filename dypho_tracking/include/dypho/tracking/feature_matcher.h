@@ -34,9 +34,10 @@ class FeatureMatcher {
   /// for frame keypoints (undistorted coordinates) within radius_px * scale_factor^level of the
   /// projection, with a level at most `max_level_difference` away. Accepts the best candidate when
   /// its distance is <= max_hamming_distance and < ratio_test * second best.
-  /// `ratio_same_level_only`: the second best competes only when it lies at the best's pyramid
-  /// level (ORB-SLAM's SearchByProjection): a corner found again at the next level is the same
-  /// corner, not an ambiguity (false: every candidate competes).
+  /// `ratio_same_level_only`: for a verified reference point (KeyframePoints::verified; none when
+  /// that is empty) the second best competes only when it lies at the best's pyramid level
+  /// (ORB-SLAM's SearchByProjection): a corner found again at the next level is the same corner,
+  /// not an ambiguity (false: every candidate competes).
   std::vector<FeatureMatch> matchByProjection(const KeyframePoints& reference, const FrameFeatures& frame,
                                               const Eigen::Isometry3d& T_camera_world, const Pinhole& pinhole,
                                               double radius_px, bool ratio_same_level_only = false) const;

@@ -59,8 +59,8 @@ struct AlignmentSettings {
   /// frame, for precision).
   bool tight_pass = true;
   /// The projection searches apply the ratio test only between candidates at the same pyramid
-  /// level (FeatureMatcher::matchByProjection); for a sharp frame, where a corner is found again
-  /// at the next level.
+  /// level for verified points (FeatureMatcher::matchByProjection); for a sharp frame of a moving
+  /// camera, where a corner is found again at the next level.
   bool ratio_same_level_only = false;
 };
 

@@ -80,13 +80,15 @@ struct TrackingOptions {
   /// Projection-guided search accepts candidates whose pyramid level differs by at most this
   /// from the keyframe point's level [levels]; default 1 (ORB-SLAM), range [0, num_levels - 1].
   int max_level_difference = 1;
-  /// On a sharp frame (the motion model's last step turned the camera less than this per frame)
-  /// the projection search applies the ratio test only between candidates at the same pyramid
-  /// level, as ORB-SLAM's SearchByProjection does: a corner found again at the next level is the
-  /// same corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = every candidate
+  /// On a sharp frame of a moving camera (the motion model's last step turned it less than this
+  /// per frame, and the camera is not still) the projection search applies the ratio test only
+  /// between candidates at the same pyramid level for the verified points (point probation), as
+  /// ORB-SLAM's SearchByProjection does: a corner found again at the next level is the same
+  /// corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = every candidate
   /// competes on every frame. In a crowd (Bonn) the strict test rejected about a third of the
   /// static corners that had a map point within 3 px; on fast turns (blur) the relaxed test lets
-  /// more wrong matches in.
+  /// more wrong matches in, and for fresh points or a still camera it let people the mask missed
+  /// drag the pose (docs/journal/2026-12-04-same-level-ratio.md).
   double ratio_test_same_level_max_rotation_deg = 1.0;
 
   // --- initial pose (PnP RANSAC, used when the prediction finds too few inliers) ---

@@ -70,10 +70,11 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "Projection-guided search accepts candidates whose pyramid level differs by at most this from the keyframe "
           "point's level [levels]; default 1 (ORB-SLAM), range [0, num_levels - 1].");
   visitor("ratio_test_same_level_max_rotation_deg", options.ratio_test_same_level_max_rotation_deg,
-          "On a sharp frame (the motion model's last step turned the camera less than this per frame) the projection "
-          "search applies the ratio test only between candidates at the same pyramid level (ORB-SLAM): a corner found "
-          "again at the next level is the same corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = "
-          "every candidate competes on every frame.");
+          "On a sharp frame of a moving camera (the motion model's last step turned it less than this per frame, and "
+          "the camera is not still) the projection search applies the ratio test only between candidates at the same "
+          "pyramid level for the verified points (ORB-SLAM): a corner found again at the next level is the same "
+          "corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = every candidate competes on every "
+          "frame.");
   visitor("ransac_iterations", options.ransac_iterations,
           "RANSAC iterations of cv::solvePnPRansac [count]; default 200, range [10, 100000].");
   visitor("ransac_reprojection_px", options.ransac_reprojection_px,
