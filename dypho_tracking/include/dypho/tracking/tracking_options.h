@@ -84,12 +84,15 @@ struct TrackingOptions {
   /// per frame, and the camera is not still) the projection search applies the ratio test only
   /// between candidates at the same pyramid level for the verified points (point probation), as
   /// ORB-SLAM's SearchByProjection does: a corner found again at the next level is the same
-  /// corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = every candidate
-  /// competes on every frame. In a crowd (Bonn) the strict test rejected about a third of the
-  /// static corners that had a map point within 3 px; on fast turns (blur) the relaxed test lets
-  /// more wrong matches in, and for fresh points or a still camera it let people the mask missed
-  /// drag the pose (docs/journal/2026-12-04-same-level-ratio.md).
-  double ratio_test_same_level_max_rotation_deg = 1.0;
+  /// corner, not an ambiguity [deg/frame]; default 0 = off (every candidate competes on every
+  /// frame), range [0, 180]; 1.0 = sharp frames. In a crowd (Bonn) the strict test rejected about
+  /// a third of the static corners that had a map point within 3 px, and 1.0 gains there (15
+  /// frame-removal inputs 1.34 -> 1.16 cm, the graph at 1x 1.31 -> 1.12 cm); it is off because
+  /// through the graph fr1/rpy lost (0.74 -> 0.86 cm median of 6 and 9 runs, at the slow frames
+  /// of a turn's reversal). On fast turns (blur) the relaxed test lets more wrong matches in, and
+  /// for fresh points or a still camera it let people the mask missed drag the pose
+  /// (docs/journal/2026-12-04-same-level-ratio.md).
+  double ratio_test_same_level_max_rotation_deg = 0.0;
 
   // --- initial pose (PnP RANSAC, used when the prediction finds too few inliers) ---
   /// RANSAC iterations of cv::solvePnPRansac [count]; default 200, range [10, 100000].

@@ -73,8 +73,8 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "On a sharp frame of a moving camera (the motion model's last step turned it less than this per frame, and "
           "the camera is not still) the projection search applies the ratio test only between candidates at the same "
           "pyramid level for the verified points (ORB-SLAM): a corner found again at the next level is the same "
-          "corner, not an ambiguity [deg/frame]; default 1.0, range [0, 180]; 0 = every candidate competes on every "
-          "frame.");
+          "corner, not an ambiguity [deg/frame]; default 0 = off (every candidate competes on every frame; 1.0 gains "
+          "in crowds, loses on fr1/rpy through the graph), range [0, 180].");
   visitor("ransac_iterations", options.ransac_iterations,
           "RANSAC iterations of cv::solvePnPRansac [count]; default 200, range [10, 100000].");
   visitor("ransac_reprojection_px", options.ransac_reprojection_px,
