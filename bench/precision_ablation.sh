@@ -17,7 +17,9 @@
 #     local_ba_10 (local BA over 10 keyframes, not 5), kf_ratio_0_75 and kf_ratio_0_5 (a new
 #     keyframe below 75 % or 50 % of the keyframe's points tracked, not 60 %), kf_sharp_0_75
 #     (75 % on sharp frames of a moving camera only), no_smoothing (the saved trajectory's
-#     positions not fitted in time)
+#     positions not fitted in time), same_level_sharp (the projection search's ratio test only
+#     between candidates of the same pyramid level, for verified points on sharp frames of a
+#     moving camera), same_level_always (the same on every frame of a moving camera)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
@@ -57,6 +59,8 @@ declare -A CONFIG=(
   [kf_ratio_0_5]=$'  keyframe_min_tracked_ratio: 0.5'
   [kf_sharp_0_75]=$'  keyframe_sharp_tracked_ratio: 0.75'
   [no_smoothing]=$'  trajectory_smoothing_s: 0'
+  [same_level_sharp]=$'  ratio_test_same_level_max_rotation_deg: 1'
+  [same_level_always]=$'  ratio_test_same_level_max_rotation_deg: 180'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(
