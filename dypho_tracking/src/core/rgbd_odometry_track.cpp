@@ -217,15 +217,13 @@ void RgbdOdometry::matchAndOptimise(TrackingFrame* work) {
   // With a rolling shutter the refinement estimates the camera's velocities too, about the motion
   // model's: the last step T_prev_last over its time, in the last camera's frame (zero without one).
   // With an exposure the same velocities set each keypoint's blur.
-  CameraRates rates_prior;
+  AlignmentSettings settings;
   const bool moving_camera_model = options_.rolling_shutter_readout_ms > 0.0 || options_.motion_blur_exposure_ms > 0.0;
   if (moving_camera_model && motion_.hasVelocity() && motion_.stepNs() > 0) {
-    rates_prior = ratesOfStep(*motion_.lastStep(), timestampToSeconds(motion_.stepNs()));
+    settings.rates_prior = ratesOfStep(*motion_.lastStep(), timestampToSeconds(motion_.stepNs()));
   }
-  AlignmentSettings settings;
   const bool still = cameraStill();
   settings.verified_first = !still;
-  settings.rates_prior = rates_prior;
   settings.tight_pass = !catching_up_;
   // The ratio test across pyramid levels only on a sharp frame (the motion model's last turn) of
   // a moving camera: a still one sees its corners at their levels, and the people before it drag
