@@ -29,18 +29,35 @@ case "${1:-}" in
       echo "gpu_check: no $BONN or no $EXPORT: the benchmark will train on the synthetic room only"
     fi
     # The whole mapper on CUDA (test_dypho_cuda_parity, with the CudaTraining tests) needs OpenCV
-    # core/imgproc/calib3d: linked here from the build's objects without PCL and image codecs and
-    # packed with the libraries it loads (about 10 MB), for a GPU machine without OpenCV.
-    BUILD_DIR="${DYPHO_BUILD_DIR:-$ROOT/build}"
-    OBJ="$BUILD_DIR/dypho_mapping/CMakeFiles"
-    CUDA_LIB="$BUILD_DIR/devel/lib/libdypho_mapping_cuda.a"
-    if [ -f "$CUDA_LIB" ] && [ -d "$OBJ/test_dypho_cuda_parity.dir" ]; then
+    # core/imgproc/calib3d: linked here from object files without PCL and image codecs and packed
+    # with the libraries it loads (about 10 MB), for a GPU machine without OpenCV. The objects come
+    # from a plain CMake tree of their own (build-gpu-pack/: no ROS, one object per source; the
+    # catkin build compiles eight sources to an object, PCL's among them).
+    PACK_BUILD="$ROOT/build-gpu-pack"
+    LAUNCHER=()
+    if command -v ccache > /dev/null; then
+      LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache)
+    fi
+    mkdir -p "$PACK_BUILD"
+    if cmake -S "$ROOT" -B "$PACK_BUILD" -DDYPHO_WITH_ROS=OFF -DDYPHO_WITH_CUDA=ON -DDYPHO_BUILD_TESTS=ON \
+         -DDYPHO_UNITY_LIBRARIES=OFF -DDYPHO_UNITY_TESTS=OFF -DCMAKE_BUILD_TYPE=Release \
+         -DCMAKE_CUDA_ARCHITECTURES="${DYPHO_CUDA_ARCHITECTURES:-80;90}" "${LAUNCHER[@]}" > "$PACK_BUILD/configure.log" 2>&1 \
+       && cmake --build "$PACK_BUILD" -j "${DYPHO_JOBS:-$(nproc)}" --target test_dypho_cuda_parity > "$PACK_BUILD/build.log" 2>&1; then
+      :
+    else
+      tail -n 20 "$PACK_BUILD/configure.log" "$PACK_BUILD/build.log" 2>/dev/null
+      echo "gpu_check: the plain CMake tree in $PACK_BUILD failed (logs there)" >&2
+    fi
+    OBJ="$PACK_BUILD/dypho_mapping/CMakeFiles"
+    CUDA_LIB="$(find "$PACK_BUILD" -name libdypho_mapping_cuda.a | head -n 1)"
+    if [ -n "$CUDA_LIB" ] && [ -d "$OBJ/test_dypho_cuda_parity.dir" ]; then
       PACK="$(mktemp -d)"
       mkdir -p "$PACK/lib"
       g++ -O2 -c "$ROOT/dypho_mapping/test/imwrite_unavailable.cpp" -I/usr/include/opencv4 -o "$PACK/imwrite_unavailable.o"
       # Every core object but the keyframe cloud and the stage (PCL); the mapper does not use them.
       mapfile -t CORE < <(ls "$OBJ"/dypho_mapping_core.dir/src/core/*.o | grep -v -E 'keyframe_cloud_map|mapping_stage')
-      g++ -O3 -o "$PACK/test_dypho_cuda_parity" "$OBJ"/test_dypho_cuda_parity.dir/test/*.o "${CORE[@]}" \
+      mapfile -t TEST_OBJECTS < <(find "$OBJ/test_dypho_cuda_parity.dir" -name '*.o' | sort)
+      g++ -O3 -o "$PACK/test_dypho_cuda_parity" "${TEST_OBJECTS[@]}" "${CORE[@]}" \
         "$OBJ"/dypho_raster_tiles_*.dir/src/core/raster_tile_kernels.cpp.o "$PACK/imwrite_unavailable.o" \
         /usr/lib/x86_64-linux-gnu/libgtest.a "$CUDA_LIB" /usr/local/cuda/lib64/libcudart_static.a -Wl,--as-needed \
         -lopencv_calib3d -lopencv_imgproc -lopencv_core -ldl -lrt -lpthread
@@ -49,7 +66,7 @@ case "${1:-}" in
       tar -C "$PACK" -cf - test_dypho_cuda_parity lib | xz -T0 -6 > "$ROOT/third_party/cuda_parity_portable.tar.xz"
       rm -rf "$PACK"
     else
-      echo "gpu_check: no CUDA objects in $BUILD_DIR: the whole-mapper CUDA tests will not travel"
+      echo "gpu_check: no CUDA objects in $PACK_BUILD: the whole-mapper CUDA tests will not travel"
     fi
     echo "gpu_check: third_party/ ready ($(du -sh "$ROOT/third_party" | cut -f1))"
     ;;
