@@ -4,8 +4,10 @@
 # again under compute-sanitizer (memcheck, racecheck), runs the whole mapper's CUDA tests packed by
 # `prepare` (plainly and sanitized), and runs the GPU benchmark.
 #
-#   scripts/gpu_check.sh prepare        # on this machine: copies Eigen headers and GoogleTest
-#                                       # sources into third_party/ (git-ignored) to travel along
+#   scripts/gpu_check.sh prepare        # on this machine: packs Eigen headers, GoogleTest sources,
+#                                       # 20 Bonn frames and the whole-mapper test (linked from a
+#                                       # plain CMake tree in build-gpu-pack/) into third_party/
+#                                       # (git-ignored; about 15 MB) to travel along
 #   scripts/gpu_check.sh run [OUT_DIR]  # on the GPU machine: build, tests, sanitizers, benchmark;
 #                                       # logs go to OUT_DIR (default build-gpu/out)
 #   DYPHO_CUDA_ARCHITECTURES=90 scripts/gpu_check.sh run ...   # build for that GPU only (faster)
@@ -68,12 +70,23 @@ case "${1:-}" in
     else
       echo "gpu_check: no CUDA objects in $PACK_BUILD: the whole-mapper CUDA tests will not travel"
     fi
+    # Packed small for the trip (a device machine takes 64 MB with the tree): the sources and the
+    # frames compress about 5:1; `run` unpacks them.
+    tar -C "$ROOT/third_party" -cf - eigen3 googletest | xz -T0 -6 > "$ROOT/third_party/sources.tar.xz"
+    rm -rf "$ROOT/third_party/eigen3" "$ROOT/third_party/googletest" "$ROOT/third_party/bonn_frames.bin.xz"
+    if [ -f "$ROOT/third_party/bonn_frames.bin" ]; then xz -T0 -6 "$ROOT/third_party/bonn_frames.bin"; fi
     echo "gpu_check: third_party/ ready ($(du -sh "$ROOT/third_party" | cut -f1))"
     ;;
   run)
     OUT="${2:-$ROOT/build-gpu/out}"
     mkdir -p "$OUT"
     BUILD="$ROOT/build-gpu"
+    if [ -f "$ROOT/third_party/sources.tar.xz" ] && [ ! -d "$ROOT/third_party/eigen3" ]; then
+      tar -xJf "$ROOT/third_party/sources.tar.xz" -C "$ROOT/third_party"
+    fi
+    if [ -f "$ROOT/third_party/bonn_frames.bin.xz" ] && [ ! -f "$ROOT/third_party/bonn_frames.bin" ]; then
+      xz -dk "$ROOT/third_party/bonn_frames.bin.xz"
+    fi
     EIGEN="$ROOT/third_party/eigen3"; [ -d "$EIGEN" ] || EIGEN=/usr/include/eigen3
     GTEST="$ROOT/third_party/googletest"; [ -d "$GTEST" ] || GTEST=/usr/src/googletest
     export PATH="/usr/local/cuda/bin:$PATH"
