@@ -18,8 +18,9 @@ case "${1:-}" in
   prepare)
     mkdir -p "$ROOT/third_party"
     rm -rf "$ROOT/third_party/eigen3" "$ROOT/third_party/googletest"
-    cp -r /usr/include/eigen3 "$ROOT/third_party/eigen3"
-    cp -r /usr/src/googletest "$ROOT/third_party/googletest"
+    # Eigen's headers and GoogleTest's sources, compressed for the trip (a device call takes 64 MB
+    # with the tree); `run` unpacks them.
+    tar -cf - -C /usr/include eigen3 -C /usr/src googletest | xz -T0 -6 > "$ROOT/third_party/sources.tar.xz"
     # The shared Bonn crowd frames (20, 320x240, ground-truth poses) for the training benchmark,
     # in a file the GPU machine reads without OpenCV (needs a build: scripts/build.sh).
     BONN="$ROOT/../shared/data/rgbd_bonn_crowd_frames200to399"
@@ -41,12 +42,10 @@ case "${1:-}" in
       LAUNCHER=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_CUDA_COMPILER_LAUNCHER=ccache)
     fi
     mkdir -p "$PACK_BUILD"
-    if cmake -S "$ROOT" -B "$PACK_BUILD" -DDYPHO_WITH_ROS=OFF -DDYPHO_WITH_CUDA=ON -DDYPHO_BUILD_TESTS=ON \
+    if ! cmake -S "$ROOT" -B "$PACK_BUILD" -DDYPHO_WITH_ROS=OFF -DDYPHO_WITH_CUDA=ON -DDYPHO_BUILD_TESTS=ON \
          -DDYPHO_UNITY_LIBRARIES=OFF -DDYPHO_UNITY_TESTS=OFF -DCMAKE_BUILD_TYPE=Release \
          -DCMAKE_CUDA_ARCHITECTURES="${DYPHO_CUDA_ARCHITECTURES:-80;90}" "${LAUNCHER[@]}" > "$PACK_BUILD/configure.log" 2>&1 \
-       && cmake --build "$PACK_BUILD" -j "${DYPHO_JOBS:-$(nproc)}" --target test_dypho_cuda_parity > "$PACK_BUILD/build.log" 2>&1; then
-      :
-    else
+       || ! cmake --build "$PACK_BUILD" -j "${DYPHO_JOBS:-$(nproc)}" --target test_dypho_cuda_parity > "$PACK_BUILD/build.log" 2>&1; then
       tail -n 20 "$PACK_BUILD/configure.log" "$PACK_BUILD/build.log" 2>/dev/null
       echo "gpu_check: the plain CMake tree in $PACK_BUILD failed (logs there)" >&2
     fi
@@ -70,11 +69,8 @@ case "${1:-}" in
     else
       echo "gpu_check: no CUDA objects in $PACK_BUILD: the whole-mapper CUDA tests will not travel"
     fi
-    # Packed small for the trip (a device machine takes 64 MB with the tree): the sources and the
-    # frames compress about 5:1; `run` unpacks them.
-    tar -C "$ROOT/third_party" -cf - eigen3 googletest | xz -T0 -6 > "$ROOT/third_party/sources.tar.xz"
-    rm -rf "$ROOT/third_party/eigen3" "$ROOT/third_party/googletest" "$ROOT/third_party/bonn_frames.bin.xz"
-    if [ -f "$ROOT/third_party/bonn_frames.bin" ]; then xz -T0 -6 "$ROOT/third_party/bonn_frames.bin"; fi
+    # The frames compressed too (about 7:1); `run` unpacks them.
+    if [ -f "$ROOT/third_party/bonn_frames.bin" ]; then xz -f -T0 -6 "$ROOT/third_party/bonn_frames.bin"; fi
     echo "gpu_check: third_party/ ready ($(du -sh "$ROOT/third_party" | cut -f1))"
     ;;
   run)
