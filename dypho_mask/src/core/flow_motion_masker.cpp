@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -205,11 +206,7 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
                                     const std::optional<Eigen::Isometry3d>& T_prev_cur, PoseFitUse fit_use,
                                     FlowMaskResult& result) {
   // The fit takes every usable sample, first with the rigid prediction (pose + depth), then as a
-  // plain homography. It is tried again without the previous frame's dynamic pixels when it
-  // fails (people fill the view) or when it follows them (their pixels agree with it better than
-  // the rest: the fit locked onto a group of people). Only then: the exclusion feeds the mask
-  // back into its own fit, which must not happen on frames that fit anyway (a region masked once
-  // would stay masked).
+  // plain homography; then refitWithoutCarried() may replace it.
   const bool has_depth = frame.camera.valid() && !frame.depth_m.empty();
   std::optional<Eigen::Isometry3d> T_used = has_depth ? T_prev_cur : std::nullopt;
   // Depth at flow resolution, once, for the fit and the rigid prediction.
@@ -220,20 +217,10 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   }
   const bool with_pose = T_used.has_value();
   if (with_pose) predictFromPose(frame, *T_used);
-  const bool can_exclude = !carried_.empty() && cv::countNonZero(carried_) > 0;
   bool from_pose = false;
   GlobalMotionFit fit = fitOnce(with_pose, false, from_pose);
   if (fit.ok) computeResidual(fit, from_pose);
-  if (can_exclude && (!fit.ok || followsCarried())) {
-    bool refit_from_pose = false;
-    const GlobalMotionFit refit = fitOnce(with_pose, true, refit_from_pose);
-    if (refit.ok) {
-      fit = refit;
-      from_pose = refit_from_pose;
-      result.fit_excluded_previous_mask = true;
-      computeResidual(fit, from_pose);
-    }
-  }
+  if (!carried_.empty() && cv::countNonZero(carried_) > 0) refitWithoutCarried(with_pose, fit, from_pose, result);
   result.inlier_ratio = fit.inlierRatio();
   if (!fit.ok) {
     result.message = "global motion not found: " + fit.message;
@@ -245,6 +232,40 @@ bool FlowMotionMasker::fitEgoMotion(const RgbdFrame& frame, const cv::Size& smal
   result.ego_motion_from_pose = from_pose;
   if (from_pose) result.T_prev_cur = T_used;
   return true;
+}
+
+void FlowMotionMasker::refitWithoutCarried(bool with_pose, GlobalMotionFit& fit, bool& from_pose,
+                                           FlowMaskResult& result) {
+  // The fit on every sample is tried again without the previous frame's dynamic pixels when it
+  // failed (people fill the view), when it follows them (their pixels agree with it better than
+  // the rest: it locked onto a group of people), or, with several motions in view, when the fit
+  // without them explains clearly more of the rest (refit_without_previous_margin): with two
+  // groups of people walking apart and the previous mask on one of them, the first fit settles on
+  // the other or between them, and neither test above sees it. Only then: the exclusion feeds the
+  // mask back into its own fit, which must not happen on frames that fit anyway (a region masked
+  // once would stay masked).
+  const bool follows = fit.ok && followsCarried();
+  const double margin = options_.refit_without_previous_margin;
+  const bool compare = fit.ok && !follows && margin > 0.0;
+  if (fit.ok && !follows && !compare) return;
+  int n_outside = 0;
+  const int explained_before = compare ? explainedOutsideCarried(n_outside) : 0;
+  bool refit_from_pose = false;
+  const GlobalMotionFit refit = fitOnce(with_pose, true, refit_from_pose);
+  if (!refit.ok) return;  // residual_ is still the first fit's
+  if (compare) {
+    std::swap(residual_, kept_residual_);
+    std::swap(residual_vec_, kept_residual_vec_);
+  }
+  computeResidual(refit, refit_from_pose);
+  if (compare && explainedOutsideCarried(n_outside) <= explained_before + margin * n_outside) {
+    std::swap(residual_, kept_residual_);  // the first fit stays, with its residual
+    std::swap(residual_vec_, kept_residual_vec_);
+    return;
+  }
+  fit = refit;
+  from_pose = refit_from_pose;
+  result.fit_excluded_previous_mask = true;
 }
 
 /// Share of the fit's samples the fitted motion must explain beyond the prediction to replace it.
@@ -480,6 +501,23 @@ void FlowMotionMasker::flowStatistics(FlowMaskResult& result) const {
   result.median_flow_px = median(lengths);
   result.quiet_flow_share = static_cast<double>(quiet) / static_cast<double>(lengths.size());
   if (!static_lengths.empty()) result.static_median_flow_px = median(static_lengths);
+}
+
+int FlowMotionMasker::explainedOutsideCarried(int& n_outside) const {
+  n_outside = 0;
+  int explained = 0;
+  const float threshold = static_cast<float>(options_.residual_threshold_px);
+  for (int y = 0; y < residual_.rows; ++y) {
+    const float* r = residual_.ptr<float>(y);
+    const uchar* c = carried_.ptr<uchar>(y);
+    const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
+    for (int x = 0; x < residual_.cols; ++x) {
+      if ((t != nullptr && t[x] == 0) || c[x] != 0) continue;
+      ++n_outside;
+      explained += r[x] < threshold;
+    }
+  }
+  return explained;
 }
 
 bool FlowMotionMasker::followsCarried() const {

@@ -67,6 +67,13 @@ struct FlowMaskOptions {
   /// kept unless the fit explains clearly more cells. Such a prediction misses the hand's jerks:
   /// its translation error puts the background's depth edges off. Default true.
   bool fit_rigid_motion = true;
+  /// With the previous frame's mask at hand, the global motion is fitted again without its pixels
+  /// and replaces the fit on every sample when it explains more of the pixels outside that mask
+  /// by this share of them, in [0, 1) (0 = only when the first fit failed or follows the masked
+  /// pixels). With several motions in view (people walking apart, the previous mask on some of
+  /// them) the first fit can settle on people or between them and mark the static scene as
+  /// moving: a wall's marker beside a passing head, Bonn crowd. Default 0.05.
+  double refit_without_previous_margin = 0.05;
   /// Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.
   bool ultrafast = false;
   /// Variational refinement iterations of DIS on every pyramid level, >= 0; replaces the

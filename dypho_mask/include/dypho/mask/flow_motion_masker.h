@@ -201,6 +201,9 @@ class FlowMotionMasker {
   /// One global-motion fit, from the pose prediction first when `with_pose`, then from the grid;
   /// without the carried pixels when `exclude_previous`. `from_pose`: which one was fitted last.
   GlobalMotionFit fitOnce(bool with_pose, bool exclude_previous, bool& from_pose);
+  /// The fit again without the carried pixels (see the .cpp); `fit`, `from_pose`, residual_ and
+  /// result.fit_excluded_previous_mask are replaced when it is taken.
+  void refitWithoutCarried(bool with_pose, GlobalMotionFit& fit, bool& from_pose, FlowMaskResult& result);
   /// residual_ (and residual_vec_) of `fit` [full-res px], aperture-weighted when configured.
   void computeResidual(const GlobalMotionFit& fit, bool from_pose);
   /// Sets the flow statistics and result.still_camera_weight.
@@ -215,6 +218,9 @@ class FlowMotionMasker {
   /// True when the fit behind residual_ explains the carried (previously dynamic) pixels clearly
   /// better than the others: it follows moving objects, not the camera.
   bool followsCarried() const;
+  /// Textured pixels outside the carried mask (`n_outside`) and how many of them residual_
+  /// explains (under residual_threshold_px), the return value.
+  int explainedOutsideCarried(int& n_outside) const;
   /// With residual_memory > 0: adds this frame's residual vectors to the carried, decayed memory
   /// and replaces residual_ by the memory's (aperture-weighted) length. `still_weight`: see
   /// FlowMaskResult::still_camera_weight.
@@ -259,6 +265,8 @@ class FlowMotionMasker {
   cv::Mat grad_x_;
   cv::Mat grad_y_;
   cv::Mat texture_energy_;
+  /// The first fit's residual_ and residual_vec_ while refitWithoutCarried() compares two fits.
+  cv::Mat kept_residual_, kept_residual_vec_;
   cv::Mat txx_, txy_, tyy_;      ///< structure tensor (5x5 box) at flow resolution
   cv::Mat residual_vec_;         ///< residual vectors [full-res px], CV_32FC2
   cv::Mat depth_small_;          ///< depth at flow resolution [m] (nearest sample)

@@ -67,6 +67,12 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
       "warped with the fit; the prediction is kept unless the fit explains clearly more cells. Such a prediction "
       "misses the hand's jerks: its translation error puts the background's depth edges off (TUM fr1/rpy with poses "
       "3 frames old: 11.4 % of the static view masked, 2.0 % fitted). Default true.");
+  visitor("refit_without_previous_margin", options.refit_without_previous_margin,
+          "With the previous frame's mask at hand, the global motion is fitted again without its pixels and replaces "
+          "the fit on every sample when it explains more of the pixels outside that mask by this share of them, in "
+          "[0, 1) (0 = only when the first fit failed or follows the masked pixels). With several motions in view "
+          "(people walking apart, the previous mask on some of them) the first fit can settle on people or between "
+          "them and mark the static scene as moving. Default 0.05.");
   visitor("ultrafast", options.ultrafast,
           "Use OpenCV's DIS PRESET_ULTRAFAST instead of PRESET_FAST (faster, noisier). Default false.");
   visitor("dis_refinement_iterations", options.dis_refinement_iterations,
