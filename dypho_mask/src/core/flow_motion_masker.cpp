@@ -244,12 +244,11 @@ void FlowMotionMasker::refitWithoutCarried(bool with_pose, GlobalMotionFit& fit,
   // the other or between them, and neither test above sees it. Only then: the exclusion feeds the
   // mask back into its own fit, which must not happen on frames that fit anyway (a region masked
   // once would stay masked).
-  const bool follows = fit.ok && followsCarried();
+  const CarriedSplit first = fit.ok ? splitByCarried() : CarriedSplit();
+  const bool follows = fit.ok && followsCarried(first);
   const double margin = options_.refit_without_previous_margin;
   const bool compare = fit.ok && !follows && margin > 0.0;
   if (fit.ok && !follows && !compare) return;
-  int n_outside = 0;
-  const int explained_before = compare ? explainedOutsideCarried(n_outside) : 0;
   bool refit_from_pose = false;
   const GlobalMotionFit refit = fitOnce(with_pose, true, refit_from_pose);
   if (!refit.ok) return;  // residual_ is still the first fit's
@@ -258,7 +257,8 @@ void FlowMotionMasker::refitWithoutCarried(bool with_pose, GlobalMotionFit& fit,
     std::swap(residual_vec_, kept_residual_vec_);
   }
   computeResidual(refit, refit_from_pose);
-  if (compare && explainedOutsideCarried(n_outside) <= explained_before + margin * n_outside) {
+  const CarriedSplit split = compare ? splitByCarried() : CarriedSplit();
+  if (compare && split.explained_outside <= first.explained_outside + margin * split.outside) {
     std::swap(residual_, kept_residual_);  // the first fit stays, with its residual
     std::swap(residual_vec_, kept_residual_vec_);
     return;
@@ -503,28 +503,8 @@ void FlowMotionMasker::flowStatistics(FlowMaskResult& result) const {
   if (!static_lengths.empty()) result.static_median_flow_px = median(static_lengths);
 }
 
-int FlowMotionMasker::explainedOutsideCarried(int& n_outside) const {
-  n_outside = 0;
-  int explained = 0;
-  const float threshold = static_cast<float>(options_.residual_threshold_px);
-  for (int y = 0; y < residual_.rows; ++y) {
-    const float* r = residual_.ptr<float>(y);
-    const uchar* c = carried_.ptr<uchar>(y);
-    const uchar* t = textured_.empty() ? nullptr : textured_.ptr<uchar>(y);
-    for (int x = 0; x < residual_.cols; ++x) {
-      if ((t != nullptr && t[x] == 0) || c[x] != 0) continue;
-      ++n_outside;
-      explained += r[x] < threshold;
-    }
-  }
-  return explained;
-}
-
-bool FlowMotionMasker::followsCarried() const {
-  // Share of textured pixels the fit explains (residual below the threshold), inside and outside
-  // the carried mask. A fit on the static scene explains the outside and not the moving inside;
-  // a fit on a group of people does the opposite.
-  int n_in = 0, ok_in = 0, n_out = 0, ok_out = 0;
+FlowMotionMasker::CarriedSplit FlowMotionMasker::splitByCarried() const {
+  CarriedSplit split;
   const float threshold = static_cast<float>(options_.residual_threshold_px);
   for (int y = 0; y < residual_.rows; ++y) {
     const float* r = residual_.ptr<float>(y);
@@ -534,18 +514,26 @@ bool FlowMotionMasker::followsCarried() const {
       if (t != nullptr && t[x] == 0) continue;
       const bool explained = r[x] < threshold;
       if (c[x] != 0) {
-        ++n_in;
-        ok_in += explained;
+        ++split.inside;
+        split.explained_inside += explained;
       } else {
-        ++n_out;
-        ok_out += explained;
+        ++split.outside;
+        split.explained_outside += explained;
       }
     }
   }
+  return split;
+}
+
+bool FlowMotionMasker::followsCarried(const CarriedSplit& s) {
+  // Share of textured pixels the fit explains (residual below the threshold), inside and outside
+  // the carried mask. A fit on the static scene explains the outside and not the moving inside;
+  // a fit on a group of people does the opposite.
   constexpr int kMinPixels = 20;     // flow pixels on each side for the shares to mean something
   constexpr double kMinLead = 0.25;  // the inside must lead clearly (noise moves both shares)
-  if (n_in < kMinPixels || n_out < kMinPixels) return false;
-  return static_cast<double>(ok_in) / n_in > static_cast<double>(ok_out) / n_out + kMinLead;
+  if (s.inside < kMinPixels || s.outside < kMinPixels) return false;
+  return static_cast<double>(s.explained_inside) / s.inside >
+         static_cast<double>(s.explained_outside) / s.outside + kMinLead;
 }
 
 void FlowMotionMasker::useCarried(const cv::Size& size, FlowMaskResult& result) {

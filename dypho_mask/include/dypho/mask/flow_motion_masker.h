@@ -215,12 +215,15 @@ class FlowMotionMasker {
   /// carried_ = `previous_dynamic` moved along the flow into the current frame (flow resolution);
   /// empty when `previous_dynamic` is empty or of another size.
   void carryPrevious(const cv::Mat& previous_dynamic);
-  /// True when the fit behind residual_ explains the carried (previously dynamic) pixels clearly
+  /// Textured pixels inside and outside the carried mask, and how many of each residual_
+  /// explains (under residual_threshold_px).
+  struct CarriedSplit {
+    int inside = 0, explained_inside = 0, outside = 0, explained_outside = 0;
+  };
+  CarriedSplit splitByCarried() const;
+  /// True when the fit behind `split` explains the carried (previously dynamic) pixels clearly
   /// better than the others: it follows moving objects, not the camera.
-  bool followsCarried() const;
-  /// Textured pixels outside the carried mask (`n_outside`) and how many of them residual_
-  /// explains (under residual_threshold_px), the return value.
-  int explainedOutsideCarried(int& n_outside) const;
+  static bool followsCarried(const CarriedSplit& split);
   /// With residual_memory > 0: adds this frame's residual vectors to the carried, decayed memory
   /// and replaces residual_ by the memory's (aperture-weighted) length. `still_weight`: see
   /// FlowMaskResult::still_camera_weight.
