@@ -10,20 +10,23 @@
 # Prints each input's ATE RMSE [cm] (final trajectory), then the means of the groups and the mean,
 # median and range of all fifteen (docs/journal/benchmarks-2026.md, section 15).
 #
-# Usage: bench/frame_removal.sh [--config YAML] [--mask flow|none|gt] DATASET OUT
+# Usage: bench/frame_removal.sh [--config YAML] [--mask flow|none|gt] [--late-mask-poses] DATASET OUT
 #   DATASET   a folder in TUM layout with groundtruth.txt (a Bonn folder's name must contain
 #             "bonn", as the runner detects the camera and the ground-truth correction from it)
 #   --config  YAML passed to dypho_run_dataset (e.g. `mask: {yolo_model_path: ...}`)
 #   --mask    passed to dypho_run_dataset (default flow)
+#   --late-mask-poses  passed to dypho_run_dataset: the mask gets each pose one frame late, as
+#             the live graph's mask does whenever tracking is slower than its wait (repeatable)
 # OUT gets inputs/ (the variants, images linked), runs/<input>/ and ate.txt.
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BIN="${BUILD:-$ROOT/build}/devel/lib/dypho_slam"
-CONFIG=""; MASK="flow"
+CONFIG=""; MASK="flow"; LATE=""
 while [ $# -gt 2 ]; do
   case "$1" in
+    --late-mask-poses) LATE="--late-mask-poses"; shift;;
     --config) CONFIG="$(cd "$(dirname "$2")" && pwd)/$(basename "$2")"; shift 2;;
     --mask) MASK="$2"; shift 2;;
     *) echo "frame_removal: unknown option $1" >&2; exit 2;;
@@ -45,6 +48,7 @@ for input in "${INPUTS[@]}"; do
   label="$(basename "$input")"; label="${label#"$NAME"}"; label="${label#_}"; label="${label:-whole}"
   args=(--dataset "$input" --out "$OUT/runs/$label" --quiet --no-map --mask "$MASK")
   [ -n "$CONFIG" ] && args+=(--config "$CONFIG")
+  [ -n "$LATE" ] && args+=("$LATE")
   ate="$("$BIN/dypho_run_dataset" "${args[@]}" 2> "$OUT/runs/$label.log" | awk '/^ATE RMSE/ {print $3; exit}')"
   if [ -z "$ate" ]; then echo "frame_removal: no ATE for $label (see $OUT/runs/$label.log)" >&2; exit 1; fi
   echo "$label $ate" | tee -a "$OUT/ate.txt"

@@ -290,6 +290,10 @@ std::vector<std::string> applyLivePolicy(PipelineOptions& options) {
 RealtimeRunner::RealtimeRunner(SlamPipeline& pipeline, const RealtimeOptions& options)
     : pipeline_(pipeline), options_(options) {
   options_.validate();
+  if (pipeline_.options().mask_poses_one_frame_late) {
+    throw std::invalid_argument(
+        "mask_poses_one_frame_late is for deterministic runs: live, the poses come when they come");
+  }
 }
 
 RealtimeResult RealtimeRunner::run(std::size_t num_frames, const RealtimeFrameLoader& load,

@@ -10,13 +10,28 @@ double msSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+/// The mask stage's options: no wait for a pose that PipelineOptions::mask_poses_one_frame_late
+/// holds back until after the mask.
+mask::MaskStageOptions maskStageOptions(const PipelineOptions& options) {
+  mask::MaskStageOptions stage = options.mask_stage;
+  if (options.mask_poses_one_frame_late) stage.previous_pose_wait_s = 0.0;
+  return stage;
+}
+
 }  // namespace
 
 SlamPipeline::SlamPipeline(const PipelineOptions& options, mapping::MappingMode mode)
     : options_(options),
-      mask_(options.mask, options.mask_stage),
+      mask_(options.mask, maskStageOptions(options)),
       tracking_(options.tracking),
       mapping_(options.mapping, mode, options.mapping_stage) {}
+
+void SlamPipeline::handLatePoseToMask() {
+  if (!late_pose_) return;
+  mask_.observeMovingPoints(std::move(late_pose_->moving_points));
+  mask_.observePose(late_pose_->pose);
+  late_pose_.reset();
+}
 
 bool SlamPipeline::mapsFrames() const { return options_.build_map && !options_.tracking.localization_only; }
 
@@ -41,6 +56,7 @@ MaskedFrame SlamPipeline::maskFrame(const RgbdFrame& frame, const cv::Mat& exter
   const auto t_mask = std::chrono::steady_clock::now();
   if (options_.mask_source == MaskSource::kFlow) {
     const mask::MaskResult result = mask_.process(frame, frames_waiting);
+    handLatePoseToMask();
     if (result.dropped) {
       report.dropped = true;
       report.message = result.message;
@@ -75,8 +91,13 @@ FrameReport SlamPipeline::handOnTracked(tracking::TrackingOutput out, FrameRepor
     return report;
   }
   // The points before the pose: a mask waiting for this pose (live) starts when it arrives.
-  mask_.observeMovingPoints({out.result.stamp_ns, out.result.moving_points_camera_m});
-  mask_.observePose(out.pose);
+  MovingPoints moving_points{out.result.stamp_ns, out.result.moving_points_camera_m};
+  if (options_.mask_poses_one_frame_late) {
+    late_pose_ = LatePose{out.pose, std::move(moving_points)};
+  } else {
+    mask_.observeMovingPoints(std::move(moving_points));
+    mask_.observePose(out.pose);
+  }
   if (options_.build_map) mapping_.observePose(out.pose);
   if (mapsFrames()) {
     const auto t_map = std::chrono::steady_clock::now();

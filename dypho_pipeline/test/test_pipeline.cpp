@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "dypho/pipeline/realtime_runner.h"
 #include "dypho/pipeline/slam_pipeline.h"
 #include "dypho/tools/synthetic_scene.h"
 
@@ -203,6 +204,53 @@ TEST(SlamPipeline, RefinedKeyframePosesGoBackToTracking) {
   // The refinement's bound (5 cm, 2 deg) plus 2 deg over a frame's distance to its keyframe
   // (under 0.3 m here: 1 cm).
   EXPECT_LT(moved_m, 0.06);
+}
+
+}  // namespace DYPHO_UNITY_ID
+
+namespace DYPHO_UNITY_ID {
+
+// PipelineOptions::mask_poses_one_frame_late: the mask stage gets each pose after it masked the
+// next frame, so no mask has a fresh prediction (the live graph's stale case), every mask after
+// the first poses has one from older poses, the stage never waits (the 33 ms wait would time
+// out on every frame), and tracking still poses every frame. Without it every frame after the
+// first two has a fresh one.
+TEST(SlamPipeline, MaskPosesOneFrameLateGiveEveryMaskAStalePrediction) {
+  tools::SynthOptions so;
+  so.frames = 30;
+  so.people = 1;
+  so.seed = 5;
+  const tools::SyntheticScene scene(so);
+  for (const bool late : {false, true}) {
+    pipeline::PipelineOptions options;
+    options.build_map = false;
+    options.mask_poses_one_frame_late = late;
+    pipeline::SlamPipeline slam(options);
+    int posed = 0;
+    for (int i = 0; i < so.frames; ++i) {
+      const pipeline::FrameReport report = slam.process(scene.render(i).frame);
+      if (report.tracking.state == tracking::TrackingState::kOk) ++posed;
+    }
+    const mask::MaskStageStats stats = slam.mask().stats();
+    EXPECT_EQ(posed, so.frames) << (late ? "late" : "on time");
+    EXPECT_EQ(stats.pose_waits_timed_out, 0u) << (late ? "late" : "on time");
+    if (late) {
+      EXPECT_EQ(stats.frames_with_fresh_prior, 0u);
+      EXPECT_GE(stats.frames_with_ego_motion, static_cast<std::size_t>(so.frames - 3));
+    } else {
+      EXPECT_GE(stats.frames_with_fresh_prior, static_cast<std::size_t>(so.frames - 2));
+    }
+  }
+}
+
+// The option stands in for live timing in the deterministic loop only: the realtime runner,
+// which has that timing itself, refuses it.
+TEST(SlamPipeline, RealtimeRunnerRefusesLateMaskPoses) {
+  pipeline::PipelineOptions options;
+  options.build_map = false;
+  options.mask_poses_one_frame_late = true;
+  pipeline::SlamPipeline slam(options);
+  EXPECT_THROW(pipeline::RealtimeRunner(slam, pipeline::RealtimeOptions()), std::invalid_argument);
 }
 
 }  // namespace DYPHO_UNITY_ID

@@ -16,7 +16,7 @@ void usage(std::ostream& os) {
   os << "usage: dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML]\n"
         "                         [--config YAML] [--mask flow|gt|none] [--max-frames N] [--save-masks]\n"
         "                         [--no-eval] [--no-map] [--eval-every N] [--quiet]\n"
-        "                         [--realtime [--realtime-speed S] [--realtime-queue N]]\n"
+        "                         [--realtime [--realtime-speed S] [--realtime-queue N] | --late-mask-poses]\n"
         "                         [--resume DIR [--localization-only]]\n"
         "       dypho_run_dataset --print-config   (prints the effective options as YAML)\n"
         "  --dataset   TUM-layout folder (rgb.txt, depth.txt[, groundtruth.txt]) or a .bag with\n"
@@ -49,6 +49,10 @@ void usage(std::ostream& os) {
         "  --realtime-speed S     playback speed factor, > 0 (default 1.0)\n"
         "  --realtime-queue N     frames waiting for the mask before the oldest is skipped (it is tracked\n"
         "                         with the nearest mask), >= 1 (default 2)\n"
+        "  --late-mask-poses  deterministic, but the mask gets each frame's pose only after it masked\n"
+        "              the next frame, as the live graph's mask does whenever tracking is slower than its\n"
+        "              wait (previous_pose_wait_s): every mask starts from a prediction made from older\n"
+        "              poses. A repeatable stand-in for that part of the live timing; not with --realtime\n"
         "  --resume DIR  goes on from a saved session: DIR is a previous run's --out (DIR/session is\n"
         "              loaded) or a session folder. Its Gaussian map and tracker map are loaded before the\n"
         "              first frame; each frame is relocalised in them until the camera is found (nothing\n"
@@ -69,6 +73,25 @@ long parseWholeNumber(const std::string& key, const std::string& text, double mi
   const double n = parseNumber(key, text);
   if (n != std::floor(n) || n < min || n > max) throw std::runtime_error(key + " needs " + what);
   return static_cast<long>(n);
+}
+
+/// Options that need or exclude others: throws std::runtime_error naming them.
+void checkCombinations(const Args& a) {
+  if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
+    throw std::runtime_error("--dataset and --out are required");
+  }
+  if (a.save_masks && a.realtime)
+    throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
+  if (a.localization_only && a.resume.empty()) {
+    throw std::runtime_error("--localization-only needs --resume DIR: there is no map to localise in without one");
+  }
+  if (a.late_mask_poses && a.realtime) {
+    throw std::runtime_error(
+        "--late-mask-poses stands in for the live timing in the deterministic mode; --realtime has the timing itself");
+  }
+  if (a.realtime_option_given && !a.realtime) {
+    throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
+  }
 }
 
 Args parseArgs(int argc, char** argv) {
@@ -121,23 +144,15 @@ Args parseArgs(int argc, char** argv) {
       a.resume = value();
     } else if (k == "--localization-only") {
       a.localization_only = true;
+    } else if (k == "--late-mask-poses") {
+      a.late_mask_poses = true;
     } else if (k == "-h" || k == "--help") {
       usage(std::cout);
       std::exit(0);
     } else
       throw std::runtime_error("unknown argument '" + k + "'");
   }
-  if (!a.print_config && (a.dataset.empty() || a.out.empty())) {
-    throw std::runtime_error("--dataset and --out are required");
-  }
-  if (a.save_masks && a.realtime)
-    throw std::runtime_error("--save-masks works in the default (deterministic) mode only");
-  if (a.localization_only && a.resume.empty()) {
-    throw std::runtime_error("--localization-only needs --resume DIR: there is no map to localise in without one");
-  }
-  if (a.realtime_option_given && !a.realtime) {
-    throw std::runtime_error("--realtime-speed and --realtime-queue need --realtime");
-  }
+  checkCombinations(a);
   a.realtime_options.keep_masks_every_nth = a.build_map ? a.eval_every : 0;
   try {
     a.realtime_options.validate();

@@ -29,6 +29,8 @@ struct Args {
   /// --resume: a previous run's --out (its session/ is loaded) or a session folder; empty = none
   std::string resume;
   bool localization_only = false;  ///< --localization-only: localise in the resumed map, change nothing
+  /// --late-mask-poses: the mask gets each pose one frame late (PipelineOptions::mask_poses_one_frame_late)
+  bool late_mask_poses = false;
 };
 
 /// The usage text.

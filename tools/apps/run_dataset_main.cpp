@@ -5,7 +5,7 @@
 ///
 ///   dypho_run_dataset --dataset DIR_OR_BAG --out DIR [--camera NAME_OR_YAML] [--config YAML]
 ///                     [--mask flow|gt|none] [--max-frames N] [--no-eval] [--no-map] [--quiet]
-///                     [--realtime [--realtime-speed S] [--realtime-queue N]]
+///                     [--realtime [--realtime-speed S] [--realtime-queue N] | --late-mask-poses]
 ///                     [--resume DIR [--localization-only]]
 ///   dypho_run_dataset --print-config
 ///
@@ -112,6 +112,7 @@ PipelineOptions loadRunOptions(const Args& args, const std::string& config_dir) 
   PipelineOptions options = loadPipelineOptions(config_dir, args.config);
   options.mask_source = parseMaskSource(args.mask);
   options.build_map = args.build_map;
+  options.mask_poses_one_frame_late = args.late_mask_poses;
   if (args.localization_only) options.tracking.localization_only = true;
   return options;
 }

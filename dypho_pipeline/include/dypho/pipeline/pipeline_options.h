@@ -41,6 +41,14 @@ struct PipelineOptions {
   /// nodelet's ~mask_max_wait_s, ~mask_max_pending_frames, ~mask_max_carry_age_s with their
   /// defaults (0.1 s, 30 frames, 0.2 s; mask_pairing.h).
   tracking::MaskPairingOptions mask_pairing;
+  /// Deterministic runs only (SlamPipeline::process): the mask stage gets each frame's pose (and
+  /// moving points) only after it has masked the next frame, as the live graph's mask does
+  /// whenever tracking takes longer than MaskStageOptions::previous_pose_wait_s or frames wait
+  /// behind it. Every mask then starts from a prediction made from older poses
+  /// (MaskPrior::prediction_fresh false): a repeatable stand-in for the live graph's stale
+  /// predictions, for benchmarks (dypho_run_dataset --late-mask-poses). The stage's wait is off
+  /// with it (the pose could never arrive in time). Default false.
+  bool mask_poses_one_frame_late = false;
 };
 
 /// Loads `<config_dir>/{mask,tracking,mapping}.yaml`, then applies `override_yaml` (a file with

@@ -28,8 +28,9 @@
 /// prior and R_d then predict from the newest pose tracking has handed on, at least frame k-1's
 /// (the constant-velocity model extrapolates to both stamps; motion_prior.h).
 
-#include <string>
 #include <memory>
+#include <optional>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -117,11 +118,20 @@ class SlamPipeline {
   /// Keyframes and corrections go to mapping: a map is built and tracking may change it (not
   /// TrackingOptions::localization_only, where the loaded map stays as it is).
   bool mapsFrames() const;
+  /// Hands a pose held back by PipelineOptions::mask_poses_one_frame_late to the mask stage.
+  void handLatePoseToMask();
 
   PipelineOptions options_;
   mask::MaskStage mask_;
   tracking::TrackingStage tracking_;
   mapping::MappingStage mapping_;
+  /// The last tracked frame's pose and moving points, for the mask stage after the next mask
+  /// (PipelineOptions::mask_poses_one_frame_late).
+  struct LatePose {
+    PoseUpdate pose;
+    MovingPoints moving_points;
+  };
+  std::optional<LatePose> late_pose_;
 };
 
 }  // namespace dypho::pipeline
