@@ -55,6 +55,7 @@ std::string FlowMaskOptions::toString() const {
     << " ransac_max_iterations=" << ransac_max_iterations << " min_inlier_ratio=" << min_inlier_ratio
     << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
     << " residual_memory=" << residual_memory << " fit_rigid_motion=" << (fit_rigid_motion ? "true" : "false")
+    << " stale_ego_motion_from_fit=" << (stale_ego_motion_from_fit ? "true" : "false")
     << " refit_without_previous_margin=" << refit_without_previous_margin
     << " ultrafast=" << (ultrafast ? "true" : "false") << " dis_refinement_iterations=" << dis_refinement_iterations
     << " dis_catch_up_patch_stride=" << dis_catch_up_patch_stride

@@ -151,12 +151,14 @@ class DynamicMasker {
   /// Step 1: the flow masker's motion mask (flow, ego-motion) into f.flow and the consistency
   /// test (when f.run_background), in one of the three ways below.
   void computeMotionAndConsistency(FrameState& f);
-  /// Without a prediction or with a stale one (FlowMaskOptions::fit_rigid_motion): the flow's
+  /// Without a prediction or with a stale one (FlowMaskOptions::fit_rigid_motion; with
+  /// FlowMaskOptions::stale_ego_motion_from_fit off, only a stale one after a gap): the flow's
   /// ego-motion and B's warp both use the motion fitted to the flow from the guess; B starts
   /// again when the guess put it off the view.
   void motionFittedFromAGuess(FrameState& f, bool no_prediction);
-  /// With a fresh prediction (BackgroundOptions::warp_with_flow_fit): the flow from the
-  /// prediction, then the test with B warped with the motion fitted to the flow.
+  /// With a fresh prediction, or with stale_ego_motion_from_fit off a stale one without a gap
+  /// (BackgroundOptions::warp_with_flow_fit): the flow from the prediction, then the test with B
+  /// warped with the motion fitted to the flow.
   void motionThenConsistencyWithTheFit(FrameState& f);
   /// Otherwise: the flow beside the test on OpenCV's pool; rethrows either task's exception.
   void motionBesideConsistency(FrameState& f);
