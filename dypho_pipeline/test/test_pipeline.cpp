@@ -212,9 +212,9 @@ namespace DYPHO_UNITY_ID {
 
 // PipelineOptions::mask_poses_one_frame_late: the mask stage gets each pose after it masked the
 // next frame, so no mask has a fresh prediction (the live graph's stale case), every mask after
-// the first poses has one from older poses, the stage never waits (the 33 ms wait would time
-// out on every frame), and tracking still poses every frame. Without it every frame after the
-// first two has a fresh one.
+// the first poses has one from the pose one frame before the previous frame's, the stage never waits (the 33 ms wait
+// would time out on every frame), and tracking still poses every frame. Without it every frame after the first two has
+// a fresh one.
 TEST(SlamPipeline, MaskPosesOneFrameLateGiveEveryMaskAStalePrediction) {
   tools::SynthOptions so;
   so.frames = 30;
@@ -237,7 +237,10 @@ TEST(SlamPipeline, MaskPosesOneFrameLateGiveEveryMaskAStalePrediction) {
     if (late) {
       EXPECT_EQ(stats.frames_with_fresh_prior, 0u);
       EXPECT_GE(stats.frames_with_ego_motion, static_cast<std::size_t>(so.frames - 3));
+      // each made from the pose of the frame before the previous one (MaskPrior::pose_frames_behind 1)
+      EXPECT_EQ(stats.frames_with_prior_one_behind, stats.frames_with_ego_motion);
     } else {
+      EXPECT_EQ(stats.frames_with_prior_one_behind, 0u);
       EXPECT_GE(stats.frames_with_fresh_prior, static_cast<std::size_t>(so.frames - 2));
     }
   }

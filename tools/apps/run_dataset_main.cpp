@@ -344,8 +344,8 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
   std::cout << "mask prior:   " << mask_stats.frames_with_rendered_depth << " of " << mask_stats.frames
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion (" << mask_stats.frames_with_fresh_prior
-            << " fresh: from the previous frame's "
-            << "pose; " << mask_stats.pose_waits_timed_out << " waits for it timed out)\n"
+            << " fresh: from the previous frame's pose, " << mask_stats.frames_with_prior_one_behind
+            << " from the one before; " << mask_stats.pose_waits_timed_out << " waits for it timed out)\n"
             << "time:         " << std::fixed << std::setprecision(1) << median(tally.totals)
             << (tally.realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
                                  "waits between the stages not counted)\n"

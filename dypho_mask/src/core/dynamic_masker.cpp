@@ -175,12 +175,15 @@ void DynamicMasker::computeMotionAndConsistency(FrameState& f) {
   // starts again). (The first frames have none either; their B is still being built.)
   const bool no_prediction =
       !f.prior.T_prev_cur && f.run_background && background_updates_ >= options_.background.veto_after_updates;
-  // With FlowMaskOptions::stale_ego_motion_from_fit off, a stale prediction without a gap takes
+  // A stale prediction without a gap, its newest pose at most
+  // FlowMaskOptions::stale_prediction_kept_frames_behind frames before the previous frame, takes
   // the fresh one's way: the flow's ego-motion keeps it, only B is warped with the fit.
   const bool stale = f.prior.T_prev_cur && !f.prior.prediction_fresh;
   const bool fit_for_background = options_.background.warp_with_flow_fit && f.run_background;
-  const bool stale_as_fresh = stale && !f.prior.after_gap && options_.flow.fit_rigid_motion &&
-                              !options_.flow.stale_ego_motion_from_fit && fit_for_background;
+  const int kept_behind = options_.flow.stale_prediction_kept_frames_behind;
+  const bool stale_as_fresh = stale && !f.prior.after_gap && options_.flow.fit_rigid_motion && kept_behind > 0 &&
+                              f.prior.pose_frames_behind >= 0 && f.prior.pose_frames_behind <= kept_behind &&
+                              fit_for_background;
   if (options_.flow.fit_rigid_motion && (no_prediction || (stale && !stale_as_fresh))) {
     motionFittedFromAGuess(f, no_prediction);
   } else if (fit_for_background && f.prior.T_prev_cur && (f.prior.prediction_fresh || stale_as_fresh)) {

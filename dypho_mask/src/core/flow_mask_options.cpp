@@ -38,6 +38,9 @@ void FlowMaskOptions::validate() const {
   require(std::isfinite(refit_without_previous_margin) && refit_without_previous_margin >= 0.0 &&
               refit_without_previous_margin < 1.0,
           "refit_without_previous_margin must be in [0, 1), got " + std::to_string(refit_without_previous_margin));
+  require(stale_prediction_kept_frames_behind >= 0 && stale_prediction_kept_frames_behind <= 1000,
+          "stale_prediction_kept_frames_behind must be in [0, 1000], got " +
+              std::to_string(stale_prediction_kept_frames_behind));
   require(dis_refinement_iterations >= 0 && dis_refinement_iterations <= 100,
           "dis_refinement_iterations must be in [0, 100], got " + std::to_string(dis_refinement_iterations));
   require(dis_catch_up_patch_stride >= 1 && dis_catch_up_patch_stride <= 64,
@@ -55,7 +58,7 @@ std::string FlowMaskOptions::toString() const {
     << " ransac_max_iterations=" << ransac_max_iterations << " min_inlier_ratio=" << min_inlier_ratio
     << " min_texture_gradient=" << min_texture_gradient << " aperture_aware=" << (aperture_aware ? "true" : "false")
     << " residual_memory=" << residual_memory << " fit_rigid_motion=" << (fit_rigid_motion ? "true" : "false")
-    << " stale_ego_motion_from_fit=" << (stale_ego_motion_from_fit ? "true" : "false")
+    << " stale_prediction_kept_frames_behind=" << stale_prediction_kept_frames_behind
     << " refit_without_previous_margin=" << refit_without_previous_margin
     << " ultrafast=" << (ultrafast ? "true" : "false") << " dis_refinement_iterations=" << dis_refinement_iterations
     << " dis_catch_up_patch_stride=" << dis_catch_up_patch_stride

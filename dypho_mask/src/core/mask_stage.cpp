@@ -1,7 +1,9 @@
 /// MaskStage: the mask core with its motion prior, R_d hand-over and restart policy.
 #include "dypho/mask/mask_stage.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
@@ -71,6 +73,10 @@ void MaskStage::fillPrior(const RgbdFrame& frame, MaskPrior* prior) {
     const bool next_frame = interval_ns > 0 && frame.stamp_ns - *previous_frame_ns_ < interval_ns + interval_ns / 2;
     prior->prediction_fresh = motion_.last() && motion_.lastStamp() == *previous_frame_ns_ && next_frame;
     prior->after_gap = interval_ns > 0 && !next_frame;
+    if (motion_.last() && interval_ns > 0) {
+      const double behind = static_cast<double>(*previous_frame_ns_ - motion_.lastStamp()) / interval_ns;
+      prior->pose_frames_behind = static_cast<int>(std::clamp(std::lround(behind), 0L, 1000L));
+    }
   }
   if (!rendered_depth_m_.empty()) {
     const double offset_s = std::abs(timestampToSeconds(frame.stamp_ns - rendered_stamp_ns_));
@@ -146,6 +152,8 @@ MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting
   if (result.degraded) ++stats_.degraded_frames;
   if (prior.catching_up) ++stats_.frames_caught_up;
   if (prior.T_prev_cur && prior.prediction_fresh) ++stats_.frames_with_fresh_prior;
+  if (prior.T_prev_cur && !prior.prediction_fresh && prior.pose_frames_behind == 1)
+    ++stats_.frames_with_prior_one_behind;
   return result;
 }
 

@@ -54,6 +54,11 @@ struct MaskPrior {
   /// Otherwise (poses older than the previous frame, as in a live graph whose mask runs ahead of
   /// tracking; a gap) it is fitted to the flow first (FlowMaskOptions::fit_rigid_motion).
   bool prediction_fresh = false;
+  /// Frame intervals between the newest tracked pose `T_prev_cur` was predicted from and the
+  /// previous frame: 0 = the previous frame's own pose; 1 = the pose before it (tracking one frame
+  /// behind the mask); frames dropped in between count; -1 = not known, taken as too old to keep
+  /// (FlowMaskOptions::stale_prediction_kept_frames_behind).
+  int pose_frames_behind = -1;
   /// Frames are missing before this one (its stamp is more than 1.5 frame intervals after the
   /// previous frame's: skipped or dropped ones). When the flow does not confirm the camera's
   /// motion across the gap and B, carried with the prediction, fails the test on far more of the
@@ -151,12 +156,12 @@ class DynamicMasker {
   /// Step 1: the flow masker's motion mask (flow, ego-motion) into f.flow and the consistency
   /// test (when f.run_background), in one of the three ways below.
   void computeMotionAndConsistency(FrameState& f);
-  /// Without a prediction or with a stale one (FlowMaskOptions::fit_rigid_motion; with
-  /// FlowMaskOptions::stale_ego_motion_from_fit off, only a stale one after a gap): the flow's
+  /// Without a prediction or with a stale one (FlowMaskOptions::fit_rigid_motion; not one
+  /// FlowMaskOptions::stale_prediction_kept_frames_behind keeps): the flow's
   /// ego-motion and B's warp both use the motion fitted to the flow from the guess; B starts
   /// again when the guess put it off the view.
   void motionFittedFromAGuess(FrameState& f, bool no_prediction);
-  /// With a fresh prediction, or with stale_ego_motion_from_fit off a stale one without a gap
+  /// With a fresh prediction, or a stale one stale_prediction_kept_frames_behind keeps
   /// (BackgroundOptions::warp_with_flow_fit): the flow from the prediction, then the test with B
   /// warped with the motion fitted to the flow.
   void motionThenConsistencyWithTheFit(FrameState& f);

@@ -69,15 +69,17 @@ struct FlowMaskOptions {
   bool fit_rigid_motion = true;
   /// A prediction made from older poses but one frame after the previous frame (the live graph's
   /// mask whenever tracking is slower than MaskStageOptions::previous_pose_wait_s; not after a
-  /// gap, not without a prediction): true = the flow's ego-motion uses the motion fitted to the
-  /// flow (fit_rigid_motion), as the background's warp does; false = the ego-motion starts from
-  /// the prediction, as with a fresh one (its homography absorbs the rotation error), and only
-  /// the background is warped with the fit (BackgroundOptions::warp_with_flow_fit). Default
-  /// true: false gains with every pose exactly one frame late (dypho_run_dataset
-  /// --late-mask-poses; fr1/rpy's fifteen frame-removal inputs 0.96 -> 0.89 cm, Bonn crowd's 1.47
-  /// -> 1.16) and on Bonn through the live graph, but lost on fr1/rpy through the live graph
-  /// (ten runs a side, mean 0.81 -> 0.88 cm).
-  bool stale_ego_motion_from_fit = true;
+  /// gap, not without a prediction) whose newest pose lies at most this many frames before the
+  /// previous frame (MaskPrior::pose_frames_behind) keeps the flow's ego-motion, as a fresh one
+  /// does (its homography absorbs the rotation error): only the background is warped with the
+  /// motion fitted to the flow (BackgroundOptions::warp_with_flow_fit). Older ones, and every one
+  /// with 0, have the fit (fit_rigid_motion) serve both. In [0, 1000]. Default 1: with every pose
+  /// exactly one frame late (dypho_run_dataset --late-mask-poses) it gains (fr1/rpy's fifteen
+  /// frame-removal inputs 0.96 -> 0.89 cm, Bonn crowd's 1.47 -> 1.16), and through the live graph
+  /// at 1x, where predictions are also older, on fr1/rpy 0.85 -> 0.78 cm and on Bonn crowd 1.26 ->
+  /// 1.09 cm (twenty and six runs a side); keeping every age (1000) lost on fr1/rpy through the
+  /// graph (0.81 -> 0.88 cm). Offline the predictions are fresh: no effect.
+  int stale_prediction_kept_frames_behind = 1;
   /// With the previous frame's mask at hand, the global motion is fitted again without its pixels
   /// and replaces the fit on every sample when it explains more of the pixels outside that mask
   /// by this share of them, in [0, 1) (0 = only when the first fit failed or follows the masked

@@ -67,14 +67,13 @@ void visitOptions(FlowMaskOptions& options, Visitor&& visitor) {
       "warped with the fit; the prediction is kept unless the fit explains clearly more cells. Such a prediction "
       "misses the hand's jerks: its translation error puts the background's depth edges off (TUM fr1/rpy with poses "
       "3 frames old: 11.4 % of the static view masked, 2.0 % fitted). Default true.");
-  visitor("stale_ego_motion_from_fit", options.stale_ego_motion_from_fit,
+  visitor("stale_prediction_kept_frames_behind", options.stale_prediction_kept_frames_behind,
           "A prediction made from older poses but one frame after the previous frame (the live graph's mask whenever "
-          "tracking is slower than previous_pose_wait_s; not after a gap, not without a prediction): true = the "
-          "flow's ego-motion uses the motion fitted to the flow (fit_rigid_motion), as the background's warp does; "
-          "false = the ego-motion starts from the prediction, as with a fresh one (its homography absorbs the "
-          "rotation error), and only the background is warped with the fit (background_warp_with_flow_fit). Default "
-          "true: false gains with every pose exactly one frame late and on Bonn through the live graph, but lost on "
-          "TUM fr1/rpy through the live graph.");
+          "tracking is slower than previous_pose_wait_s; not after a gap, not without a prediction) whose newest "
+          "pose lies at most this many frames before the previous frame keeps the flow's ego-motion, as a fresh one "
+          "does (its homography absorbs the rotation error): only the background is warped with the motion fitted "
+          "to the flow (background_warp_with_flow_fit). Older ones, and every one with 0, have the fit "
+          "(fit_rigid_motion) serve both. In [0, 1000]. Default 1 (keeping every age lost on TUM fr1/rpy live).");
   visitor("refit_without_previous_margin", options.refit_without_previous_margin,
           "With the previous frame's mask at hand, the global motion is fitted again without its pixels and replaces "
           "the fit on every sample when it explains more of the pixels outside that mask by this share of them, in "

@@ -72,6 +72,9 @@ struct MaskStageStats {
   std::size_t frames_with_fresh_prior =
       0;  ///< of frames_with_ego_motion, those with a fresh one (MaskPrior::prediction_fresh)
   std::size_t pose_waits_timed_out = 0;  ///< frames that waited previous_pose_wait_s in vain
+  /// of frames_with_ego_motion, stale ones whose newest pose was one frame before the previous
+  /// frame's (MaskPrior::pose_frames_behind 1)
+  std::size_t frames_with_prior_one_behind = 0;
 };
 
 class MaskStage {
