@@ -75,7 +75,7 @@ struct FlowMaskOptions {
   /// motion fitted to the flow (BackgroundOptions::warp_with_flow_fit). Older ones, and every one
   /// with 0, have the fit (fit_rigid_motion) serve both. In [0, 1000]. Default 1: with every pose
   /// exactly one frame late (dypho_run_dataset --late-mask-poses) it gains (fr1/rpy's fifteen
-  /// frame-removal inputs 0.96 -> 0.89 cm, Bonn crowd's 1.47 -> 1.16), and through the live graph
+  /// frame-removal inputs 0.96 -> 0.88 cm, Bonn crowd's 1.47 -> 1.17), and through the live graph
   /// at 1x, where predictions are also older, on fr1/rpy 0.85 -> 0.78 cm and on Bonn crowd 1.26 ->
   /// 1.09 cm (twenty and six runs a side); keeping every age (1000) lost on fr1/rpy through the
   /// graph (0.81 -> 0.88 cm). Offline the predictions are fresh: no effect.
