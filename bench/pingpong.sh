@@ -3,7 +3,11 @@
 # camera comes back to where it started (twice the frames; the same images). The shared TUM and
 # Bonn frames are 150-200 frames long; full-length sequences are 4-6 times that and sweep back
 # and forth over the same scene. This shows what a return over a mapped scene does (local map,
-# keyframes, loop closure), which a single pass cannot.
+# keyframes, loop closure), which a single pass cannot. Played backwards, a rolling shutter's
+# rows run against time, which the tracker's rolling-shutter model (on for the TUM and Bonn
+# cameras) cannot describe, and the backward half loses for that reason alone. To judge
+# a return, turn the model off for both runs (--config with
+# `tracking: {rolling_shutter_readout_ms: 0}`); docs/journal/2026-12-05-gaps-and-async-local-ba.md.
 # Offline runner, --no-map. Prints the ATE RMSE of the forward-only and the ping-pong run.
 #
 # Usage: bench/pingpong.sh [--config YAML] [--mask flow|none] DATASET OUT
