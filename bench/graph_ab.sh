@@ -13,15 +13,13 @@
 # per side: runs, ATE mean, median and range [cm], the fewest frames answered, and the mean
 # number of frames tracked in catch-up mode.
 # Needs the catkin build and its environment (source build/devel/setup.bash), as realtime_graph.sh.
-if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
+help() { awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; }
+if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then help; exit 0; fi
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 pairs=10
 if [[ "${1:-}" == "--pairs" ]]; then pairs="$2"; shift 2; fi
-if [[ $# -lt 4 ]] || ! [[ "$pairs" =~ ^[1-9][0-9]*$ ]]; then
-  awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0" >&2
-  exit 2
-fi
+if [[ $# -lt 4 ]] || ! [[ "$pairs" =~ ^[1-9][0-9]*$ ]]; then help >&2; exit 2; fi
 dir_a="$(realpath "$1")" dir_b="$(realpath "$2")" out="$3" bag="$(realpath "$4")"
 shift 4
 for d in "$dir_a" "$dir_b"; do
