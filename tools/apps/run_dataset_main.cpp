@@ -345,8 +345,13 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
             << " frames with R_d (rendered depth), " << mask_stats.frames_with_ego_motion
             << " with the tracked ego-motion (" << mask_stats.frames_with_fresh_prior
             << " fresh: from the previous frame's pose, " << mask_stats.frames_with_prior_one_behind
-            << " from the one before; " << mask_stats.pose_waits_timed_out << " waits for it timed out)\n"
-            << "time:         " << std::fixed << std::setprecision(1) << median(tally.totals)
+            << " from the one before; " << mask_stats.pose_waits_timed_out << " waits for it timed out)\n";
+  if (mask_stats.network_runs > 0) {
+    std::cout << "network:      " << mask_stats.network_runs << " runs, " << mask_stats.network_results_late
+              << " results too old on arrival (not used), " << mask_stats.frames_with_network_mask
+              << " frames judged with a network mask\n";
+  }
+  std::cout << "time:         " << std::fixed << std::setprecision(1) << median(tally.totals)
             << (tally.realtime ? " ms/frame median of the processed frames' work (render + mask + tracking + mapping; "
                                  "waits between the stages not counted)\n"
                                : " ms/frame median (mask + tracking + mapping)\n")

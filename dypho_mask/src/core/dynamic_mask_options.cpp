@@ -59,6 +59,8 @@ void YoloOptions::validate() const {
   require(every_n_frames >= 1, "yolo_every_n_frames must be >= 1, got " + std::to_string(every_n_frames));
   require(max_age_frames >= 0 && max_age_frames <= 1000,
           "yolo_max_age_frames must be in [0, 1000], got " + std::to_string(max_age_frames));
+  require(async_backoff_max_frames >= 0 && async_backoff_max_frames <= 1000,
+          "yolo_async_backoff_max_frames must be in [0, 1000], got " + std::to_string(async_backoff_max_frames));
   require(async_nice >= 0 && async_nice <= 19, "yolo_async_nice must be in [0, 19], got " + std::to_string(async_nice));
   require(std::isfinite(box_depth_range_m) && box_depth_range_m > 0.0,
           "yolo_box_depth_range_m must be > 0, got " + num(box_depth_range_m));

@@ -322,6 +322,8 @@ void DynamicMasker::computeSegment(FrameState& f, MaskResult& result) {
   result.segment_ms = msSince(t_seg);
   result.segment_fresh = seg.fresh;
   result.segment_age_frames = seg.age_frames;
+  result.network_started = seg.network_started;
+  result.network_result_late = seg.late_result;
   result.detection_boxes = seg.boxes_image;
   result.raw_segment_mask = seg.mask;
   if (!seg.message.empty()) addNote(result, "segment: " + seg.message);

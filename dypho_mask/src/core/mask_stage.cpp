@@ -154,6 +154,9 @@ MaskResult MaskStage::process(const RgbdFrame& frame, std::size_t frames_waiting
   if (prior.T_prev_cur && prior.prediction_fresh) ++stats_.frames_with_fresh_prior;
   if (prior.T_prev_cur && !prior.prediction_fresh && prior.pose_frames_behind == 1)
     ++stats_.frames_with_prior_one_behind;
+  if (result.network_started) ++stats_.network_runs;
+  if (result.network_result_late) ++stats_.network_results_late;
+  if (!result.raw_segment_mask.empty()) ++stats_.frames_with_network_mask;
   return result;
 }
 

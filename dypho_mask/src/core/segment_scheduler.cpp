@@ -13,7 +13,9 @@ namespace mask {
 using internal::msSince;
 
 SegmentScheduler::SegmentScheduler(const YoloOptions& options)
-    : options_(options), segmenter_(std::make_unique<YoloSegmenter>(options)) {}
+    : options_(options),
+      segmenter_(std::make_unique<YoloSegmenter>(options)),
+      backoff_(options.async_backoff_max_frames) {}
 
 SegmentScheduler::~SegmentScheduler() {
   if (pending_.valid()) pending_.wait();
@@ -24,6 +26,7 @@ void SegmentScheduler::reset() {
   pending_ = std::future<SegmentOutput>();
   flows_since_submit_.clear();
   frames_since_submit_ = 1 << 20;
+  backoff_.reset();
   current_.release();
   current_boxes_.clear();
   current_age_ = 0;
@@ -58,10 +61,14 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
   if (pending_.valid()) flows_since_submit_.push_back(backward_flow.clone());
   out.carry_ms = msSince(t_carry);
   ++frames_since_submit_;
+  backoff_.frameSeen();
 
   // Collect a finished async result and carry it over the frames since its input.
   if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
     SegmentOutput r = pending_.get();
+    const bool in_time = static_cast<int>(flows_since_submit_.size()) <= options_.max_age_frames;
+    backoff_.resultArrived(in_time);
+    out.late_result = !in_time;
     if (r.ok && r.mask.size() == frame.bgr.size()) {
       const auto t = std::chrono::steady_clock::now();
       current_ = r.mask;
@@ -75,8 +82,10 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
     flows_since_submit_.clear();
   }
 
-  if (!pending_.valid() && frames_since_submit_ >= options_.every_n_frames && frame.bgr.type() == CV_8UC3) {
+  if (!pending_.valid() && frames_since_submit_ >= options_.every_n_frames && frame.bgr.type() == CV_8UC3 &&
+      (!options_.async || backoff_.mayStart())) {
     frames_since_submit_ = 0;
+    out.network_started = true;
     if (options_.async) {
       // Copies: the caller may reuse its buffers while the worker runs.
       cv::Mat bgr = frame.bgr.clone(), depth = frame.depth_m.clone();
@@ -107,6 +116,7 @@ SegmentStep SegmentScheduler::step(const RgbdFrame& frame, const cv::Mat& backwa
     current_boxes_.clear();
     out.too_old = true;
   }
+  out.network_wait_frames = backoff_.waitFrames();
   out.mask = current_;
   out.age_frames = current_age_;
   out.boxes_image = current_boxes_;

@@ -261,6 +261,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
                              : !result.raw_segment_mask.empty() ? dypho_slam::MaskStatus::SEGMENT_CARRIED
                                                                 : dypho_slam::MaskStatus::SEGMENT_NONE;
     status->segment_age_frames = result.segment_age_frames;
+    status->network_runs = stats.network_runs;
+    status->network_results_late = stats.network_results_late;
     {
       std::lock_guard<std::mutex> lock(counters_mutex_);
       latency_ms_.add(latency_ms);
@@ -298,6 +300,11 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
           diagnostic_msgs::DiagnosticStatus::WARN,
           "%lu frames skipped since the last report: the mask is slower than the camera (tracking carries masks)",
           static_cast<unsigned long>(dropped_now));
+    } else if (s.network_runs >= 5 && 2 * s.network_results_late > s.network_runs) {
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "%lu of %lu network results came back too old to use: this machine is too slow for the network "
+                    "at this frame rate (the mask runs on flow and background; the network runs less often)",
+                    static_cast<unsigned long>(s.network_results_late), static_cast<unsigned long>(s.network_runs));
     } else if (s.degraded) {
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "degraded: " + s.message);
     } else {
@@ -305,6 +312,8 @@ class DynamicMaskNodelet : public nodelet::Nodelet {
     }
     stat.add("mask mode", segment);
     stat.add("network mask age [frames]", s.segment_age_frames);
+    stat.add("network runs", s.network_runs);
+    stat.add("network results too old", s.network_results_late);
     stat.add("input rate [Hz]", s.input_rate_hz);
     stat.add("frames in", s.frames_in);
     stat.add("frames masked", s.frames);

@@ -46,6 +46,14 @@ struct YoloOptions {
   /// (Bonn crowd, network every 10th frame: 6.06 cm with every carried mask, 1.45 cm with 2).
   /// A network on every frame (sync, every_n_frames 1) is never older than 0. Default 2.
   int max_age_frames = 2;
+  /// The asynchronous network's wait after results that came back older than max_age_frames
+  /// (unusable: the network is slower than the frames on this machine), at most this many frames
+  /// [frames]: the wait doubles with each late result (1, 2, 4, ...) and halves with each result
+  /// in time (NetworkBackoff, segment_scheduler.h), so the network stops taking CPU from the
+  /// camera-rate threads for results nobody uses, and comes back once it keeps up. In [0, 1000];
+  /// 0 = run again as soon as the last run finished. Default 32 (about one probe per second at
+  /// 30 Hz).
+  int async_backoff_max_frames = 32;
   /// Detector boxes: depth extent of the object behind its nearest depth [m], > 0. Default 0.6.
   double box_depth_range_m = 0.6;
 

@@ -94,11 +94,15 @@ struct MaskResult {
   /// the mask is all static, or all dynamic with DynamicMaskOptions::unjudged_is_dynamic. A network
   /// that ran on the frame judged it, even when it found nobody.
   bool unjudged = false;
-  std::string message;                    ///< why degraded, warnings, "first frame"
-  bool ego_motion_from_pose = false;      ///< flow used depth + pose (false: homography fallback)
-  bool rendered_depth_used = false;       ///< R_d entered the background model B_i on this frame
-  bool segment_fresh = false;             ///< the network ran on this frame
-  int segment_age_frames = 0;             ///< frames the segment mask was carried
+  std::string message;                ///< why degraded, warnings, "first frame"
+  bool ego_motion_from_pose = false;  ///< flow used depth + pose (false: homography fallback)
+  bool rendered_depth_used = false;   ///< R_d entered the background model B_i on this frame
+  bool segment_fresh = false;         ///< the network ran on this frame
+  int segment_age_frames = 0;         ///< frames the segment mask was carried
+  bool network_started = false;       ///< the network was started (async) or run (sync) on this frame
+  /// An asynchronous network result came back on this frame already older than
+  /// YoloOptions::max_age_frames (not used; the network waits longer before its next run).
+  bool network_result_late = false;
   std::vector<cv::Rect> detection_boxes;  ///< boxes behind the segment mask (image px)
   double flow_ms = 0.0;                   ///< flow masker, whole [ms]
   double segment_ms = 0.0;                ///< network (sync) + carrying [ms]

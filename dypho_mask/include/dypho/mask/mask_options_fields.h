@@ -127,6 +127,12 @@ void visitOptions(YoloOptions& options, Visitor&& visitor) {
           "drift off the people (Bonn crowd, network every 10th frame: 6.06 cm with every carried mask, 1.45 cm with "
           "2; the live graph at 1x on 2 cores, where results are 3-6 frames old: see docs/journal/benchmarks-2026.md "
           "section 8). Default 2.");
+  visitor("async_backoff_max_frames", options.async_backoff_max_frames,
+          "After results of the asynchronous network that came back older than yolo_max_age_frames (the network is "
+          "slower than the frames on this machine), its next run waits 1, 2, 4, ... frames, at most this many; each "
+          "result in time halves it. The network then stops taking CPU from the camera-rate threads for results nobody "
+          "uses, and comes back once it keeps up. In [0, 1000]; 0 = run again as soon as the last run finished. "
+          "Default 32 (about one probe per second at 30 Hz).");
   visitor("box_depth_range_m", options.box_depth_range_m,
           "Detector boxes are segmented with depth: depth extent of the object behind its nearest depth [m], > 0. "
           "Default 0.6.");

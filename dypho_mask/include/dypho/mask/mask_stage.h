@@ -75,6 +75,9 @@ struct MaskStageStats {
   /// of frames_with_ego_motion, stale ones whose newest pose was one frame before the previous
   /// frame's (MaskPrior::pose_frames_behind 1)
   std::size_t frames_with_prior_one_behind = 0;
+  std::size_t network_runs = 0;              ///< network runs started (MaskResult::network_started)
+  std::size_t network_results_late = 0;      ///< async results too old on arrival (MaskResult::network_result_late)
+  std::size_t frames_with_network_mask = 0;  ///< frames judged with a network mask (raw_segment_mask)
 };
 
 class MaskStage {
