@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "dypho/mask/dynamic_mask_options.h"
+#include "dypho/mask/mask_stage.h"
 #include "dypho/mask/segment_scheduler.h"
 
 using namespace dypho;
@@ -154,6 +155,34 @@ TEST(SegmentScheduler, AsyncNetworkRunsBackToBackWithoutBackoffOrWhenInTime) {
     }
     EXPECT_EQ(started, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8})) << "limit " << max_age << ", cap " << cap;
   }
+}
+
+// The stage's counters (the runner's summary and the mask status message report them): a network
+// run on every frame, its mask judging each; none late without the asynchronous worker.
+TEST(SegmentScheduler, MaskStageCountsTheNetworksRunsAndTheFramesItJudged) {
+  if (!modelsExist()) GTEST_SKIP() << "generated ONNX models missing in " << kModels << " (python3-onnx)";
+  DynamicMaskOptions options;
+  options.yolo.model_path = kModels + "/yolov8_det.onnx";
+  options.yolo.input_size_px = 64;
+  options.yolo.dynamic_classes = "0,2";
+  MaskStage stage(options);
+  RgbdFrame frame;
+  frame.bgr = cv::Mat(64, 64, CV_8UC3, cv::Scalar(0, 0, 0));
+  frame.depth_m = cv::Mat(64, 64, CV_32FC1, cv::Scalar(2.0f));
+  frame.camera.width = 64;
+  frame.camera.height = 64;
+  frame.camera.fx = frame.camera.fy = 60.0;
+  frame.camera.cx = frame.camera.cy = 32.0;
+  for (int i = 0; i < 3; ++i) {
+    frame.stamp_ns = 1000000000LL + i * 33000000LL;
+    const MaskResult r = stage.process(frame);
+    EXPECT_TRUE(r.network_started) << "frame " << i << ": " << r.message;
+    EXPECT_FALSE(r.network_result_late) << "frame " << i;
+  }
+  const MaskStageStats stats = stage.stats();
+  EXPECT_EQ(stats.network_runs, 3u);
+  EXPECT_EQ(stats.network_results_late, 0u);
+  EXPECT_EQ(stats.frames_with_network_mask, 3u);
 }
 
 }  // namespace DYPHO_UNITY_ID
