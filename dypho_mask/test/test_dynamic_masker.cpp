@@ -11,6 +11,7 @@
 #include <iostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <sys/stat.h>
 
 #include <opencv2/core.hpp>
@@ -286,20 +287,26 @@ TEST(DynamicMasker, UnknownCameraMotionAtTheStartIsAllDynamic) {
   EXPECT_LT(lostAfter(no_background, start + 1), 1.0);
 }
 
-TEST(DynamicMaskOptions, RejectsANetworkMaskAgeOutsideItsRange) {
-  for (const int bad : {-1, 1001}) {
-    DynamicMaskOptions o;
-    o.yolo.max_age_frames = bad;
-    try {
-      o.validate();
-      ADD_FAILURE() << "validate() accepted yolo_max_age_frames = " << bad;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find("yolo_max_age_frames"), std::string::npos) << e.what();
+// The network's frame counts in [0, 1000]: the age limit of its masks and the wait after late results.
+TEST(DynamicMaskOptions, RejectsNetworkFrameCountsOutsideTheirRange) {
+  const std::pair<int YoloOptions::*, const char*> fields[] = {
+      {&YoloOptions::max_age_frames, "yolo_max_age_frames"},
+      {&YoloOptions::async_backoff_max_frames, "yolo_async_backoff_max_frames"}};
+  for (const auto& [field, name] : fields) {
+    for (const int bad : {-1, 1001}) {
+      DynamicMaskOptions o;
+      o.yolo.*field = bad;
+      try {
+        o.validate();
+        ADD_FAILURE() << "validate() accepted " << name << " = " << bad;
+      } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      }
     }
+    DynamicMaskOptions ok;
+    ok.yolo.*field = 0;
+    EXPECT_NO_THROW(ok.validate()) << name;
   }
-  DynamicMaskOptions ok;
-  ok.yolo.max_age_frames = 0;
-  EXPECT_NO_THROW(ok.validate());
 }
 
 TEST(DynamicMaskOptions, RejectsANegativeVetoWarmUp) {
