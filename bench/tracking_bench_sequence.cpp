@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
     // Final trajectory: each tracked frame follows the later local-BA / loop corrections of its
     // reference keyframe (what ORB-SLAM saves), its position fitted in time; `trajectory` holds
     // the poses at frame time.
-    const std::vector<dypho::StampedPose> final_trajectory =
-        dypho::toStampedPoses(recorder.finalPoses(odometry.map(), odometry.options().trajectory_smoothing_s));
+    const std::vector<dypho::StampedPose> final_trajectory = dypho::toStampedPoses(
+        recorder.finalPoses(odometry.map(), dypho::tracking::positionSmoothing(odometry.options())));
     const std::vector<dypho::StampedPose> trajectory = dypho::toStampedPoses(recorder.onlinePoses());
     if (!out.empty()) dypho::writeTumTrajectory(out, final_trajectory);
     double ate_cm = -1, ate_online_cm = -1, end_drift_cm = -1;

@@ -1,4 +1,7 @@
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <random>
 #include <utility>
 #include <vector>
@@ -104,9 +107,10 @@ double positionErrorRmsM(const Poses& poses, const std::vector<Eigen::Isometry3d
 
 // White noise of 6 mm per axis on a swinging camera (the per-frame noise of fr1/rpy, about 15 mm of
 // second difference): +-75 ms (5 poses) divides it by about sqrt(5), the swing's curvature adding
-// about 1 mm. Measured 11.1 -> 6.0 mm (0.86 mm without noise). Bound: at most 0.6 times the noise
-// (fails with the smoothing off or down to +-1 pose). A constant velocity is followed exactly,
-// also at the ends where the window is one-sided.
+// about 1 mm. Measured 11.1 -> 6.0 mm (0.86 mm without noise), the same with and without the
+// outlier weights (Gaussian noise has no outliers to weigh down). Bound: at most 0.6 times the
+// noise (fails with the smoothing off or down to +-1 pose). A constant velocity is followed
+// exactly, also at the ends where the window is one-sided.
 TEST(SmoothPositions, DividesWhiteNoiseAndFollowsAConstantVelocity) {
   std::mt19937 rng(7);
   std::normal_distribution<double> noise_m(0.0, 0.006);
@@ -121,26 +125,75 @@ TEST(SmoothPositions, DividesWhiteNoiseAndFollowsAConstantVelocity) {
     line.emplace_back(frameStampNs(k), pose(0.02 * k, 0.0));
   }
   const double before_m = positionErrorRmsM(noisy, truth);
-  Poses smoothed = noisy;
-  smoothPositions(0.075, segments, &smoothed);
-  const double after_m = positionErrorRmsM(smoothed, truth);
-  Poses exact;
-  for (int k = 0; k < 90; ++k) exact.emplace_back(frameStampNs(k), truth[static_cast<std::size_t>(k)]);
-  smoothPositions(0.075, segments, &exact);
-  std::printf("position error rms: %.2f mm noisy, %.2f mm smoothed (%.2f mm without noise)\n", 1e3 * before_m,
-              1e3 * after_m, 1e3 * positionErrorRmsM(exact, truth));
-  EXPECT_LT(after_m, 0.6 * before_m);
-  for (std::size_t k = 0; k < smoothed.size(); ++k) {
-    EXPECT_TRUE(smoothed[k].second.linear().isApprox(noisy[k].second.linear(), 1e-15)) << "rotation changed at " << k;
-  }
-  Poses fitted = line;
-  smoothPositions(0.075, segments, &fitted);
-  for (std::size_t k = 0; k < line.size(); ++k) {
-    EXPECT_LT((fitted[k].second.translation() - line[k].second.translation()).norm(), 1e-9) << "pose " << k;
+  for (const double outlier_sigmas : {0.0, 3.0}) {
+    SCOPED_TRACE("outlier_sigmas " + std::to_string(outlier_sigmas));
+    const PositionSmoothing smoothing{0.075, outlier_sigmas};
+    Poses smoothed = noisy;
+    smoothPositions(smoothing, segments, &smoothed);
+    const double after_m = positionErrorRmsM(smoothed, truth);
+    Poses exact;
+    for (int k = 0; k < 90; ++k) exact.emplace_back(frameStampNs(k), truth[static_cast<std::size_t>(k)]);
+    smoothPositions(smoothing, segments, &exact);
+    std::printf("outlier sigmas %.0f: position error rms %.2f mm noisy, %.2f mm smoothed (%.2f mm without noise)\n",
+                outlier_sigmas, 1e3 * before_m, 1e3 * after_m, 1e3 * positionErrorRmsM(exact, truth));
+    EXPECT_LT(after_m, 0.6 * before_m);
+    for (std::size_t k = 0; k < smoothed.size(); ++k) {
+      EXPECT_TRUE(smoothed[k].second.linear().isApprox(noisy[k].second.linear(), 1e-15)) << "rotation changed at " << k;
+    }
+    Poses fitted = line;
+    smoothPositions(smoothing, segments, &fitted);
+    for (std::size_t k = 0; k < line.size(); ++k) {
+      EXPECT_LT((fitted[k].second.translation() - line[k].second.translation()).norm(), 1e-9) << "pose " << k;
+    }
   }
   Poses off = noisy;
-  smoothPositions(0.0, segments, &off);
+  smoothPositions(PositionSmoothing{0.0, 3.0}, segments, &off);
   EXPECT_EQ(positionErrorRmsM(off, truth), before_m);
+}
+
+// One frame 5 cm off (a blurred frame in a fast turn) among poses with 1.5 mm of noise per axis.
+// The plain fit at each of the four neighbours whose window holds it is the window's mean, so it
+// moves each of them by a fifth of the error (1 cm) and takes the frame itself only to 1.2 cm;
+// with the outlier weights (3 sigma) its weight falls below 0.1. Bounds: the frame moves each
+// neighbour's fit by at most 2 mm (compared with the same poses without it) and keeps at most
+// 6 mm of its own error; the plain fit, on the same poses, must move a neighbour by more than
+// 8 mm and keep more than 10 mm, so the bounds can fail.
+TEST(SmoothPositions, AFrameCentimetresOffNeitherPullsItsNeighboursNorKeepsItsError) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise_m(0.0, 0.0015);
+  Poses clean, with_outlier;
+  std::vector<Eigen::Isometry3d> truth;
+  std::vector<int> segments(90, 0);
+  constexpr int kOff = 45;
+  for (int k = 0; k < 90; ++k) {
+    truth.push_back(swing(k));
+    Eigen::Isometry3d T = swing(k);
+    T.translation() += Eigen::Vector3d(noise_m(rng), noise_m(rng), noise_m(rng));
+    clean.emplace_back(frameStampNs(k), T);
+    if (k == kOff) T.translation() += Eigen::Vector3d(0.05, 0.0, 0.0);
+    with_outlier.emplace_back(frameStampNs(k), T);
+  }
+  const auto at = [](const Poses& poses, int k) { return poses[static_cast<std::size_t>(k)].second.translation(); };
+  for (const double outlier_sigmas : {0.0, 3.0}) {
+    const PositionSmoothing smoothing{0.075, outlier_sigmas};
+    Poses without = clean, with = with_outlier;
+    smoothPositions(smoothing, segments, &without);
+    smoothPositions(smoothing, segments, &with);
+    double pull_m = 0.0;
+    for (int k = kOff - 2; k <= kOff + 2; ++k) {
+      if (k != kOff) pull_m = std::max(pull_m, (at(with, k) - at(without, k)).norm());
+    }
+    const double own_m = (at(with, kOff) - truth[kOff].translation()).norm();
+    std::printf("outlier sigmas %.0f: neighbours moved by up to %.2f mm, the frame itself %.2f mm off\n",
+                outlier_sigmas, 1e3 * pull_m, 1e3 * own_m);
+    if (outlier_sigmas > 0.0) {
+      EXPECT_LT(pull_m, 0.002);
+      EXPECT_LT(own_m, 0.006);
+    } else {
+      EXPECT_GT(pull_m, 0.008);
+      EXPECT_GT(own_m, 0.010);
+    }
+  }
 }
 
 // A jump between segments (a relocalisation) stays a jump, and a lost frame's held pose is neither
@@ -156,7 +209,7 @@ TEST(SmoothPositions, KeepsSegmentsApartAndLostPosesAsTheyAre) {
   segments[5] = -1;
   poses[5].second.translation().x() = 3.0;  // a lost frame's held pose, far off the line
   const Poses before = poses;
-  smoothPositions(0.075, segments, &poses);
+  smoothPositions(PositionSmoothing{0.075, 3.0}, segments, &poses);
   for (std::size_t k = 0; k < poses.size(); ++k) {
     EXPECT_LT((poses[k].second.translation() - before[k].second.translation()).norm(), 1e-9) << "pose " << k;
   }
@@ -174,7 +227,7 @@ TEST(TrajectoryRecorder, SmoothsWithinSegmentsOnly) {
     r.discontinuous = k == 6;  // relocalised 0.4 m away
     recorder.add(r);
   }
-  const Poses raw = recorder.finalPoses(map), smoothed = recorder.finalPoses(map, 0.075);
+  const Poses raw = recorder.finalPoses(map), smoothed = recorder.finalPoses(map, PositionSmoothing{0.075, 3.0});
   ASSERT_EQ(smoothed.size(), raw.size());
   for (std::size_t k = 0; k < raw.size(); ++k) {
     EXPECT_LT((smoothed[k].second.translation() - raw[k].second.translation()).norm(), 1e-9) << "pose " << k;

@@ -66,6 +66,7 @@ void validateLoopAndGlobalBa(const TrackingOptions& o) {
   requireRange("global_ba_prior_sigma_m", o.global_ba_prior_sigma_m, 0.0, 10.0);
   requireRange("global_ba_max_seconds", o.global_ba_max_seconds, 0.1, 3600.0);
   requireRange("trajectory_smoothing_s", o.trajectory_smoothing_s, 0.0, 1.0);
+  requireRange("trajectory_smoothing_outlier_sigmas", o.trajectory_smoothing_outlier_sigmas, 0.0, 100.0);
 }
 
 }  // namespace

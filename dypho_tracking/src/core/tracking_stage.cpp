@@ -65,7 +65,7 @@ std::size_t TrackingStage::adoptKeyframePoses(const KeyframePoseCorrections& T_w
 
 PoseList TrackingStage::finalTrajectory() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return recorder_.finalPoses(odometry_.map(), odometry_.options().trajectory_smoothing_s);
+  return recorder_.finalPoses(odometry_.map(), positionSmoothing(odometry_.options()));
 }
 
 PoseList TrackingStage::onlineTrajectory() const {
@@ -75,7 +75,7 @@ PoseList TrackingStage::onlineTrajectory() const {
 
 PoseList TrackingStage::trackedPath(std::size_t max_poses) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const PoseList all = recorder_.finalPoses(odometry_.map(), odometry_.options().trajectory_smoothing_s);
+  const PoseList all = recorder_.finalPoses(odometry_.map(), positionSmoothing(odometry_.options()));
   const std::vector<RecordedPose>& records = recorder_.records();
   PoseList path;
   for (std::size_t i = 0; i < all.size() && i < records.size(); ++i) {

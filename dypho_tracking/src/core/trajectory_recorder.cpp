@@ -1,6 +1,8 @@
 #include "dypho/tracking/trajectory_recorder.h"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace dypho {
 namespace tracking {
@@ -16,40 +18,98 @@ void TrajectoryRecorder::add(const TrackingResult& result) {
   records_.push_back(r);
 }
 
-void smoothPositions(double half_window_s, const std::vector<int>& segment_ids,
-                     std::vector<std::pair<Timestamp, Eigen::Isometry3d>>* poses) {
-  if (!(half_window_s > 0.0) || poses->size() != segment_ids.size()) return;
-  const std::vector<std::pair<Timestamp, Eigen::Isometry3d>> raw = *poses;
-  const auto seconds = [&](std::size_t j, std::size_t k) {
-    return 1e-9 * static_cast<double>(raw[j].first - raw[k].first);
+namespace {
+
+using PoseList = std::vector<std::pair<Timestamp, Eigen::Isometry3d>>;
+
+/// Median of the length of a 3-D isotropic Gaussian vector (chi distribution, 3 degrees of
+/// freedom), in units of its per-axis sigma.
+constexpr double kChi3MedianSigmas = 1.5382;
+/// Fits after the first that re-weigh the positions by their distance to the previous fit.
+constexpr int kReweightRounds = 3;
+
+/// The weighted least-squares line p(t) = a + b t (t relative to pose k) through the positions of
+/// pose k's segment within +-half_window_s, evaluated at pose k (a); nullopt for a pose that is
+/// not smoothed (segment -1) or whose window holds fewer than three poses or no time spread.
+std::optional<Eigen::Vector3d> fitAt(const PoseList& raw, const std::vector<int>& segment_ids, double half_window_s,
+                                     const std::vector<double>& weights, std::size_t k) {
+  if (segment_ids[k] < 0) return std::nullopt;
+  const auto seconds = [&](std::size_t j) { return 1e-9 * static_cast<double>(raw[j].first - raw[k].first); };
+  const auto inWindow = [&](std::size_t j) {
+    return segment_ids[j] == segment_ids[k] && std::abs(seconds(j)) <= half_window_s;
   };
-  const auto inWindow = [&](std::size_t j, std::size_t k) {
-    return segment_ids[j] == segment_ids[k] && std::abs(seconds(j, k)) <= half_window_s;
-  };
+  std::size_t first = k, last = k;  // a segment's poses are consecutive
+  while (first > 0 && inWindow(first - 1)) --first;
+  while (last + 1 < raw.size() && inWindow(last + 1)) ++last;
+  if (last - first < 2) return std::nullopt;
+  double n = 0.0, sum_t = 0.0, sum_tt = 0.0;
+  Eigen::Vector3d sum_p = Eigen::Vector3d::Zero(), sum_tp = Eigen::Vector3d::Zero();
+  for (std::size_t j = first; j <= last; ++j) {
+    const double t = seconds(j), w = weights[j];
+    n += w;
+    sum_t += w * t;
+    sum_tt += w * t * t;
+    sum_p += w * raw[j].second.translation();
+    sum_tp += w * t * raw[j].second.translation();
+  }
+  const double det = n * sum_tt - sum_t * sum_t;
+  if (!(det > 1e-12 * n * n)) return std::nullopt;
+  return Eigen::Vector3d((sum_tt * sum_p - sum_t * sum_tp) / det);
+}
+
+std::vector<std::optional<Eigen::Vector3d>> fitAll(const PoseList& raw, const std::vector<int>& segment_ids,
+                                                   double half_window_s, const std::vector<double>& weights) {
+  std::vector<std::optional<Eigen::Vector3d>> fits(raw.size());
+  for (std::size_t k = 0; k < raw.size(); ++k) fits[k] = fitAt(raw, segment_ids, half_window_s, weights, k);
+  return fits;
+}
+
+/// Huber weights from each fitted position's distance to its fit: 1 within outlier_sigmas sigma,
+/// falling as 1 / distance beyond; sigma from the median distance of all fitted positions.
+/// Returns false, weights unchanged, when there is no spread to judge by (fewer than five fitted
+/// positions, or a median of zero).
+bool huberWeights(const PoseList& raw, const std::vector<std::optional<Eigen::Vector3d>>& fits, double outlier_sigmas,
+                  std::vector<double>* weights) {
+  std::vector<double> distances_m;
   for (std::size_t k = 0; k < raw.size(); ++k) {
-    if (segment_ids[k] < 0) continue;
-    std::size_t first = k, last = k;  // a segment's poses are consecutive
-    while (first > 0 && inWindow(first - 1, k)) --first;
-    while (last + 1 < raw.size() && inWindow(last + 1, k)) ++last;
-    // Least squares of p(t) = a + b t (t relative to pose k) over the window: a is the position.
-    double n = 0.0, sum_t = 0.0, sum_tt = 0.0;
-    Eigen::Vector3d sum_p = Eigen::Vector3d::Zero(), sum_tp = Eigen::Vector3d::Zero();
-    for (std::size_t j = first; j <= last; ++j) {
-      const double t = seconds(j, k);
-      n += 1.0;
-      sum_t += t;
-      sum_tt += t * t;
-      sum_p += raw[j].second.translation();
-      sum_tp += t * raw[j].second.translation();
-    }
-    const double det = n * sum_tt - sum_t * sum_t;
-    if (n < 3.0 || !(det > 1e-12 * n * n)) continue;
-    (*poses)[k].second.translation() = (sum_tt * sum_p - sum_t * sum_tp) / det;
+    if (fits[k]) distances_m.push_back((raw[k].second.translation() - *fits[k]).norm());
+  }
+  if (distances_m.size() < 5) return false;
+  const auto middle = distances_m.begin() + static_cast<std::ptrdiff_t>(distances_m.size() / 2);
+  std::nth_element(distances_m.begin(), middle, distances_m.end());
+  const double sigma_m = *middle / kChi3MedianSigmas;
+  if (!(sigma_m > 0.0)) return false;
+  const double limit_m = outlier_sigmas * sigma_m;
+  for (std::size_t k = 0; k < raw.size(); ++k) {
+    if (!fits[k]) continue;
+    const double distance_m = (raw[k].second.translation() - *fits[k]).norm();
+    (*weights)[k] = distance_m > limit_m ? limit_m / distance_m : 1.0;
+  }
+  return true;
+}
+
+}  // namespace
+
+PositionSmoothing positionSmoothing(const TrackingOptions& options) {
+  return PositionSmoothing{options.trajectory_smoothing_s, options.trajectory_smoothing_outlier_sigmas};
+}
+
+void smoothPositions(const PositionSmoothing& smoothing, const std::vector<int>& segment_ids, PoseList* poses) {
+  if (!(smoothing.half_window_s > 0.0) || poses->size() != segment_ids.size()) return;
+  const PoseList raw = *poses;
+  std::vector<double> weights(raw.size(), 1.0);
+  std::vector<std::optional<Eigen::Vector3d>> fits = fitAll(raw, segment_ids, smoothing.half_window_s, weights);
+  for (int round = 0; smoothing.outlier_sigmas > 0.0 && round < kReweightRounds; ++round) {
+    if (!huberWeights(raw, fits, smoothing.outlier_sigmas, &weights)) break;
+    fits = fitAll(raw, segment_ids, smoothing.half_window_s, weights);
+  }
+  for (std::size_t k = 0; k < raw.size(); ++k) {
+    if (fits[k]) (*poses)[k].second.translation() = *fits[k];
   }
 }
 
 std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPoses(
-    const TrackerMap& map, double smoothing_half_window_s) const {
+    const TrackerMap& map, const PositionSmoothing& smoothing) const {
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
   std::vector<int> segment_ids;
   out.reserve(records_.size());
@@ -68,7 +128,7 @@ std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPo
       ++segment;
     }
   }
-  smoothPositions(smoothing_half_window_s, segment_ids, &out);
+  smoothPositions(smoothing, segment_ids, &out);
   return out;
 }
 

@@ -370,6 +370,11 @@ void visitGlobalBaOptions(TrackingOptions& options, Visitor&& visitor) {
           "0.075 (+-2 frames at 30 Hz): the per-frame translation noise is white, a camera's motion smooth; the "
           "window divides the noise by about sqrt(5) and follows a 1 m/s^2 acceleration to about 1 mm. Rotations are "
           "kept. 0 = off; range [0, 1].");
+  visitor("trajectory_smoothing_outlier_sigmas", options.trajectory_smoothing_outlier_sigmas,
+          "The same fit made robust: a position farther from its fit than this many sigma (from the median distance "
+          "of all positions to their fits) weighs less, as 1 / distance (Huber), in three more fits [-]; default 3: "
+          "Gaussian noise is fitted as before, a frame centimetres off (a blurred frame in a fast turn) no longer "
+          "pulls its neighbours. 0 = plain least squares; range [0, 100].");
 }
 
 /// Localisation in a loaded map (TrackingOptions), after the global BA block.

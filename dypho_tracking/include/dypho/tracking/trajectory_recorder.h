@@ -13,6 +13,7 @@
 
 #include "dypho/common/types.h"
 #include "dypho/tracking/tracker_map.h"
+#include "dypho/tracking/tracking_options.h"
 #include "dypho/tracking/tracking_result.h"
 
 namespace dypho {
@@ -27,6 +28,19 @@ struct RecordedPose {
   bool discontinuous = false;  ///< a new segment starts here (TrackingResult::discontinuous)
 };
 
+/// How smoothPositions fits a trajectory's positions in time.
+struct PositionSmoothing {
+  /// Half width of the window [s]; <= 0: no smoothing (TrackingOptions::trajectory_smoothing_s).
+  double half_window_s = 0.0;
+  /// A position farther from its fit than this many sigma weighs less (Huber: weight limit /
+  /// distance), sigma estimated from the median distance; 0 = plain least squares
+  /// (TrackingOptions::trajectory_smoothing_outlier_sigmas).
+  double outlier_sigmas = 0.0;
+};
+
+/// The smoothing TrackingOptions ask for.
+PositionSmoothing positionSmoothing(const TrackingOptions& options);
+
 /// Fits each position of a trajectory locally in time: the straight line through the positions
 /// of its segment within +-half_window_s of it (least squares), evaluated at its stamp.
 /// `segment_ids` (one per pose): poses with the same id form one continuous motion; -1 = a pose
@@ -35,8 +49,11 @@ struct RecordedPose {
 /// Per-frame translation noise is independent from frame to frame, a camera's motion is smooth:
 /// at 30 Hz and +-75 ms the noise falls by about sqrt(5), and a 1 m/s^2 acceleration is off by
 /// about 1 mm. A line through the window follows a constant velocity exactly, so one-sided windows
-/// (segment ends) are not dragged back. half_window_s <= 0: unchanged.
-void smoothPositions(double half_window_s, const std::vector<int>& segment_ids,
+/// (segment ends) are not dragged back. With outlier_sigmas > 0 the fit is then repeated three
+/// times with Huber weights from each position's distance to its previous fit: a frame whose pose
+/// is centimetres off (a blurred frame in a fast turn) neither pulls its neighbours' fits nor
+/// keeps its own error, while Gaussian noise is fitted as before. half_window_s <= 0: unchanged.
+void smoothPositions(const PositionSmoothing& smoothing, const std::vector<int>& segment_ids,
                      std::vector<std::pair<Timestamp, Eigen::Isometry3d>>* poses);
 
 /// Records tracked frames; `finalPoses` re-expresses them with the keyframes' current poses.
@@ -51,11 +68,11 @@ class TrajectoryRecorder {
   /// T_world_camera of every recorded frame, in order: T_world_reference (current, from
   /// `map.keyframePose`, which also answers for removed keyframes) * T_reference_camera. A frame
   /// that was not tracked, or whose keyframe `map` no longer knows (tracker reset since), keeps
-  /// its online pose. With smoothing_half_window_s > 0 (TrackingOptions::trajectory_smoothing_s) the
+  /// its online pose. With smoothing.half_window_s > 0 (positionSmoothing(TrackingOptions)) the
   /// tracked frames' positions are then fitted in time (smoothPositions), segments split where a
   /// frame was discontinuous or lost.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> finalPoses(const TrackerMap& map,
-                                                                  double smoothing_half_window_s = 0.0) const;
+                                                                  const PositionSmoothing& smoothing = {}) const;
 
   /// The poses as published at frame time, in order.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> onlinePoses() const;
