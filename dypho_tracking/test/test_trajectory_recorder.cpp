@@ -105,6 +105,21 @@ double positionErrorRmsM(const Poses& poses, const std::vector<Eigen::Isometry3d
   return std::sqrt(sum_sq / static_cast<double>(poses.size()));
 }
 
+/// `swing` at 30 Hz for `frames` frames with white noise of `sigma_m` per axis on the positions
+/// (generator seeded with `seed`); the noise-free poses go to `truth`.
+Poses noisySwing(int frames, double sigma_m, unsigned seed, std::vector<Eigen::Isometry3d>* truth) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise_m(0.0, sigma_m);
+  Poses noisy;
+  for (int k = 0; k < frames; ++k) {
+    truth->push_back(swing(k));
+    Eigen::Isometry3d T = swing(k);
+    T.translation() += Eigen::Vector3d(noise_m(rng), noise_m(rng), noise_m(rng));
+    noisy.emplace_back(frameStampNs(k), T);
+  }
+  return noisy;
+}
+
 // White noise of 6 mm per axis on a swinging camera (the per-frame noise of fr1/rpy, about 15 mm of
 // second difference): +-75 ms (5 poses) divides it by about sqrt(5), the swing's curvature adding
 // about 1 mm. Measured 11.1 -> 6.0 mm (0.86 mm without noise), the same with and without the
@@ -112,18 +127,11 @@ double positionErrorRmsM(const Poses& poses, const std::vector<Eigen::Isometry3d
 // noise (fails with the smoothing off or down to +-1 pose). A constant velocity is followed
 // exactly, also at the ends where the window is one-sided.
 TEST(SmoothPositions, DividesWhiteNoiseAndFollowsAConstantVelocity) {
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise_m(0.0, 0.006);
-  Poses noisy, line;
   std::vector<Eigen::Isometry3d> truth;
+  const Poses noisy = noisySwing(90, 0.006, 7, &truth);
+  Poses line;
+  for (int k = 0; k < 90; ++k) line.emplace_back(frameStampNs(k), pose(0.02 * k, 0.0));
   std::vector<int> segments(90, 0);
-  for (int k = 0; k < 90; ++k) {
-    truth.push_back(swing(k));
-    Eigen::Isometry3d T = swing(k);
-    T.translation() += Eigen::Vector3d(noise_m(rng), noise_m(rng), noise_m(rng));
-    noisy.emplace_back(frameStampNs(k), T);
-    line.emplace_back(frameStampNs(k), pose(0.02 * k, 0.0));
-  }
   const double before_m = positionErrorRmsM(noisy, truth);
   for (const double outlier_sigmas : {0.0, 3.0}) {
     SCOPED_TRACE("outlier_sigmas " + std::to_string(outlier_sigmas));
@@ -159,20 +167,12 @@ TEST(SmoothPositions, DividesWhiteNoiseAndFollowsAConstantVelocity) {
 // 6 mm of its own error; the plain fit, on the same poses, must move a neighbour by more than
 // 8 mm and keep more than 10 mm, so the bounds can fail.
 TEST(SmoothPositions, AFrameCentimetresOffNeitherPullsItsNeighboursNorKeepsItsError) {
-  std::mt19937 rng(11);
-  std::normal_distribution<double> noise_m(0.0, 0.0015);
-  Poses clean, with_outlier;
   std::vector<Eigen::Isometry3d> truth;
-  std::vector<int> segments(90, 0);
+  const Poses clean = noisySwing(90, 0.0015, 11, &truth);
   constexpr int kOff = 45;
-  for (int k = 0; k < 90; ++k) {
-    truth.push_back(swing(k));
-    Eigen::Isometry3d T = swing(k);
-    T.translation() += Eigen::Vector3d(noise_m(rng), noise_m(rng), noise_m(rng));
-    clean.emplace_back(frameStampNs(k), T);
-    if (k == kOff) T.translation() += Eigen::Vector3d(0.05, 0.0, 0.0);
-    with_outlier.emplace_back(frameStampNs(k), T);
-  }
+  Poses with_outlier = clean;
+  with_outlier[kOff].second.translation() += Eigen::Vector3d(0.05, 0.0, 0.0);
+  std::vector<int> segments(90, 0);
   const auto at = [](const Poses& poses, int k) { return poses[static_cast<std::size_t>(k)].second.translation(); };
   for (const double outlier_sigmas : {0.0, 3.0}) {
     const PositionSmoothing smoothing{0.075, outlier_sigmas};
