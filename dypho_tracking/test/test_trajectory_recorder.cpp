@@ -234,6 +234,33 @@ TEST(TrajectoryRecorder, SmoothsWithinSegmentsOnly) {
   }
 }
 
+// finalPoses from a record on (what the rviz path redraws) is the tail of the whole trajectory:
+// the same poses, re-expressed and fitted alike, once the fit's window (+-2 poses at 30 Hz) lies
+// inside the tail; an index past the end gives none.
+TEST(TrajectoryRecorder, FinalPosesFromARecordOnAreTheTailOfTheWhole) {
+  TrackerMap map{TrackingOptions()};
+  MapKeyframe kf0;
+  kf0.id = 0;
+  kf0.T_world_camera = pose(0.2, 0.1);
+  map.addKeyframe(kf0);
+  std::vector<Eigen::Isometry3d> truth;
+  const Poses noisy = noisySwing(40, 0.006, 3, &truth);
+  TrajectoryRecorder recorder;
+  for (const auto& [stamp_ns, T_world_camera] : noisy) {
+    recorder.add(tracked(stamp_ns, 0, kf0.T_world_camera, T_world_camera));
+  }
+  const PositionSmoothing smoothing{0.075, 0.0};
+  const Poses whole = recorder.finalPoses(map, smoothing);
+  constexpr std::size_t kFirst = 25;
+  const Poses tail = recorder.finalPoses(map, smoothing, kFirst);
+  ASSERT_EQ(tail.size(), whole.size() - kFirst);
+  for (std::size_t i = 2; i < tail.size(); ++i) {
+    EXPECT_EQ(tail[i].first, whole[kFirst + i].first);
+    EXPECT_LT((tail[i].second.translation() - whole[kFirst + i].second.translation()).norm(), 1e-12) << "pose " << i;
+  }
+  EXPECT_TRUE(recorder.finalPoses(map, smoothing, whole.size() + 1).empty());
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -75,11 +75,17 @@ PoseList TrackingStage::onlineTrajectory() const {
 
 PoseList TrackingStage::trackedPath(std::size_t max_poses) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  const PoseList all = recorder_.finalPoses(odometry_.map(), positionSmoothing(odometry_.options()));
+  // Only the newest records the path can show (and the fit's window before them) are
+  // re-expressed and fitted, under the mutex tracking waits on: the cost stays bounded by
+  // max_poses on a long run (fitting an hour at 30 Hz took 28 ms).
   const std::vector<RecordedPose>& records = recorder_.records();
+  constexpr std::size_t kFitMarginRecords = 64;
+  const std::size_t shown = max_poses + kFitMarginRecords;
+  const std::size_t first = records.size() > shown ? records.size() - shown : 0;
+  const PoseList tail = recorder_.finalPoses(odometry_.map(), positionSmoothing(odometry_.options()), first);
   PoseList path;
-  for (std::size_t i = 0; i < all.size() && i < records.size(); ++i) {
-    if (records[i].reference_keyframe_id >= 0) path.push_back(all[i]);
+  for (std::size_t i = 0; i < tail.size() && first + i < records.size(); ++i) {
+    if (records[first + i].reference_keyframe_id >= 0) path.push_back(tail[i]);
   }
   if (path.size() > max_poses) path.erase(path.begin(), path.end() - static_cast<std::ptrdiff_t>(max_poses));
   return path;

@@ -108,14 +108,16 @@ void smoothPositions(const PositionSmoothing& smoothing, const std::vector<int>&
   }
 }
 
-std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPoses(
-    const TrackerMap& map, const PositionSmoothing& smoothing) const {
+std::vector<std::pair<Timestamp, Eigen::Isometry3d>> TrajectoryRecorder::finalPoses(const TrackerMap& map,
+                                                                                    const PositionSmoothing& smoothing,
+                                                                                    std::size_t first_record) const {
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> out;
   std::vector<int> segment_ids;
   out.reserve(records_.size());
   segment_ids.reserve(records_.size());
   int segment = 0;
-  for (const RecordedPose& r : records_) {
+  for (std::size_t i = first_record; i < records_.size(); ++i) {
+    const RecordedPose& r = records_[i];
     const std::optional<Eigen::Isometry3d> T_world_reference =
         r.reference_keyframe_id >= 0 ? map.keyframePose(r.reference_keyframe_id) : std::nullopt;
     out.emplace_back(r.stamp_ns,

@@ -5,6 +5,7 @@
 /// (the trajectory ORB-SLAM saves), its positions fitted locally in time (smoothPositions). The
 /// poses published at frame time are kept as well.
 
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -71,8 +72,11 @@ class TrajectoryRecorder {
   /// its online pose. With smoothing.half_window_s > 0 (positionSmoothing(TrackingOptions)) the
   /// tracked frames' positions are then fitted in time (smoothPositions), segments split where a
   /// frame was discontinuous or lost.
+  /// With first_record > 0 only the records from that index on are re-expressed and fitted (the
+  /// fit's windows end there): the cost of a caller that shows the newest poses stays bounded.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> finalPoses(const TrackerMap& map,
-                                                                  const PositionSmoothing& smoothing = {}) const;
+                                                                  const PositionSmoothing& smoothing = {},
+                                                                  std::size_t first_record = 0) const;
 
   /// The poses as published at frame time, in order.
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> onlinePoses() const;
