@@ -70,20 +70,20 @@ std::vector<std::optional<Eigen::Vector3d>> fitAll(const PoseList& raw, const st
 /// positions, or a median of zero).
 bool huberWeights(const PoseList& raw, const std::vector<std::optional<Eigen::Vector3d>>& fits, double outlier_sigmas,
                   std::vector<double>* weights) {
-  std::vector<double> distances_m;
+  std::vector<double> distance_m(raw.size(), 0.0), fitted_m;
   for (std::size_t k = 0; k < raw.size(); ++k) {
-    if (fits[k]) distances_m.push_back((raw[k].second.translation() - *fits[k]).norm());
+    if (!fits[k]) continue;
+    distance_m[k] = (raw[k].second.translation() - *fits[k]).norm();
+    fitted_m.push_back(distance_m[k]);
   }
-  if (distances_m.size() < 5) return false;
-  const auto middle = distances_m.begin() + static_cast<std::ptrdiff_t>(distances_m.size() / 2);
-  std::nth_element(distances_m.begin(), middle, distances_m.end());
+  if (fitted_m.size() < 5) return false;
+  const auto middle = fitted_m.begin() + static_cast<std::ptrdiff_t>(fitted_m.size() / 2);
+  std::nth_element(fitted_m.begin(), middle, fitted_m.end());
   const double sigma_m = *middle / kChi3MedianSigmas;
   if (!(sigma_m > 0.0)) return false;
   const double limit_m = outlier_sigmas * sigma_m;
   for (std::size_t k = 0; k < raw.size(); ++k) {
-    if (!fits[k]) continue;
-    const double distance_m = (raw[k].second.translation() - *fits[k]).norm();
-    (*weights)[k] = distance_m > limit_m ? limit_m / distance_m : 1.0;
+    if (fits[k]) (*weights)[k] = distance_m[k] > limit_m ? limit_m / distance_m[k] : 1.0;
   }
   return true;
 }
