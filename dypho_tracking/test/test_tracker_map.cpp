@@ -1,6 +1,7 @@
 /// TrackerMap: point creation and observations, covisibility, local view, culling, fusion, pose
 /// correction, redundant keyframes and their removal.
 
+#include <cmath>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -73,6 +74,46 @@ TEST(TrackerMap, CovisibilityOrderAndLocalView) {
   EXPECT_EQ(view.size(), 20u + 5u);  // keyframe 2's 20 + keyframe 1's 5 not seen by 2
   EXPECT_EQ(view.reference_distance_m.size(), view.size());
   EXPECT_EQ(map.keyframePoints(2).size(), 20u);
+}
+
+/// makeKf(id, 20 new points, x_m), turned by `yaw_deg` about the camera's y axis.
+MapKeyframe turnedKf(std::int64_t id, double x_m, double yaw_deg) {
+  MapKeyframe kf = makeKf(id, std::vector<std::int64_t>(20, -1), x_m);
+  kf.T_world_camera.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return kf;
+}
+
+/// Five keyframes of 20 points each, none shared; keyframe 4 is the reference.
+TrackerMap fiveViews(const TrackingOptions& o) {
+  TrackerMap map(o);
+  map.addKeyframe(turnedKf(0, 0.0, 0.0));   // the same view as 4 (5 deg off)
+  map.addKeyframe(turnedKf(1, 0.1, 10.0));  // 5 deg and 10 cm off 4
+  map.addKeyframe(turnedKf(2, 0.0, 40.0));  // turned too far
+  map.addKeyframe(turnedKf(3, 0.5, 0.0));   // moved too far
+  map.addKeyframe(turnedKf(4, 0.0, 5.0));
+  return map;
+}
+
+// Keyframes that share no point with the reference but look at its part of the scene (a sweep
+// blurred the other way) join the tracking view; those turned or moved too far do not.
+TEST(TrackerMap, TrackingViewTakesKeyframesOfTheSameViewWithoutSharedPoints) {
+  TrackingOptions o;
+  o.local_map_nearby_keyframes = 10;
+  o.local_map_nearby_max_angle_deg = 20.0;
+  o.local_map_nearby_max_distance_m = 0.3;
+  const TrackerMap map = fiveViews(o);
+  EXPECT_EQ(map.localPoints(4).size(), 20u);                                    // no covisible keyframe
+  EXPECT_EQ(map.nearbyKeyframes(4, {}, 0), (std::vector<std::int64_t>{0, 1}));  // closest view first
+  const KeyframePoints view = map.trackingPoints(4, 0);
+  EXPECT_EQ(view.size(), 60u);
+  EXPECT_EQ(std::set<std::int64_t>(view.map_point_ids.begin(), view.map_point_ids.end()).size(), 60u);
+  // An unanchored segment starting at keyframe 1 keeps keyframe 0 out; so does an exclusion.
+  EXPECT_EQ(map.trackingPoints(4, 1).size(), 40u);
+  EXPECT_EQ(map.nearbyKeyframes(4, {1}, 0), (std::vector<std::int64_t>{0}));
+  o.local_map_nearby_keyframes = 1;  // the closest one only
+  EXPECT_EQ(fiveViews(o).nearbyKeyframes(4, {}, 0), (std::vector<std::int64_t>{0}));
+  o.local_map_nearby_keyframes = 0;  // off: covisible keyframes only
+  EXPECT_EQ(fiveViews(o).trackingPoints(4, 0).size(), 20u);
 }
 
 TEST(TrackerMap, CullsPointsRarelyFound) {

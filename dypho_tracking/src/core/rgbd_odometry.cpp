@@ -106,7 +106,8 @@ std::string RgbdOdometry::explainFewFeatures(const RgbdFrame& frame, const OrbFe
 void RgbdOdometry::setReference(std::int64_t keyframe_id) {
   reference_id_ = keyframe_id;
   views_stale_ = false;
-  local_view_ = map_.localPoints(keyframe_id);
+  // Keyframes of an unanchored segment's view come from the segment only.
+  local_view_ = map_.trackingPoints(keyframe_id, std::max<std::int64_t>(0, unanchored_from_keyframe_id_));
   own_view_ = map_.keyframePoints(keyframe_id);
 }
 

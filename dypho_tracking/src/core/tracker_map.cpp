@@ -1,6 +1,7 @@
 #include "dypho/tracking/tracker_map.h"
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 #include <unordered_set>
 
@@ -96,6 +97,39 @@ KeyframePoints TrackerMap::localPoints(std::int64_t keyframe_id) const {
   for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) {
     kfs.push_back(id);
   }
+  return collectPoints(keyframe_id, kfs);
+}
+
+std::vector<std::int64_t> TrackerMap::nearbyKeyframes(std::int64_t keyframe_id,
+                                                      const std::vector<std::int64_t>& exclude,
+                                                      std::int64_t min_id) const {
+  std::vector<std::int64_t> out;
+  const MapKeyframe* reference = keyframe(keyframe_id);
+  if (reference == nullptr || options_.local_map_nearby_keyframes <= 0) return out;
+  const Eigen::Vector3d axis = reference->T_world_camera.linear().col(2);
+  const Eigen::Vector3d centre_m = reference->T_world_camera.translation();
+  const std::unordered_set<std::int64_t> excluded(exclude.begin(), exclude.end());
+  std::vector<std::pair<double, std::int64_t>> near;  // (closeness, id); keyframes_ is ordered by id
+  for (const auto& [id, kf] : keyframes_) {
+    if (id < min_id || id == keyframe_id || excluded.count(id) > 0) continue;
+    const double distance_m = (kf.T_world_camera.translation() - centre_m).norm();
+    const double cosine = std::clamp(axis.dot(kf.T_world_camera.linear().col(2)), -1.0, 1.0);
+    const double angle_deg = std::acos(cosine) * 180.0 / M_PI;
+    if (distance_m < options_.local_map_nearby_max_distance_m && angle_deg < options_.local_map_nearby_max_angle_deg) {
+      near.emplace_back(angle_deg + 100.0 * distance_m, id);
+    }
+  }
+  std::stable_sort(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::size_t i = 0; i < near.size() && static_cast<int>(i) < options_.local_map_nearby_keyframes; ++i) {
+    out.push_back(near[i].second);
+  }
+  return out;
+}
+
+KeyframePoints TrackerMap::trackingPoints(std::int64_t keyframe_id, std::int64_t min_nearby_id) const {
+  std::vector<std::int64_t> kfs{keyframe_id};
+  for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) kfs.push_back(id);
+  for (std::int64_t id : nearbyKeyframes(keyframe_id, kfs, min_nearby_id)) kfs.push_back(id);
   return collectPoints(keyframe_id, kfs);
 }
 

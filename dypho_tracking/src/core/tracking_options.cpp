@@ -121,6 +121,9 @@ void TrackingOptions::validate() const {
   requireRange("max_lost_frames", max_lost_frames, 1, 100000);
   requireRange("local_map_keyframes", local_map_keyframes, 0, 100);
   requireRange("covisibility_min_shared", covisibility_min_shared, 1, 10000);
+  requireRange("local_map_nearby_keyframes", local_map_nearby_keyframes, 0, 100);
+  requireRange("local_map_nearby_max_angle_deg", local_map_nearby_max_angle_deg, 0.0, 180.0, true);
+  requireRange("local_map_nearby_max_distance_m", local_map_nearby_max_distance_m, 0.0, 100.0, true);
   requireRange("cull_min_found_ratio", cull_min_found_ratio, 0.0, 1.0);
   requireRange("moving_point_min_hits", moving_point_min_hits, 0, 1000);
   requireRange("moving_point_depth_tolerance_m", moving_point_depth_tolerance_m, 0.0, 1.0, true);

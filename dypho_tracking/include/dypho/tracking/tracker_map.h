@@ -103,7 +103,8 @@ std::string trackerMapStateProblem(const TrackerMapState& state);
 /// refers to it follows later corrections) while its features and observations are freed.
 class TrackerMap {
  public:
-  /// Uses local_map_keyframes, covisibility_min_shared, cull_min_found_ratio, scale_factor.
+  /// Uses local_map_keyframes, local_map_nearby_*, covisibility_min_shared, cull_min_found_ratio,
+  /// scale_factor.
   explicit TrackerMap(const TrackingOptions& options);
 
   /// Adds a keyframe. map_point_ids[i] >= 0 and known -> observation of that point; otherwise a
@@ -121,6 +122,18 @@ class TrackerMap {
   /// The local map around `keyframe_id` as KeyframePoints (one entry per map point, no
   /// duplicates; `keyframe` = that keyframe's published keyframe; reference_distance_m filled).
   KeyframePoints localPoints(std::int64_t keyframe_id) const;
+
+  /// Keyframes that look at the same part of the scene as `keyframe_id` (optical axes within
+  /// local_map_nearby_max_angle_deg, centres within local_map_nearby_max_distance_m), with ids >=
+  /// `min_id` and not in `exclude`: the closest view first (angle between the axes [deg] plus
+  /// 1 per cm between the centres; ties: the older first), at most local_map_nearby_keyframes.
+  std::vector<std::int64_t> nearbyKeyframes(std::int64_t keyframe_id, const std::vector<std::int64_t>& exclude,
+                                            std::int64_t min_id) const;
+
+  /// The local map tracking matches against: localPoints' keyframes and the nearbyKeyframes of
+  /// `keyframe_id` with ids >= `min_nearby_id` (a segment not yet tied to the earlier map passes
+  /// its first keyframe: the earlier keyframes' poses are in another frame).
+  KeyframePoints trackingPoints(std::int64_t keyframe_id, std::int64_t min_nearby_id) const;
 
   /// Only the points observed by `keyframe_id` (for descriptor search in relocalisation / loops).
   KeyframePoints keyframePoints(std::int64_t keyframe_id) const;

@@ -225,6 +225,24 @@ struct TrackingOptions {
   /// Fewest shared map points for two keyframes to count as covisible [count]; default 15,
   /// range [1, 10000].
   int covisibility_min_shared = 15;
+  /// The local map of tracking also takes up to this many keyframes that look at the same part of
+  /// the scene as the reference keyframe whether or not they share points with it: optical axes
+  /// within local_map_nearby_max_angle_deg and centres within local_map_nearby_max_distance_m,
+  /// the closest view first (angle between the axes plus 1 deg per cm between the centres)
+  /// [count]; default 10, range [0, 100]; 0 = covisible keyframes only. Under fast turns a
+  /// blurred frame matches few points of keyframes blurred in another direction, so each sweep
+  /// over a scene made its own keyframes and points and the pose walked off the first sweep's;
+  /// the view's keyframes tie every sweep to the first. The generator's kinect-fast case over
+  /// 900 frames (seeds 4 and 6) went 7.14 -> 4.46 and 8.82 -> 3.55 cm
+  /// (docs/journal/2026-12-05-nearby-keyframes.md).
+  int local_map_nearby_keyframes = 10;
+  /// Largest angle between the optical axes of the reference keyframe and a keyframe of its view
+  /// (local_map_nearby_keyframes) [deg]; default 20 (a third of a Kinect's 62 deg horizontal
+  /// field of view), range (0, 180].
+  double local_map_nearby_max_angle_deg = 20.0;
+  /// Largest distance between the centres of the reference keyframe and a keyframe of its view
+  /// [m]; default 0.3, range (0, 100].
+  double local_map_nearby_max_distance_m = 0.3;
   /// A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction
   /// of them is removed [-]; default 0.25, range [0, 1]; 0 disables culling.
   double cull_min_found_ratio = 0.25;

@@ -167,6 +167,18 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
           "keyframes [count]; default 10, range [0, 100]; 0 = the last keyframe only.");
   visitor("covisibility_min_shared", options.covisibility_min_shared,
           "Fewest shared map points for two keyframes to count as covisible [count]; default 15, range [1, 10000].");
+  visitor("local_map_nearby_keyframes", options.local_map_nearby_keyframes,
+          "The local map of tracking also takes up to this many keyframes that look at the same part of the scene as "
+          "the reference keyframe, whether or not they share points with it: optical axes within "
+          "local_map_nearby_max_angle_deg and centres within local_map_nearby_max_distance_m, the closest view first "
+          "[count]; default 10, range [0, 100]; 0 = covisible keyframes only. Ties each sweep of fast turns to the "
+          "first: the generator's kinect-fast case over 900 frames went 7.14 -> 4.46 and 8.82 -> 3.55 cm.");
+  visitor("local_map_nearby_max_angle_deg", options.local_map_nearby_max_angle_deg,
+          "Largest angle between the optical axes of the reference keyframe and a keyframe of its view [deg]; "
+          "default 20, range (0, 180].");
+  visitor("local_map_nearby_max_distance_m", options.local_map_nearby_max_distance_m,
+          "Largest distance between the centres of the reference keyframe and a keyframe of its view [m]; default "
+          "0.3, range (0, 100].");
   visitor("cull_min_found_ratio", options.cull_min_found_ratio,
           "A map point predicted visible in >= 10 frames but a pose inlier in fewer than this fraction of them is "
           "removed [-]; default 0.25, range [0, 1]; 0 disables culling.");
