@@ -302,7 +302,7 @@ class RgbdOdometry {
   int pending_ba_frames_left_ = 0;  ///< frames until it is applied
 
   std::int64_t reference_id_ = -1;  ///< keyframe tracked against; -1 before initialisation
-  KeyframePoints local_view_;       ///< map points of the reference's local map
+  KeyframePoints local_view_;       ///< map points of the reference's local map (TrackerMap::trackingPoints)
   KeyframePoints own_view_;         ///< the reference keyframe's own points (PnP fallback)
   Eigen::Isometry3d T_world_last_ = Eigen::Isometry3d::Identity();  ///< last good pose
   ConstantVelocityModel motion_;  ///< the shared constant-velocity prediction (motion_prior.h)
