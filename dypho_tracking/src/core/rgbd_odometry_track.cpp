@@ -418,11 +418,12 @@ bool RgbdOdometry::relocalise(TrackingFrame* work) {
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
   lost_frames_ = 0;
   searching_map_ = false;
-  setReference(reloc.keyframe_id);
-  // Found again on the map from before a re-initialisation: anchored again.
+  // Found again on the map from before a re-initialisation: anchored again (before the view is
+  // made: it may take the earlier keyframes).
   if (unanchored_from_keyframe_id_ >= 0 && reloc.keyframe_id < unanchored_from_keyframe_id_) {
     unanchored_from_keyframe_id_ = -1;
   }
+  setReference(reloc.keyframe_id);
   frames_since_keyframe_ = 1;
   reference_inliers_ = reloc.num_inliers;
   result.state = TrackingState::kOk;
@@ -449,16 +450,16 @@ void RgbdOdometry::markLost(TrackingFrame* work) {
 
 void RgbdOdometry::reinitialise(TrackingFrame* work) {
   TrackingResult& result = work->result;
-  const std::int64_t first_new_keyframe_id = next_keyframe_id_;
   searching_map_ = false;  // not found in a restored map: a new segment, as after any loss
+  // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
+  // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
+  // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them; the
+  // segment's tracking view takes none of the earlier keyframes (set before the keyframe is made).
+  if (unanchored_from_keyframe_id_ < 0) unanchored_from_keyframe_id_ = next_keyframe_id_;
   addKeyframe(work->frame, work->mask, work->features(), T_world_last_, {}, work->pinhole, &result);
   holdUncompensatedStart(*work);
   if (options_.first_keyframe_moving_hits > 0 && unjudged(work->mask, work->judgement))
     unverified_keyframe_id_ = reference_id_;
-  // The motion while lost is unknown: the new keyframe's pose is a guess (the last good pose).
-  // Until relocalisation or a loop closure ties it to the keyframes from before, the poses are
-  // not anchored to the map (TrackingResult::anchored) and nothing downstream trusts them.
-  if (unanchored_from_keyframe_id_ < 0) unanchored_from_keyframe_id_ = first_new_keyframe_id;
   result.state = TrackingState::kOk;
   result.discontinuous = true;
   motion_.observe({work->frame.stamp_ns, T_world_last_, /*trusted=*/true, /*discontinuous=*/true});
