@@ -92,12 +92,14 @@ KeyframePoints TrackerMap::keyframePoints(std::int64_t keyframe_id) const {
   return collectPoints(keyframe_id, {keyframe_id});
 }
 
-KeyframePoints TrackerMap::localPoints(std::int64_t keyframe_id) const {
+std::vector<std::int64_t> TrackerMap::localKeyframes(std::int64_t keyframe_id) const {
   std::vector<std::int64_t> kfs{keyframe_id};
-  for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) {
-    kfs.push_back(id);
-  }
-  return collectPoints(keyframe_id, kfs);
+  for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) kfs.push_back(id);
+  return kfs;
+}
+
+KeyframePoints TrackerMap::localPoints(std::int64_t keyframe_id) const {
+  return collectPoints(keyframe_id, localKeyframes(keyframe_id));
 }
 
 std::vector<std::int64_t> TrackerMap::nearbyKeyframes(std::int64_t keyframe_id,
@@ -127,8 +129,7 @@ std::vector<std::int64_t> TrackerMap::nearbyKeyframes(std::int64_t keyframe_id,
 }
 
 KeyframePoints TrackerMap::trackingPoints(std::int64_t keyframe_id, std::int64_t min_nearby_id) const {
-  std::vector<std::int64_t> kfs{keyframe_id};
-  for (std::int64_t id : covisibleKeyframes(keyframe_id, options_.local_map_keyframes)) kfs.push_back(id);
+  std::vector<std::int64_t> kfs = localKeyframes(keyframe_id);
   for (std::int64_t id : nearbyKeyframes(keyframe_id, kfs, min_nearby_id)) kfs.push_back(id);
   return collectPoints(keyframe_id, kfs);
 }
