@@ -19,10 +19,14 @@
 #     (75 % on sharp frames of a moving camera only), no_smoothing (the saved trajectory's
 #     positions not fitted in time), same_level_sharp (the projection search's ratio test only
 #     between candidates of the same pyramid level, for verified points on sharp frames of a
-#     moving camera), same_level_always (the same on every frame of a moving camera)
+#     moving camera), same_level_always (the same on every frame of a moving camera), no_nearby
+#     (the local map without the keyframes of the reference's view: covisible keyframes only)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
-#   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard")
+#   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard");
+#     also synth_long: the same hard case over 900 frames (seed 4), sweeping the same view again
 #   DYPHO_SYNTH_HARD: a dypho_synth folder for synth_hard (default: generated into OUT_DIR)
+# Also appends one row per run to OUT_DIR/ablation.tsv (the columns of docs/results/ablation.tsv,
+# which scripts/results_table.py renders into docs/results.md).
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0; fi
 set -euo pipefail
 export PATH=/usr/bin:/bin:$PATH
@@ -61,6 +65,7 @@ declare -A CONFIG=(
   [no_smoothing]=$'  trajectory_smoothing_s: 0'
   [same_level_sharp]=$'  ratio_test_same_level_max_rotation_deg: 1'
   [same_level_always]=$'  ratio_test_same_level_max_rotation_deg: 180'
+  [no_nearby]=$'  local_map_nearby_keyframes: 0'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(
@@ -79,12 +84,21 @@ synth_hard() {
   echo "$dir"
 }
 
+synth_long() {
+  local dir="$OUT/synth_long"
+  if [ ! -f "$dir/rgb.txt" ]; then
+    "$BIN/dypho_synth" --out "$dir" --frames 900 --hard-case kinect-fast --people 2 --seed 4 --no-bag > /dev/null
+  fi
+  echo "$dir"
+}
+
 dataset() {  # $1 = sequence, $2 = drop -> folder
   local src
   case "$1" in
     fr1_*) src="$FR1" ;;
     bonn_*) src="$BONN" ;;
     synth_hard) src="$(synth_hard)" ;;
+    synth_long) src="$(synth_long)" ;;
   esac
   case "$2" in
     whole) echo "$src" ;;
@@ -102,7 +116,12 @@ print(f"{statistics.median(float(r['tracking_ms']) for r in rows):.1f} "
 PY
 }
 
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo none)"
+MACHINE="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+COMMIT="$(git -C "$ROOT" rev-parse --short=10 HEAD 2>/dev/null || echo none)"
+if [ -n "$(git -C "$ROOT" status --porcelain --untracked-files=no 2>/dev/null)" ]; then COMMIT="$COMMIT+changes"; fi
+TSV="$OUT/ablation.tsv"
+[ -f "$TSV" ] || printf 'date\tsequence\tdrop\tconfig\toptions\tate_cm\tmax_cm\ttrack_ms\tdense_ms\tmachine\tcommit\n' > "$TSV"
+echo "machine: $MACHINE, commit $COMMIT"
 printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' sequence frames config ATE_cm max_cm track_ms dense_ms
 for seq in "${SEQUENCES[@]}"; do
   for drop in "${DROPS[@]}"; do
@@ -117,7 +136,11 @@ for seq in "${SEQUENCES[@]}"; do
         --config "$OUT/$name.yaml" > "$OUT/$name.log" 2>&1 || { echo "$name: failed (see $OUT/$name.log)"; continue; }
       ate=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/^ATE RMSE: *([0-9.]+) cm.*/\1/')
       max=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/.*max ([0-9.]+),.*/\1/')
-      printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' "$seq" "$drop" "$cfg" "$ate" "$max" $(stats "$OUT/$name")
+      read -r track_ms dense_ms < <(stats "$OUT/$name")
+      printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' "$seq" "$drop" "$cfg" "$ate" "$max" "$track_ms" "$dense_ms"
+      options="$(printf '%s\n%s' "${MASK_CONFIG[$cfg]:-}" "${CONFIG[$cfg]:-}" | sed -E 's/^ +//' | grep -v '^$' | paste -sd ';' - | sed 's/;/; /g')"
+      printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$(date +%F)" "$seq" "$drop" "$cfg" "${options:-defaults}" \
+        "$ate" "$max" "$track_ms" "$dense_ms" "$MACHINE" "$COMMIT" >> "$TSV"
     done
   done
 done
