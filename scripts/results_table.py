@@ -126,9 +126,10 @@ def results_md(rows, ablation_rows=None):
     out = [
         "# Results",
         "",
-        "Every number here comes from `bench/results.sh` on the machine named in its row and is",
-        "rendered by `scripts/results_table.py` from [results/rows.tsv](results/rows.tsv); CI checks",
-        "that this page matches that file. The history of how the numbers got here is in the",
+        "Every number here comes from `bench/results.sh` (the last section: `bench/precision_ablation.sh`)",
+        "on the machine named in its row and is rendered by `scripts/results_table.py` from",
+        "[results/rows.tsv](results/rows.tsv) and [results/ablation.tsv](results/ablation.tsv); CI checks",
+        "that this page matches those files. The history of how the numbers got here is in the",
         "[journal](journal/benchmarks-2026.md).",
         "",
         "Modes:",
