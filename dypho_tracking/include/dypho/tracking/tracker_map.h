@@ -223,9 +223,9 @@ class TrackerMap {
  private:
   /// Sets the point's slot in every keyframe that observes it to -1 (before erasing it).
   void detachObservations(const MapPoint& p);
-  /// Points of the keyframes `kfs` without duplicates; `keyframe` of the result = keyframe_id's.
   /// `keyframe_id` and its local_map_keyframes most covisible keyframes (localPoints' keyframes).
   std::vector<std::int64_t> localKeyframes(std::int64_t keyframe_id) const;
+  /// Points of the keyframes `kfs` without duplicates; `keyframe` of the result = keyframe_id's.
   KeyframePoints collectPoints(std::int64_t keyframe_id, const std::vector<std::int64_t>& kfs) const;
 
   TrackingOptions options_;
