@@ -140,7 +140,7 @@ for seq in "${SEQUENCES[@]}"; do
       max=$(grep -m1 -E "^ATE RMSE" "$OUT/$name.log" | sed -E 's/.*max ([0-9.]+),.*/\1/')
       read -r track_ms dense_ms < <(stats "$OUT/$name")
       printf '%-14s %-9s %-11s %8s %8s %9s %9s\n' "$seq" "$drop" "$cfg" "$ate" "$max" "$track_ms" "$dense_ms"
-      options="$(printf '%s\n%s' "${MASK_CONFIG[$cfg]:-}" "${CONFIG[$cfg]:-}" | sed -E 's/^ +//' | grep -v '^$' | paste -sd ';' - | sed 's/;/; /g')"
+      options="$(printf '%s\n%s' "${MASK_CONFIG[$cfg]:-}" "${CONFIG[$cfg]:-}" | sed -E 's/^ +//' | { grep -v '^$' || true; } | paste -sd ';' - | sed 's/;/; /g')"
       printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$(date +%F)" "$seq" "$drop" "$cfg" "${options:-defaults}" \
         "$ate" "$max" "$track_ms" "$dense_ms" "$MACHINE" "$COMMIT" >> "$TSV"
     done
