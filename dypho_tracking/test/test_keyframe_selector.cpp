@@ -122,6 +122,41 @@ TEST(KeyframeSelector, StaticDoubtPostponesOnlyThePeriodicKeyframe) {
   EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
 }
 
+// While the static check took its dense pose over the pose the matches preferred, the soft
+// triggers wait: a keyframe would anchor the next frames and their static checks to a pose that
+// its matches and its pixels dispute. Hard triggers do not wait, the soft ones at most until
+// 2 * keyframe_max_frames frames since the keyframe, and not at all with the option off.
+TEST(KeyframeSelector, DisputedPoseWaitsForSoftButNotHardTriggers) {
+  const KeyframeSelector s{TrackingOptions()};  // keyframe_wait_while_disputed, 20 frames
+  KeyframeQuery q = calmQuery();
+  q.num_inliers = 250;  // tracked ratio 0.5 < 0.6 (the Bonn keyframe: 113 / 229)
+  ASSERT_TRUE(s.decide(q).is_keyframe);
+  q.pose_disputed = true;
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q = calmQuery();
+  q.pose_disputed = true;
+  q.T_world_camera = q.T_world_keyframe * pose(0.11, 0.0);  // translation
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.frames_since_keyframe = 39;
+  EXPECT_FALSE(s.decide(q).is_keyframe);
+  q.frames_since_keyframe = 40;  // 2 * keyframe_max_frames: made anyway
+  EXPECT_TRUE(s.decide(q).is_keyframe);
+
+  q = calmQuery();
+  q.pose_disputed = true;
+  q.num_inliers = 140;  // 140 / 500 = 0.28 < 0.3: hard
+  KeyframeDecision d = s.decide(q);
+  EXPECT_TRUE(d.is_keyframe);
+  EXPECT_NE(d.reason.find("hard"), std::string::npos) << d.reason;
+
+  TrackingOptions off;
+  off.keyframe_wait_while_disputed = false;
+  q = calmQuery();
+  q.pose_disputed = true;
+  q.num_inliers = 250;
+  EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
+}
+
 // With keyframe_sharp_tracked_ratio 0.75 the tracked-ratio trigger fires at 0.75 on a sharp frame
 // (< 1 deg/frame) of a moving camera and at 0.6 on a blurred one, and not at 0.75 while the
 // tracker is catching up with the camera or the camera is still. By default one ratio (0.6).

@@ -26,6 +26,9 @@ KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
     reason << q.num_inliers << " inliers < 3 * min_inliers (hard)";
   } else if (q.frame_rotation_deg > options_.keyframe_max_frame_rotation_deg) {
     return decision;  // soft triggers wait for a calmer frame
+  } else if (q.pose_disputed && options_.keyframe_wait_while_disputed &&
+             q.frames_since_keyframe < 2 * options_.keyframe_max_frames) {
+    return decision;  // soft triggers wait for a pose its matches and pixels agree on
   } else {
     const Eigen::Isometry3d T_keyframe_camera = q.T_world_keyframe.inverse() * q.T_world_camera;
     const double translation_m = T_keyframe_camera.translation().norm();

@@ -131,6 +131,7 @@ void RgbdOdometry::checkAgainstStaticScene(const RgbdFrame& frame, const cv::Mat
   const StaticAgreement by_final = static_check_.score(aligned->T_camera_world * T_world_reference);
   result->static_agreement = by_final.ratio();
   result->static_check_corrected = true;
+  result->static_check_disputed = !use_refined;
   result->message = "static check: the feature pose explained " + std::to_string(by_features.ratio()) +
                     " of the keyframe's static samples, the corrected pose " + std::to_string(by_final.ratio()) +
                     " (moving matches had carried it)";

@@ -343,6 +343,7 @@ KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
   query.static_doubt = work.result.static_check_doubt;
   query.catching_up = catching_up_;
   query.camera_still = cameraStill();
+  query.pose_disputed = work.result.static_check_disputed;
   // Inter-frame rotation; unknown (0) right after lost frames.
   query.frame_rotation_deg = motion_.turnPerIntervalDeg().value_or(0.0);
   return selector_.decide(query);

@@ -29,6 +29,9 @@ struct KeyframeQuery {
   /// The last frame-to-frame motion was under 5 mm and 0.2 deg (RgbdOdometry::cameraStill): a
   /// still camera sees no new background, so no keyframe for the sharp ratio alone either.
   bool camera_still = false;
+  /// The static check took its dense pose over the pose the matches preferred
+  /// (TrackingResult::static_check_disputed).
+  bool pose_disputed = false;
 };
 
 /// Outcome of KeyframeSelector::decide.
@@ -43,7 +46,9 @@ struct KeyframeDecision {
 /// keyframe_hard_tracked_ratio, or fewer than 3 * min_inliers inliers.
 ///
 /// Soft triggers, checked in this order and postponed while frame_rotation_deg >
-/// keyframe_max_frame_rotation_deg (fast-moving frames make poor keyframes):
+/// keyframe_max_frame_rotation_deg (fast-moving frames make poor keyframes), and while
+/// pose_disputed (keyframe_wait_while_disputed) until frames_since_keyframe reaches
+/// 2 * keyframe_max_frames (a keyframe anchors the next frames to its pose):
 ///  1. translation since the keyframe > keyframe_translation_m;
 ///  2. rotation angle since the keyframe > keyframe_rotation_deg;
 ///  3. tracked ratio < keyframe_min_tracked_ratio (the reference is the first tracked frame, like

@@ -156,6 +156,12 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
           "replaced it: the pose is in doubt (moving matches may be carrying it, and a keyframe would anchor the next "
           "frames and their static checks to it); at most keyframe_max_frames frames more [-]; default 0.02, range [0, "
           "1]; 0 = never postponed.");
+  visitor("keyframe_wait_while_disputed", options.keyframe_wait_while_disputed,
+          "Soft keyframe triggers wait while the static check disputes the tracked pose: it replaced the feature pose "
+          "with its dense pose itself because the matches, re-estimated from that pose, preferred another one. A "
+          "keyframe anchors the next frames and their static checks, so one made on a pose that its matches and its "
+          "pixels dispute carries that pose on (a person's arm the mask missed can pull the dense pose). Hard triggers "
+          "never wait; the others at most until 2 * keyframe_max_frames frames since the keyframe. Default true.");
   visitor("min_init_features", options.min_init_features,
           "Fewest keypoints with valid depth needed to start (or restart) on a frame [count]; default 100, range "
           "[min_inliers, 20000].");

@@ -102,6 +102,8 @@ struct TrackingResult {
   double static_agreement = -1.0;
   /// The static check replaced the feature pose: moving matches had carried it.
   bool static_check_corrected = false;
+  /// ... with the dense pose itself: the matches, re-estimated from it, preferred another pose.
+  bool static_check_disputed = false;
   /// The dense refinement moved the feature pose by this much [m]; -1 when it did not run or
   /// its result was not taken (TrackingOptions::dense_refinement).
   double dense_correction_m = -1.0;
