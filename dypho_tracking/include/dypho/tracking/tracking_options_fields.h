@@ -125,7 +125,7 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
       "New keyframe when the camera rotated more than this since the last keyframe [deg]; default 8, range (0, 180].");
 }
 
-/// Keyframe decisions, the local map and moving points (TrackingOptions).
+/// Keyframe decisions (TrackingOptions).
 template <typename Visitor>
 void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("keyframe_min_tracked_ratio", options.keyframe_min_tracked_ratio,
@@ -168,6 +168,11 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("max_lost_frames", options.max_lost_frames,
           "After this many consecutive lost frames a new keyframe is started at the last good pose [frames]; default "
           "5, range [1, 100000].");
+}
+
+/// The local map and moving points (TrackingOptions).
+template <typename Visitor>
+void visitLocalMapOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("local_map_keyframes", options.local_map_keyframes,
           "Frames are tracked against the map points of the last keyframe and of its this many most covisible "
           "keyframes [count]; default 10, range [0, 100]; 0 = the last keyframe only.");
@@ -420,6 +425,7 @@ void visitOptions(TrackingOptions& options, Visitor&& visitor) {
   visitOrbOptions(options, visitor);
   visitPoseOptions(options, visitor);
   visitKeyframeOptions(options, visitor);
+  visitLocalMapOptions(options, visitor);
   visitMapPointOptions(options, visitor);
   visitBackEndOptions(options, visitor);
   visitGlobalBaOptions(options, visitor);
