@@ -96,6 +96,8 @@ def ablation_md(rows):
         "Generator: `dypho_synth --hard-case kinect-fast --people 2` (fast hand-held turns, 15 ms blur,",
         "30 ms rolling shutter, Kinect depth noise), 300 frames seed 1 and 900 frames seed 4.",
         "ms/frame: the median tracking time per frame on the whole fr1 / Bonn window (flow).",
+        "A row changes the defaults of the commit it was measured at (its commit column), which may be",
+        "older than the `features` row's.",
         "Reproduce a row: `DYPHO_ABLATION_CONFIGS=NAME DYPHO_ABLATION_SEQUENCES=\"" +
         " ".join(sequences) + "\" bench/precision_ablation.sh build OUT`.",
         "",
