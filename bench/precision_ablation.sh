@@ -80,20 +80,12 @@ CONFIGS=(${DYPHO_ABLATION_CONFIGS:-features wide dense_only dense_all dense})
 DROPS=(${DYPHO_ABLATION_DROPS:-whole every15 random10})
 SEQUENCES=(${DYPHO_ABLATION_SEQUENCES:-fr1_flow fr1_none bonn_flow bonn_detector synth_hard})
 
-synth_hard() {
-  local dir="${DYPHO_SYNTH_HARD:-$OUT/synth_hard}"
-  if [ ! -f "$dir/rgb.txt" ]; then
-    "$BIN/dypho_synth" --out "$dir" --frames 300 --hard-case kinect-fast --people 2 --seed 1 --no-bag > /dev/null
+# The generator's hard case kinect-fast (2 people) in folder $1, $2 frames, seed $3: generated once.
+kinect_fast() {
+  if [ ! -f "$1/rgb.txt" ]; then
+    "$BIN/dypho_synth" --out "$1" --frames "$2" --hard-case kinect-fast --people 2 --seed "$3" --no-bag > /dev/null
   fi
-  echo "$dir"
-}
-
-synth_long() {
-  local dir="$OUT/synth_long"
-  if [ ! -f "$dir/rgb.txt" ]; then
-    "$BIN/dypho_synth" --out "$dir" --frames 900 --hard-case kinect-fast --people 2 --seed 4 --no-bag > /dev/null
-  fi
-  echo "$dir"
+  echo "$1"
 }
 
 dataset() {  # $1 = sequence, $2 = drop -> folder
@@ -101,8 +93,8 @@ dataset() {  # $1 = sequence, $2 = drop -> folder
   case "$1" in
     fr1_*) src="$FR1" ;;
     bonn_*) src="$BONN" ;;
-    synth_hard) src="$(synth_hard)" ;;
-    synth_long) src="$(synth_long)" ;;
+    synth_hard) src="$(kinect_fast "${DYPHO_SYNTH_HARD:-$OUT/synth_hard}" 300 1)" ;;
+    synth_long) src="$(kinect_fast "$OUT/synth_long" 900 4)" ;;
   esac
   case "$2" in
     whole) echo "$src" ;;
