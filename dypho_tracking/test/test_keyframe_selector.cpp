@@ -157,40 +157,6 @@ TEST(KeyframeSelector, DisputedPoseWaitsForSoftButNotHardTriggers) {
   EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
 }
 
-// On the frame after a gap (its step spans more frame intervals than the one before) the soft
-// triggers wait for the next frame, tracked across one interval again; hard triggers do not, and
-// with the option off nothing waits.
-TEST(KeyframeSelector, FrameAfterAGapWaitsForSoftButNotHardTriggers) {
-  const KeyframeSelector s{TrackingOptions()};  // keyframe_wait_after_gap
-  KeyframeQuery q = calmQuery();
-  q.num_inliers = 250;  // tracked ratio 0.5 < 0.6 (the Bonn keyframe after a gap: 110 / 217)
-  ASSERT_TRUE(s.decide(q).is_keyframe);
-  q.after_gap = true;
-  EXPECT_FALSE(s.decide(q).is_keyframe);
-  q = calmQuery();
-  q.after_gap = true;
-  q.T_world_camera = q.T_world_keyframe * pose(0.11, 0.0);  // translation
-  EXPECT_FALSE(s.decide(q).is_keyframe);
-  q = calmQuery();
-  q.after_gap = true;
-  q.frames_since_keyframe = 20;  // periodic
-  EXPECT_FALSE(s.decide(q).is_keyframe);
-
-  q = calmQuery();
-  q.after_gap = true;
-  q.num_inliers = 140;  // 140 / 500 = 0.28 < 0.3: hard
-  KeyframeDecision d = s.decide(q);
-  EXPECT_TRUE(d.is_keyframe);
-  EXPECT_NE(d.reason.find("hard"), std::string::npos) << d.reason;
-
-  TrackingOptions off;
-  off.keyframe_wait_after_gap = false;
-  q = calmQuery();
-  q.after_gap = true;
-  q.num_inliers = 250;
-  EXPECT_TRUE(KeyframeSelector(off).decide(q).is_keyframe);
-}
-
 // With keyframe_sharp_tracked_ratio 0.75 the tracked-ratio trigger fires at 0.75 on a sharp frame
 // (< 1 deg/frame) of a moving camera and at 0.6 on a blurred one, and not at 0.75 while the
 // tracker is catching up with the camera or the camera is still. By default one ratio (0.6).

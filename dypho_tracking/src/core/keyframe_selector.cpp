@@ -29,8 +29,6 @@ KeyframeDecision KeyframeSelector::decide(const KeyframeQuery& q) const {
   } else if (q.pose_disputed && options_.keyframe_wait_while_disputed &&
              q.frames_since_keyframe < 2 * options_.keyframe_max_frames) {
     return decision;  // soft triggers wait for a pose its matches and pixels agree on
-  } else if (q.after_gap && options_.keyframe_wait_after_gap) {
-    return decision;  // soft triggers wait for a frame tracked across one interval
   } else {
     const Eigen::Isometry3d T_keyframe_camera = q.T_world_keyframe.inverse() * q.T_world_camera;
     const double translation_m = T_keyframe_camera.translation().norm();

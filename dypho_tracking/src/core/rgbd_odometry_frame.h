@@ -54,9 +54,6 @@ struct RgbdOdometry::TrackingFrame {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
   double turn_deg = -1.0;
 
-  // acceptPose: the step into this frame spans more frame intervals than the step before it.
-  bool after_gap = false;
-
   /// What track() returns; every step adds to it.
   TrackingResult result;
 };

@@ -321,9 +321,7 @@ void RgbdOdometry::acceptPose(TrackingFrame* work) {
   const AlignmentResult& aligned = work->aligned;
   const Eigen::Isometry3d& T_world_camera = work->T_world_camera;
   // Velocity only from consecutive good frames (a lost frame reset the model).
-  const double intervals_before = motion_.stepIntervals();  // 1 without a velocity
   motion_.observe({work->frame.stamp_ns, T_world_camera, /*trusted=*/true, /*discontinuous=*/false});
-  work->after_gap = motion_.hasVelocity() && motion_.stepIntervals() > intervals_before + 0.5;
   T_world_last_ = T_world_camera;
   lost_frames_ = 0;
   ++frames_since_keyframe_;
@@ -346,7 +344,6 @@ KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {
   query.catching_up = catching_up_;
   query.camera_still = cameraStill();
   query.pose_disputed = work.result.static_check_disputed;
-  query.after_gap = work.after_gap;
   // Inter-frame rotation; unknown (0) right after lost frames.
   query.frame_rotation_deg = motion_.turnPerIntervalDeg().value_or(0.0);
   return selector_.decide(query);

@@ -32,9 +32,6 @@ struct KeyframeQuery {
   /// The static check took its dense pose over the pose the matches preferred
   /// (TrackingResult::static_check_disputed).
   bool pose_disputed = false;
-  /// The step from the last tracked frame to this one spans more frame intervals than the step
-  /// before it: frames were dropped or are missing just before this one.
-  bool after_gap = false;
 };
 
 /// Outcome of KeyframeSelector::decide.
@@ -51,8 +48,7 @@ struct KeyframeDecision {
 /// Soft triggers, checked in this order and postponed while frame_rotation_deg >
 /// keyframe_max_frame_rotation_deg (fast-moving frames make poor keyframes), and while
 /// pose_disputed (keyframe_wait_while_disputed) until frames_since_keyframe reaches
-/// 2 * keyframe_max_frames (a keyframe anchors the next frames to its pose), and on a frame
-/// after_gap (keyframe_wait_after_gap: the next frame is tracked across one interval again):
+/// 2 * keyframe_max_frames (a keyframe anchors the next frames to its pose):
 ///  1. translation since the keyframe > keyframe_translation_m;
 ///  2. rotation angle since the keyframe > keyframe_rotation_deg;
 ///  3. tracked ratio < keyframe_min_tracked_ratio (the reference is the first tracked frame, like

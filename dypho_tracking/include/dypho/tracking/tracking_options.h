@@ -221,14 +221,6 @@ struct TrackingOptions {
   /// for the whole input, 1.41 cm with the wait). Hard triggers never wait; the others at most
   /// until 2 * keyframe_max_frames frames since the keyframe. Default true.
   bool keyframe_wait_while_disputed = true;
-  /// Soft keyframe triggers wait on a frame whose step from the last tracked frame spans more
-  /// frame intervals than the step before it: one or more frames were dropped (a loaded live
-  /// graph) or are missing just before it. Such a frame is matched across twice the motion or
-  /// more, with fewer inliers and a weaker pose than the frames around it, and its fewer inliers
-  /// also fire the tracked-ratio trigger more easily; the next frame, one interval on, makes the
-  /// better keyframe. Bounded by itself: the next frame's step is no longer than this one's, and
-  /// a steady rate of drops (every other frame) never waits. Hard triggers never wait. Default true.
-  bool keyframe_wait_after_gap = true;
   /// Fewest keypoints with valid depth needed to start (or restart) on a frame [count];
   /// default 100, range [min_inliers, 20000].
   int min_init_features = 100;

@@ -162,11 +162,6 @@ void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
           "keyframe anchors the next frames and their static checks, so one made on a pose that its matches and its "
           "pixels dispute carries that pose on (a person's arm the mask missed can pull the dense pose). Hard triggers "
           "never wait; the others at most until 2 * keyframe_max_frames frames since the keyframe. Default true.");
-  visitor("keyframe_wait_after_gap", options.keyframe_wait_after_gap,
-          "Soft keyframe triggers wait on a frame whose step from the last tracked frame spans more frame intervals "
-          "than the step before it (frames were dropped or are missing just before it): it is matched across a "
-          "longer motion, with fewer inliers and a weaker pose, and the next frame makes the better keyframe. A "
-          "steady rate of drops never waits; hard triggers never wait. Default true.");
   visitor("min_init_features", options.min_init_features,
           "Fewest keypoints with valid depth needed to start (or restart) on a frame [count]; default 100, range "
           "[min_inliers, 20000].");
