@@ -113,10 +113,10 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "Prior standard deviation, about the motion model's, of the linear velocity estimated with a rolling "
           "shutter [m/s]; default 0.1, range (0, 100].");
   visitor("motion_blur_exposure_ms", options.motion_blur_exposure_ms,
-          "Exposure time of the colour camera, for its motion blur [ms]; default 4, range [0, 100]; 0 = sharp (off). "
-          "Each keypoint's pixel residual in the pose refinement is weighted by its blur streak (the image velocity "
-          "under the motion model's velocities times the exposure): sigma along the streak sqrt(sigma^2 + L^2 / 12), "
-          "across it sigma. 4 ms: the low end of the keypoints' measured spread along their streaks.");
+          "Exposure time of the colour camera, for its motion blur [ms]; default 0 = sharp (off), range [0, 100]. "
+          "With an exposure each keypoint's pixel residual in the pose refinement is weighted by its blur streak "
+          "(the image velocity under the motion model's velocities times the exposure): sigma along the streak "
+          "sqrt(sigma^2 + L^2 / 12), across it sigma.");
   visitor(
       "keyframe_translation_m", options.keyframe_translation_m,
       "New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10, range (0, 10].");
