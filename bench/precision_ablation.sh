@@ -9,6 +9,7 @@
 #     dense), e.g. "features dense"; the others below: global_ba (on by default since 2026-12-01),
 #     no_global_ba, fuse, global_shutter (the
 #     rolling-shutter model off), blur (keypoints weighted by a 15 ms exposure's streaks),
+#     no_blur (by none: the 4 ms default off), blur_ungated (the 4 ms on slow frames too),
 #     keyframes_1_5 (keyframes postponed above 1.5 deg/frame, the limit before 4), rate_fixed,
 #     rate_ratio_0_25 and rate_ratio_0_5 (the rolling-shutter rate prior's width fixed at
 #     0.15 rad/s, or widened to 0.25 / 0.5 times the motion model's rate), no_fit and
@@ -54,6 +55,8 @@ declare -A CONFIG=(
   [fuse]=$'  fuse_keyframes: 10'
   [global_shutter]=$'  rolling_shutter_readout_ms: 0'
   [blur]=$'  motion_blur_exposure_ms: 15'
+  [no_blur]=$'  motion_blur_exposure_ms: 0'
+  [blur_ungated]=$'  motion_blur_min_rate_rad_s: 0'
   [keyframes_1_5]=$'  keyframe_max_frame_rotation_deg: 1.5'
   [rate_fixed]=$'  rolling_shutter_rate_sigma_ratio: 0'
   [rate_ratio_0_25]=$'  rolling_shutter_rate_sigma_ratio: 0.25'

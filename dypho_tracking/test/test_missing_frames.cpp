@@ -2,6 +2,7 @@
 /// whole, with every 15th frame removed, and with 10 % removed at random, as a loaded live graph
 /// or an unreadable file removes them.
 #include <cmath>
+#include <iostream>
 #include <random>
 #include <vector>
 
@@ -59,14 +60,17 @@ TEST_F(MissingFrames, DroppedFramesDoNotMoveTheTrajectory) {
   const double whole_m = trackedRmseM(whole);
   const double every15_m = trackedRmseM(every15);
   const double random10_m = trackedRmseM(random10);
+  std::cout << "tracked RMSE: whole " << 100.0 * whole_m << " cm, every 15th dropped " << 100.0 * every15_m
+            << " cm, 10 % at random " << 100.0 * random10_m << " cm\n";
   // The tracker alone, frame poses as published, no alignment: 0.53 cm measured (the turn at full
   // speed drifts a little); 2 cm bounds a tracker that loses the turn.
   EXPECT_LT(whole_m, 0.02);
   // Every 15th frame dropped: the bound, within 10 % (plus 1 mm for the frames that are
-  // not there to be averaged); measured 0.60 cm against 0.53 cm. (The runner on the 300-frame
-  // version of this motion, before the motion model counted frame intervals: +74 % ATE.)
+  // not there to be averaged); measured 0.55 cm against 0.53 cm (0.60 before the blur weights).
+  // (The runner on the 300-frame version of this motion, before the motion model counted frame
+  // intervals: +74 % ATE.)
   EXPECT_LT(every15_m, 1.10 * whole_m + 0.001) << "whole " << whole_m << " m";
-  // 10 % at random, sometimes two in a row: within 25 % (plus 1 mm); measured 0.50 cm.
+  // 10 % at random, sometimes two in a row: within 25 % (plus 1 mm); measured 0.49 cm.
   EXPECT_LT(random10_m, 1.25 * whole_m + 0.001) << "whole " << whole_m << " m";
 }
 

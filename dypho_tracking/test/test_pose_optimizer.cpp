@@ -284,10 +284,12 @@ TEST(PoseOptimizer, BlurredKeypointIsJudgedAlongItsStreak) {
   along.uv_px = kPinhole.project(along.p_world_m) + Eigen::Vector2d(4.0, 0.0);
   PoseObservation across = along;
   across.uv_px = kPinhole.project(across.p_world_m) + Eigen::Vector2d(0.0, 4.0);
+  TrackingOptions sharp;
+  sharp.motion_blur_exposure_ms = 0.0;
   TrackingOptions blurred;
   blurred.motion_blur_exposure_ms = 15.0;
   const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  EXPECT_FALSE(PoseOptimizer(TrackingOptions()).agrees(along, kPinhole, T, turn));
+  EXPECT_FALSE(PoseOptimizer(sharp).agrees(along, kPinhole, T, turn));
   EXPECT_TRUE(PoseOptimizer(blurred).agrees(along, kPinhole, T, turn));
   EXPECT_FALSE(PoseOptimizer(blurred).agrees(across, kPinhole, T, turn));
 }
@@ -327,8 +329,10 @@ TEST(PoseOptimizer, MotionBlurWeightsRecoverTheCameraOfABlurredFrame) {
     };
     TrackingOptions blurred;
     blurred.motion_blur_exposure_ms = 1e3 * exposure_s;
+    TrackingOptions sharp;
+    sharp.motion_blur_exposure_ms = 0.0;
     const PoseOptimizerResult weighted = PoseOptimizer(blurred).optimize(obs, kPinhole, T_init, turn);
-    const PoseOptimizerResult plain = PoseOptimizer(TrackingOptions()).optimize(obs, kPinhole, T_init, turn);
+    const PoseOptimizerResult plain = PoseOptimizer(sharp).optimize(obs, kPinhole, T_init, turn);
     ASSERT_TRUE(weighted.success && plain.success) << weighted.message << plain.message;
     error_weighted_m += position_error_m(weighted) / 5.0;
     error_plain_m += position_error_m(plain) / 5.0;
@@ -340,6 +344,63 @@ TEST(PoseOptimizer, MotionBlurWeightsRecoverTheCameraOfABlurredFrame) {
             << ")\n";
   EXPECT_LT(error_weighted_m, 0.5 * error_plain_m);
   EXPECT_GT(inliers_weighted, 5 * 280);
+}
+
+/// People crossing before a still camera drag its motion model (here to 0.4 rad/s); weighted by
+/// the streaks of that seeming turn, the keypoints would give way along it. Below
+/// motion_blur_min_rate_rad_s (0.5) the default 4 ms exposure must leave the refinement the
+/// sharp one, to the last bit; with the gate at 0 the same frame must come out differently (else
+/// the comparison would show nothing), and above the gate (0.6 rad/s) the default must weigh as
+/// an ungated exposure does. The inlier test follows the same gate: 4 px along a 100 ms streak
+/// of the 0.4 rad/s turn (21 px) is an inlier only without the gate.
+TEST(PoseOptimizer, BlurWeightsWaitForAFastTurn) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < 200; ++i) {
+    PoseObservation o;
+    o.p_world_m = kPinhole.backProject(Eigen::Vector2d(20 + 600 * u01(rng), 20 + 440 * u01(rng)), 1.0 + 3.0 * u01(rng));
+    o.uv_px = kPinhole.project(o.p_world_m) + Eigen::Vector2d(u01(rng) - 0.5, u01(rng) - 0.5);
+    obs.push_back(o);
+  }
+  Eigen::Isometry3d T_init = Eigen::Isometry3d::Identity();
+  T_init.translation() = Eigen::Vector3d(0.01, 0.02, -0.01);
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 1.0, -0.1).normalized();
+  const CameraRates dragged{0.4 * axis, Eigen::Vector3d::Zero()};
+  const CameraRates turning{0.6 * axis, Eigen::Vector3d::Zero()};
+  TrackingOptions gated;  // the defaults: 4 ms, gate 0.5 rad/s
+  ASSERT_EQ(gated.motion_blur_exposure_ms, 4.0);
+  ASSERT_EQ(gated.motion_blur_min_rate_rad_s, 0.5);
+  TrackingOptions sharp = gated;
+  sharp.motion_blur_exposure_ms = 0.0;
+  TrackingOptions ungated = gated;
+  ungated.motion_blur_min_rate_rad_s = 0.0;
+
+  const PoseOptimizerResult a = PoseOptimizer(gated).optimize(obs, kPinhole, T_init, dragged);
+  const PoseOptimizerResult b = PoseOptimizer(sharp).optimize(obs, kPinhole, T_init, dragged);
+  const PoseOptimizerResult c = PoseOptimizer(ungated).optimize(obs, kPinhole, T_init, dragged);
+  ASSERT_TRUE(a.success && b.success && c.success);
+  EXPECT_TRUE(a.T_camera_world.matrix() == b.T_camera_world.matrix());
+  EXPECT_FALSE(c.T_camera_world.matrix() == b.T_camera_world.matrix());
+
+  const PoseOptimizerResult d = PoseOptimizer(gated).optimize(obs, kPinhole, T_init, turning);
+  const PoseOptimizerResult e = PoseOptimizer(ungated).optimize(obs, kPinhole, T_init, turning);
+  const PoseOptimizerResult f = PoseOptimizer(sharp).optimize(obs, kPinhole, T_init, turning);
+  ASSERT_TRUE(d.success && e.success && f.success);
+  EXPECT_TRUE(d.T_camera_world.matrix() == e.T_camera_world.matrix());
+  EXPECT_FALSE(d.T_camera_world.matrix() == f.T_camera_world.matrix());
+
+  PoseObservation along;
+  along.p_world_m = Eigen::Vector3d(0.0, 0.0, 2.0);
+  const CameraRates dragged_y{Eigen::Vector3d(0.0, 0.4, 0.0), Eigen::Vector3d::Zero()};
+  along.uv_px = kPinhole.project(along.p_world_m) + Eigen::Vector2d(4.0, 0.0);
+  TrackingOptions long_gated = gated;
+  long_gated.motion_blur_exposure_ms = 100.0;
+  TrackingOptions long_ungated = long_gated;
+  long_ungated.motion_blur_min_rate_rad_s = 0.0;
+  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  EXPECT_FALSE(PoseOptimizer(long_gated).agrees(along, kPinhole, T, dragged_y));
+  EXPECT_TRUE(PoseOptimizer(long_ungated).agrees(along, kPinhole, T, dragged_y));
 }
 
 }  // namespace DYPHO_UNITY_ID

@@ -112,7 +112,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
         verified_first = true;
         T_start = first.T_camera_world;
         for (std::size_t m = 0; m < matches.size(); ++m) {
-          if (is_verified[m] || optimizer_.agrees(observations[m], pinhole, first.T_camera_world, first.rates)) {
+          if (is_verified[m] || optimizer_.agrees(observations[m], pinhole, first)) {
             taking_part.push_back(m);
           } else {
             verdict[m] = -1;

@@ -33,7 +33,15 @@ double PoseOptimizer::sigma(int level) const {
 
 bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
                            const CameraRates& rates) const {
-  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m), pinhole, rates);
+  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m), pinhole, rates,
+                        exposureS(rates));
+}
+
+bool PoseOptimizer::agrees(const PoseObservation& o, const Pinhole& pinhole,
+                           const PoseOptimizerResult& estimate) const {
+  const CameraRates& rates = estimate.rates;
+  return agreesInCamera(o, pointAtRowTime(rates, o.row_time_s, estimate.T_camera_world * o.p_world_m), pinhole, rates,
+                        estimate.blur_exposure_s);
 }
 
 bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observations) const {
@@ -44,14 +52,17 @@ bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observati
   return false;
 }
 
-double PoseOptimizer::exposureS() const { return std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3; }
+double PoseOptimizer::exposureS(const CameraRates& rates) const {
+  const bool turning = rates.omega_rad_s.allFinite() && rates.omega_rad_s.norm() >= options_.motion_blur_min_rate_rad_s;
+  return turning ? std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3 : 0.0;
+}
 
 bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
-                                   const CameraRates& rates) const {
+                                   const CameraRates& rates, double exposure_s) const {
   if (!(p_c.z() > 1e-6)) return false;
   const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
   const double sigma_px = sigma(o.level);
-  double chi2 = (blurSqrtInformation(p_c, rates, pinhole, exposureS(), sigma_px) * e).squaredNorm();
+  double chi2 = (blurSqrtInformation(p_c, rates, pinhole, exposure_s, sigma_px) * e).squaredNorm();
   const double bf = options_.depth_baseline_m * pinhole.fx;
   const bool with_depth = bf > 0.0 && o.depth_m > 0.0;
   if (with_depth) {
@@ -63,7 +74,7 @@ bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector
 
 std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
     const std::vector<PoseObservation>& observations, const Pinhole& pinhole, bool rolling,
-    const Eigen::Isometry3d& T_camera_world_init, const CameraRates& rates_init) const {
+    const Eigen::Isometry3d& T_camera_world_init, const CameraRates& rates_init, double exposure_s) const {
   const size_t n = observations.size();
   const double bf = options_.depth_baseline_m * pinhole.fx;
   const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
@@ -73,9 +84,9 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
     // The blur's weight is fixed for the solve, from the start (the motion model's velocities);
     // without an exposure the point is not moved to the camera for it.
     Eigen::Matrix2d sqrt_information = Eigen::Matrix2d::Identity() / sigma(o.level);
-    if (exposureS() > 0.0) {
+    if (exposure_s > 0.0) {
       const Eigen::Vector3d p_c = pointAtRowTime(rates_init, o.row_time_s, T_camera_world_init * o.p_world_m);
-      sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposureS(), sigma(o.level));
+      sqrt_information = blurSqrtInformation(p_c, rates_init, pinhole, exposure_s, sigma(o.level));
     }
     if (rolling) {
       costs[i] =
@@ -93,12 +104,13 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
 
 int PoseOptimizer::classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
                             const Eigen::Quaterniond& q_cw, const Eigen::Vector3d& t_cw, const CameraRates& rates,
-                            bool accept_all_in_front, std::vector<bool>* inliers) const {
+                            double exposure_s, bool accept_all_in_front, std::vector<bool>* inliers) const {
   int count = 0;
   for (size_t i = 0; i < observations.size(); ++i) {
     const Eigen::Vector3d p_c =
         pointAtRowTime(rates, observations[i].row_time_s, q_cw * observations[i].p_world_m + t_cw);
-    const bool inlier = accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole, rates);
+    const bool inlier =
+        accept_all_in_front ? p_c.z() > 1e-6 : agreesInCamera(observations[i], p_c, pinhole, rates, exposure_s);
     (*inliers)[i] = inlier;
     count += inlier ? 1 : 0;
   }
@@ -209,15 +221,18 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   // which do not own them: a round only chooses which residuals take part. (Allocating them again
   // each round cost more than the solve on a small problem.)
   const bool rolling = rollingShutter(observations);
-  // The velocities: unknowns with a rolling shutter, else the motion model's, held fixed (they
-  // only set the blur's weights; global-shutter observations have row time 0).
+  // The blur's weighting is chosen once, by the motion model's turn rate, for the solve and the
+  // inlier tests alike. The velocities: unknowns with a rolling shutter, else the motion model's,
+  // held fixed (they only set the blur's weights; global-shutter observations have row time 0).
+  const double exposure_s = exposureS(rates_prior);
+  result.blur_exposure_s = exposure_s;
   CameraRates rates;
-  if (rolling || exposureS() > 0.0) {
+  if (rolling || exposure_s > 0.0) {
     if (rates_prior.omega_rad_s.allFinite()) rates.omega_rad_s = rates_prior.omega_rad_s;
     if (rates_prior.velocity_m_s.allFinite()) rates.velocity_m_s = rates_prior.velocity_m_s;
   }
   const std::vector<std::unique_ptr<ceres::CostFunction>> costs =
-      makeCosts(observations, pinhole, rolling, T_camera_world_init, rates);
+      makeCosts(observations, pinhole, rolling, T_camera_world_init, rates, exposure_s);
   RoundSetup setup(options_.huber_px, options_.refine_iterations);
   std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
@@ -230,7 +245,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   }
 
   // Round 0 uses every observation in front of the camera (Huber bounds the outliers' pull).
-  int active = classify(observations, pinhole, q_cw, t_cw, rates, /*accept_all_in_front=*/true, &result.inliers);
+  int active =
+      classify(observations, pinhole, q_cw, t_cw, rates, exposure_s, /*accept_all_in_front=*/true, &result.inliers);
   for (int round = 0; round < options_.outlier_rounds; ++round) {
     if (active < 3) {
       result.message =
@@ -246,7 +262,8 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
       return result;
     }
     q_cw.normalize();
-    active = classify(observations, pinhole, q_cw, t_cw, rates, /*accept_all_in_front=*/false, &result.inliers);
+    active =
+        classify(observations, pinhole, q_cw, t_cw, rates, exposure_s, /*accept_all_in_front=*/false, &result.inliers);
   }
 
   result.num_inliers = active;

@@ -108,6 +108,7 @@ void TrackingOptions::validate() const {
   requireRange("rolling_shutter_rate_sigma_ratio", rolling_shutter_rate_sigma_ratio, 0.0, 10.0);
   requireRange("rolling_shutter_velocity_sigma_m_s", rolling_shutter_velocity_sigma_m_s, 0.0, 100.0, true);
   requireRange("motion_blur_exposure_ms", motion_blur_exposure_ms, 0.0, 100.0);
+  requireRange("motion_blur_min_rate_rad_s", motion_blur_min_rate_rad_s, 0.0, 100.0);
   requireRange("keyframe_translation_m", keyframe_translation_m, 0.0, 10.0, true);
   requireRange("keyframe_rotation_deg", keyframe_rotation_deg, 0.0, 180.0, true);
   requireRange("keyframe_min_tracked_ratio", keyframe_min_tracked_ratio, 0.0, 1.0);

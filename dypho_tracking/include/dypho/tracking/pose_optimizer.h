@@ -42,8 +42,11 @@ struct PoseOptimizerResult {
   int num_inliers = 0;        ///< count of true in `inliers`
   double rms_inlier_px = 0;   ///< RMS reprojection error of the inliers (not whitened) [px]
   /// The camera's angular and linear velocity during the frame, estimated with a rolling
-  /// shutter; without one the start's (`rates_prior`) with motion_blur_exposure_ms > 0, else zero.
+  /// shutter; without one the start's (`rates_prior`) when the blur is weighted, else zero.
   CameraRates rates;
+  /// The exposure the pixel residuals were weighted with [s]: motion_blur_exposure_ms when the
+  /// motion model (`rates_prior`) turned at motion_blur_min_rate_rad_s or faster, else 0.
+  double blur_exposure_s = 0.0;
   std::string message;  ///< why it failed; empty on success
 };
 
@@ -61,7 +64,7 @@ struct PoseOptimizerResult {
 /// projected with its row's camera (RollingShutterReprojectionError, analytic derivatives).
 /// With an exposure (motion_blur_exposure_ms > 0) each pixel residual is whitened by its
 /// keypoint's blur streak under the start's velocities (motion_blur.h), in the solve and in the
-/// inlier test alike.
+/// inlier test alike, when those velocities turn at motion_blur_min_rate_rad_s or faster.
 class PoseOptimizer {
  public:
   /// Uses huber_px, refine_iterations, outlier_rounds, chi2_threshold, scale_factor.
@@ -80,17 +83,22 @@ class PoseOptimizer {
   /// whitened chi2 under chi2_threshold (chi2_threshold_depth with the depth residual), the test
   /// optimize() classifies with.
   /// `rates`: the camera's velocities during the frame (PoseOptimizerResult), used with the
-  /// observation's row time.
+  /// observation's row time and, when they turn fast enough, for the blur's weight.
   bool agrees(const PoseObservation& observation, const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world,
               const CameraRates& rates = CameraRates()) const;
+  /// The inlier test of the solve that gave `estimate` (its pose, velocities and blur weighting)
+  /// for another observation.
+  bool agrees(const PoseObservation& observation, const Pinhole& pinhole, const PoseOptimizerResult& estimate) const;
 
  private:
   double sigma(int level) const;
-  /// agrees() with the point already in its row's camera frame.
+  /// agrees() with the point already in its row's camera frame, its blur weighted as by
+  /// `exposure_s` (0: isotropic).
   bool agreesInCamera(const PoseObservation& observation, const Eigen::Vector3d& p_camera_m, const Pinhole& pinhole,
-                      const CameraRates& rates) const;
-  /// motion_blur_exposure_ms in seconds (0 when off).
-  double exposureS() const;
+                      const CameraRates& rates, double exposure_s) const;
+  /// motion_blur_exposure_ms in seconds when `rates` turn at motion_blur_min_rate_rad_s or
+  /// faster, else 0 (no blur weights).
+  double exposureS(const CameraRates& rates) const;
   /// True when the rolling shutter is modelled for `observations` (a readout and row times).
   bool rollingShutter(const std::vector<PoseObservation>& observations) const;
   /// One residual per observation: RgbdReprojectionError when it has a depth and
@@ -101,12 +109,12 @@ class PoseOptimizer {
   std::vector<std::unique_ptr<ceres::CostFunction>> makeCosts(const std::vector<PoseObservation>& observations,
                                                               const Pinhole& pinhole, bool rolling,
                                                               const Eigen::Isometry3d& T_camera_world_init,
-                                                              const CameraRates& rates_init) const;
+                                                              const CameraRates& rates_init, double exposure_s) const;
   /// Marks each observation an inlier at (q_cw, t_cw, rates) in `inliers` (size of
   /// `observations`): in front of its row's camera when `accept_all_in_front`, else
   /// agreesInCamera; returns the count.
   int classify(const std::vector<PoseObservation>& observations, const Pinhole& pinhole, const Eigen::Quaterniond& q_cw,
-               const Eigen::Vector3d& t_cw, const CameraRates& rates, bool accept_all_in_front,
+               const Eigen::Vector3d& t_cw, const CameraRates& rates, double exposure_s, bool accept_all_in_front,
                std::vector<bool>* inliers) const;
 
   TrackingOptions options_;

@@ -152,15 +152,22 @@ struct TrackingOptions {
   /// Prior standard deviation of the linear velocity estimated with a rolling shutter, about the
   /// motion model's [m/s]; default 0.1, range (0, 100].
   double rolling_shutter_velocity_sigma_m_s = 0.1;
-  /// Exposure time of the colour camera, for its motion blur [ms]; default 0 = sharp images
-  /// (off), range [0, 100]. With an exposure, each keypoint's pixel residual in the pose
-  /// refinement and its inlier test is weighted by its blur streak: the image velocity of its
-  /// point under the motion model's velocities times the exposure; along the streak the standard
-  /// deviation grows to sqrt(sigma^2 + L^2 / 12), across it stays sigma (motion_blur.h). Off by
-  /// default: the TUM and Bonn cameras' exposure is not known, and on the shared fr1/rpy window
-  /// 15 ms helps the mean of the frame-removal inputs but costs on the whole window
-  /// (docs/journal/benchmarks-2026.md, section 19).
-  double motion_blur_exposure_ms = 0.0;
+  /// Exposure time of the colour camera, for its motion blur [ms]; default 4, range [0, 100];
+  /// 0 = sharp images (off). On a fast turn (motion_blur_min_rate_rad_s) each keypoint's pixel
+  /// residual in the pose refinement and its inlier test is weighted by its blur streak: the
+  /// image velocity of its point under the motion model's velocities times the exposure; along
+  /// the streak the standard deviation grows to sqrt(sigma^2 + L^2 / 12), across it stays sigma
+  /// (motion_blur.h). 4 ms is the low end of what the residuals say: a corner found on a streak
+  /// scatters along it like one of a 3-5 ms exposure on the generator's 15 ms blur, 6-9 ms on the
+  /// TUM and Bonn cameras, whose exposures are not known
+  /// (docs/journal/2026-12-06-depth-weight-and-blur.md).
+  double motion_blur_exposure_ms = 4.0;
+  /// The blur is weighted only on frames whose motion model turns at least this fast [rad/s];
+  /// default 0.5, range [0, 100]. People crossing a still camera's view drag its motion model:
+  /// weighted by the streaks of that seeming motion, the keypoints give way along it (8 people
+  /// before a still camera: 0.52 -> 1.60 cm without this gate). Below 0.5 rad/s (1 deg/frame
+  /// at 30 Hz) a 4 ms streak is at most about 1.5 px long with a 525 px lens.
+  double motion_blur_min_rate_rad_s = 0.5;
 
   // --- keyframes (KeyframeSelector) ---
   /// New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10,

@@ -113,21 +113,26 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "Prior standard deviation, about the motion model's, of the linear velocity estimated with a rolling "
           "shutter [m/s]; default 0.1, range (0, 100].");
   visitor("motion_blur_exposure_ms", options.motion_blur_exposure_ms,
-          "Exposure time of the colour camera, for its motion blur [ms]; default 0 = sharp (off), range [0, 100]. "
-          "With an exposure each keypoint's pixel residual in the pose refinement is weighted by its blur streak "
-          "(the image velocity under the motion model's velocities times the exposure): sigma along the streak "
-          "sqrt(sigma^2 + L^2 / 12), across it sigma.");
+          "Exposure time of the colour camera, for its motion blur [ms]; default 4, range [0, 100]; 0 = sharp (off). "
+          "On a fast turn each keypoint's pixel residual in the pose refinement is weighted by its blur streak (the "
+          "image velocity under the motion model's velocities times the exposure): sigma along the streak "
+          "sqrt(sigma^2 + L^2 / 12), across it sigma. 4 ms: the low end of the keypoints' measured spread along "
+          "their streaks.");
+  visitor("motion_blur_min_rate_rad_s", options.motion_blur_min_rate_rad_s,
+          "The blur is weighted only on frames whose motion model turns at least this fast [rad/s]; default 0.5, "
+          "range [0, 100]. People crossing a still camera's view drag its motion model; weighted by that seeming "
+          "motion's streaks, the keypoints would give way along it.");
+}
+
+/// Keyframe decisions (TrackingOptions).
+template <typename Visitor>
+void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor(
       "keyframe_translation_m", options.keyframe_translation_m,
       "New keyframe when the camera moved more than this since the last keyframe [m]; default 0.10, range (0, 10].");
   visitor(
       "keyframe_rotation_deg", options.keyframe_rotation_deg,
       "New keyframe when the camera rotated more than this since the last keyframe [deg]; default 8, range (0, 180].");
-}
-
-/// Keyframe decisions (TrackingOptions).
-template <typename Visitor>
-void visitKeyframeOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("keyframe_min_tracked_ratio", options.keyframe_min_tracked_ratio,
           "New keyframe when fewer than this fraction of the keyframe's points are pose inliers [-]; default 0.6, "
           "range [0, 1].");
