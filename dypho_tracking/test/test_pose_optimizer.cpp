@@ -149,6 +149,28 @@ Eigen::Isometry3d offsetInitialPose(const Eigen::Isometry3d& T_cw_true) {
   return T_init;
 }
 
+/// `count` points 1-4 m before a camera at the world origin (the identity pose), seen with up to
+/// 0.5 px of uniform noise, random by `seed`.
+std::vector<PoseObservation> stillCameraObservations(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < count; ++i) {
+    PoseObservation o;
+    o.p_world_m = kPinhole.backProject(Eigen::Vector2d(20 + 600 * u01(rng), 20 + 440 * u01(rng)), 1.0 + 3.0 * u01(rng));
+    o.uv_px = kPinhole.project(o.p_world_m) + Eigen::Vector2d(u01(rng) - 0.5, u01(rng) - 0.5);
+    obs.push_back(o);
+  }
+  return obs;
+}
+
+/// The start the refinement of stillCameraObservations begins from: 2.4 cm off the truth.
+Eigen::Isometry3d stillCameraStart() {
+  Eigen::Isometry3d T_init = Eigen::Isometry3d::Identity();
+  T_init.translation() = Eigen::Vector3d(0.01, 0.02, -0.01);
+  return T_init;
+}
+
 double positionErrorM(const PoseOptimizerResult& r, const Eigen::Isometry3d& T_cw_true) {
   return (r.T_camera_world.inverse().translation() - T_cw_true.inverse().translation()).norm();
 }
@@ -232,17 +254,8 @@ TEST(PoseOptimizer, RollingShutterRatePriorWidensOnAFastTurn) {
 /// With a readout but no row times (the caller knows no rows), the refinement is the global-shutter
 /// one: the same pose to the last bit.
 TEST(PoseOptimizer, RollingShutterWithoutRowTimesIsTheGlobalShutterRefinement) {
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  std::vector<PoseObservation> obs;
-  for (int i = 0; i < 100; ++i) {
-    PoseObservation o;
-    o.p_world_m = kPinhole.backProject(Eigen::Vector2d(20 + 600 * u01(rng), 20 + 440 * u01(rng)), 1.0 + 3.0 * u01(rng));
-    o.uv_px = kPinhole.project(o.p_world_m) + Eigen::Vector2d(u01(rng) - 0.5, u01(rng) - 0.5);
-    obs.push_back(o);
-  }
-  Eigen::Isometry3d T_init = Eigen::Isometry3d::Identity();
-  T_init.translation() = Eigen::Vector3d(0.01, 0.02, -0.01);
+  const std::vector<PoseObservation> obs = stillCameraObservations(100, 5);
+  const Eigen::Isometry3d T_init = stillCameraStart();
   TrackingOptions rolling;
   rolling.rolling_shutter_readout_ms = 30.0;
   const PoseOptimizerResult a = PoseOptimizer(rolling).optimize(obs, kPinhole, T_init);
@@ -354,17 +367,8 @@ TEST(PoseOptimizer, MotionBlurWeightsRecoverTheCameraOfABlurredFrame) {
 /// an ungated exposure does. The inlier test follows the same gate: 4 px along a 100 ms streak
 /// of the 0.4 rad/s turn (21 px) is an inlier only without the gate.
 TEST(PoseOptimizer, BlurWeightsWaitForAFastTurn) {
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  std::vector<PoseObservation> obs;
-  for (int i = 0; i < 200; ++i) {
-    PoseObservation o;
-    o.p_world_m = kPinhole.backProject(Eigen::Vector2d(20 + 600 * u01(rng), 20 + 440 * u01(rng)), 1.0 + 3.0 * u01(rng));
-    o.uv_px = kPinhole.project(o.p_world_m) + Eigen::Vector2d(u01(rng) - 0.5, u01(rng) - 0.5);
-    obs.push_back(o);
-  }
-  Eigen::Isometry3d T_init = Eigen::Isometry3d::Identity();
-  T_init.translation() = Eigen::Vector3d(0.01, 0.02, -0.01);
+  const std::vector<PoseObservation> obs = stillCameraObservations(200, 7);
+  const Eigen::Isometry3d T_init = stillCameraStart();
   const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 1.0, -0.1).normalized();
   const CameraRates dragged{0.4 * axis, Eigen::Vector3d::Zero()};
   const CameraRates turning{0.6 * axis, Eigen::Vector3d::Zero()};
