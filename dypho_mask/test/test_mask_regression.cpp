@@ -19,20 +19,27 @@ namespace DYPHO_UNITY_ID {
 struct Scores {
   double iou = 0.0;
   double false_share = 0.0;
+  double missed_share = 0.0;  ///< of the people's pixels
+};
+
+struct SequenceSetup {
+  int people = 2;
+  mask::DynamicMaskOptions options;
 };
 
 /// Pooled IoU and false-dynamic share over frames 5..frames-1 (frames 0..4 are the warm-up of the
 /// background model). From frame `catch_up_from` on (-1 = never) every frame is masked in
 /// catch-up mode, as by a live caller that fell behind.
-Scores runSequence(tools::SynthMotion motion, std::uint32_t seed, int frames, int catch_up_from = -1) {
+Scores runSequence(tools::SynthMotion motion, std::uint32_t seed, int frames, int catch_up_from = -1,
+                   const SequenceSetup& setup = SequenceSetup()) {
   tools::SynthOptions so;
   so.frames = frames;
-  so.people = 2;
+  so.people = setup.people;
   so.seed = seed;
   so.motion = motion;
   const tools::SyntheticScene scene(so);
-  mask::DynamicMasker masker{mask::DynamicMaskOptions()};
-  double inter = 0, uni = 0, false_dyn = 0, static_px = 0;
+  mask::DynamicMasker masker{setup.options};
+  double inter = 0, uni = 0, false_dyn = 0, static_px = 0, missed = 0, dynamic_px = 0;
   Eigen::Isometry3d T_world_prev = Eigen::Isometry3d::Identity();
   for (int i = 0; i < so.frames; ++i) {
     const tools::SynthFrame f = scene.render(i);
@@ -48,8 +55,10 @@ Scores runSequence(tools::SynthMotion motion, std::uint32_t seed, int frames, in
     uni += cv::countNonZero(gt | m);
     false_dyn += cv::countNonZero(m & ~gt);
     static_px += cv::countNonZero(~gt);
+    missed += cv::countNonZero(gt & ~m);
+    dynamic_px += cv::countNonZero(gt);
   }
-  return {inter / uni, false_dyn / static_px};
+  return {inter / uni, false_dyn / static_px, missed / dynamic_px};
 }
 
 class MaskRegression : public ::testing::TestWithParam<std::tuple<tools::SynthMotion, int>> {};
@@ -78,6 +87,24 @@ TEST_P(MaskRegression, MeetsTheIssueBoundsWhileCatchingUp) {
   EXPECT_GE(s.iou, 0.85);
   EXPECT_LE(s.false_share, 0.02);
   std::printf("catching up: IoU %.3f false-dynamic %.2f %%\n", s.iou, 100.0 * s.false_share);
+}
+
+// DynamicMaskOptions::moving_permanence_frames (off by default): a camera on a half sphere with 8
+// people crossing, who turn round on the spot at the end of their short stretches. With 30 frames
+// of permanence the people who stand stay masked: fewer of their pixels are missed. Measured
+// (frames 5-69, ground-truth pose prior): missed 25.7 -> 21.8 %, IoU 0.687 -> 0.736, false-dynamic
+// 7.77 -> 5.81 %; the bound asks for one point of the missed share.
+TEST(MaskRegressionCrowd, MovingPermanenceKeepsPeopleWhoStand) {
+  SequenceSetup off;
+  off.people = 8;
+  SequenceSetup on = off;
+  on.options.moving_permanence_frames = 30;
+  const Scores without = runSequence(tools::SynthMotion::kHalfsphere, 1, 70, -1, off);
+  const Scores with = runSequence(tools::SynthMotion::kHalfsphere, 1, 70, -1, on);
+  std::printf("missed %.1f -> %.1f %%, IoU %.3f -> %.3f, false-dynamic %.2f -> %.2f %%\n", 100.0 * without.missed_share,
+              100.0 * with.missed_share, without.iou, with.iou, 100.0 * without.false_share, 100.0 * with.false_share);
+  EXPECT_LT(with.missed_share, without.missed_share - 0.01);
+  EXPECT_GT(with.iou, without.iou);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sequences, MaskRegression,

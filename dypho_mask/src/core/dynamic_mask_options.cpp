@@ -95,6 +95,8 @@ void DynamicMaskOptions::validate() const {
           "catch_up_frames_waiting must be in [0, 1000], got " + std::to_string(catch_up_frames_waiting));
   require(permanence_frames >= 0 && permanence_frames <= 10000,
           "permanence_frames must be in [0, 10000], got " + std::to_string(permanence_frames));
+  require(moving_permanence_frames >= 0 && moving_permanence_frames <= 10000,
+          "moving_permanence_frames must be in [0, 10000], got " + std::to_string(moving_permanence_frames));
   require(depth_layers >= 1, "depth_layers must be >= 1, got " + std::to_string(depth_layers));
   require(min_region_area_px >= 0, "min_region_area_px must be >= 0, got " + std::to_string(min_region_area_px));
 }

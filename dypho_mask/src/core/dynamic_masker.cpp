@@ -63,12 +63,14 @@ DynamicMasker::DynamicMasker(const DynamicMaskOptions& options)
   grow_settings_.max_growth_ratio = options.background.grow_max_ratio;
   // The flow's halo on the background: its margin plus about 4 px of flow smoothing (full res).
   halo_small_px_ = std::max(1, static_cast<int>(std::lround((options.flow.dilate_px + 4) * options.background.scale)));
-  if (options.permanence_frames > 0) {
+  const auto makePermanence = [&](int max_quiet_frames) {
     PermanenceSettings p;
-    p.max_quiet_frames = options.permanence_frames;
+    p.max_quiet_frames = max_quiet_frames;
     p.sigma_m = options.background.sigma_m;
-    permanence_ = std::make_unique<ObjectPermanence>(p);
-  }
+    return std::make_unique<ObjectPermanence>(p);
+  };
+  if (options.permanence_frames > 0) permanence_ = makePermanence(options.permanence_frames);
+  if (options.moving_permanence_frames > 0) moving_permanence_ = makePermanence(options.moving_permanence_frames);
   const int margin_small = cleanerAt(options, options.background.scale).dilate_radius_px;
   if (options.margin_depth_aware && margin_small > 0) {
     margin_kernel_small_ =
@@ -83,7 +85,7 @@ void DynamicMasker::reset() {
   flow_frames_ = 0;
   previous_mask_.release();
   network_mask_in_use_ = true;
-  if (permanence_) permanence_->reset();
+  resetPermanence();
   flow_.reset();
   segment_->reset();
   background_.reset();
@@ -371,18 +373,12 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
   if (options_.moving_point_seeds && !f.prior.moving_points_camera_m.empty()) {
     addMovingPointSeeds(f.prior.moving_points_camera_m, scaled(f.frame.camera, f.small, options_.background.scale));
   }
-  // Object permanence (permanence_frames) serves the flow-only mask of a still camera (a
-  // network segments people whatever they do; a moving camera's ego-motion errors would be
-  // kept as well), and starts once the background model is established: before, the depth
-  // growth has no background to stop it and can spill over a wall nobody has seen yet, which
-  // must not last.
-  const bool permanence =
-      permanence_ && !f.network && still && background_updates_ >= options_.background.veto_after_updates;
+  ObjectPermanence* const permanence = activePermanence(f, still);
   if (permanence) {
     // What this frame found itself (the evidence that restarts a surface's quiet count), then
     // the surfaces of the previous frame that are still there.
     combined_.copyTo(evidence_small_);
-    permanence_->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
+    permanence->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
     combined_ |= kept_small_;
   }
   if (options_.background.grow_in_depth) {
@@ -396,11 +392,27 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
   background_.update(depth_small_, rendered_small_, combined_);
   ++background_updates_;
   finish(combined_, f.size, true, result);
-  if (permanence) {
-    permanence_->remember(cleaned_small_, evidence_small_, depth_small_);
-  } else if (permanence_) {
-    permanence_->reset();
-  }
+  // The other mode's memory (or both, with none in use) starts afresh.
+  if (permanence_ && permanence != permanence_.get()) permanence_->reset();
+  if (moving_permanence_ && permanence != moving_permanence_.get()) moving_permanence_->reset();
+  if (permanence) permanence->remember(cleaned_small_, evidence_small_, depth_small_);
+}
+
+ObjectPermanence* DynamicMasker::activePermanence(const FrameState& f, bool still) const {
+  // Object permanence serves the flow-only mask (a network segments people whatever they do) and
+  // starts once the background model is established: before, the depth growth has no background
+  // to stop it and can spill over a wall nobody has seen yet, which must not last. A still camera
+  // has its own (permanence_frames); a camera that moves slowly, under 6 px of image motion per
+  // frame (still_camera_weight > 0), the other (moving_permanence_frames). Faster, the ego-motion
+  // model's errors would be kept as well.
+  if (f.network || background_updates_ < options_.background.veto_after_updates) return nullptr;
+  if (still) return permanence_.get();
+  return f.flow.still_camera_weight > 0.0 ? moving_permanence_.get() : nullptr;
+}
+
+void DynamicMasker::resetPermanence() {
+  if (permanence_) permanence_->reset();
+  if (moving_permanence_) moving_permanence_->reset();
 }
 
 void DynamicMasker::cutRawMaskAtBackground(const FrameState& f) {
@@ -451,7 +463,7 @@ bool DynamicMasker::vetoFlowOnBackground(const FrameState& f) {
 }
 
 void DynamicMasker::fuseAtInput(const FrameState& f, MaskResult& result) {
-  if (permanence_) permanence_->reset();
+  resetPermanence();
   if (options_.background.enabled && !f.have_depth) addNote(result, "no usable depth/camera: background model skipped");
   combined_ = f.flow.mask.clone();
   if (!f.seg.mask.empty()) combined_ |= f.seg.mask;
@@ -509,7 +521,7 @@ void DynamicMasker::allDynamic(const cv::Size& size, const std::string& why, Mas
   result.masked_fraction = 1.0;
   result.message += (result.message.empty() ? "" : "; ") + why + ": every pixel dynamic on this frame";
   previous_mask_.release();  // nothing to carry into the next frame
-  if (permanence_) permanence_->reset();
+  resetPermanence();
 }
 
 void DynamicMasker::finish(const cv::Mat& dynamic, const cv::Size& size, bool at_background, MaskResult& result) {

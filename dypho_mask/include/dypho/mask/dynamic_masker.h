@@ -198,6 +198,11 @@ class DynamicMasker {
   /// raw_small_ = its flow part less the regions the established background explains (while
   /// the camera moves, or always with veto_flow_while_still) OR seg_small_; returns cameraStill().
   bool vetoFlowOnBackground(const FrameState& f);
+  /// The object permanence that serves this frame (see DynamicMaskOptions::permanence_frames and
+  /// moving_permanence_frames), null when none does; `still` = cameraStill() of the frame.
+  ObjectPermanence* activePermanence(const FrameState& f, bool still) const;
+  /// Both object permanences forget what they kept.
+  void resetPermanence();
   /// Step 3 without the background model: flow mask OR segment mask at input size, finished.
   void fuseAtInput(const FrameState& f, MaskResult& result);
   /// ORs into combined_ the surfaces grown from the moving points (moving_point_seeds).
@@ -233,12 +238,13 @@ class DynamicMasker {
       no_occluder_small_;        ///< depth-layer cut (DynamicMaskOptions::depth_layers)
   cv::Mat margin_kernel_small_;  ///< margin at background resolution (depth-aware margin only)
   cv::Mat margin_depth_, margin_grown_;
-  cv::Mat seeds_small_;                           ///< moving-point seeds at background resolution
-  int halo_small_px_ = 6;                         ///< width of the flow's halo at background resolution [px]
-  std::unique_ptr<ObjectPermanence> permanence_;  ///< null when permanence_frames is 0
-  cv::Mat evidence_small_, kept_small_;           ///< this frame's own findings; regions kept from the last frame
-  cv::Mat cleaned_small_;                         ///< final dynamic pixels at background resolution, before the margin
-  cv::Mat previous_mask_;  ///< final mask of the previous frame (input size), see FlowMotionMasker
+  cv::Mat seeds_small_;                                  ///< moving-point seeds at background resolution
+  int halo_small_px_ = 6;                                ///< width of the flow's halo at background resolution [px]
+  std::unique_ptr<ObjectPermanence> permanence_;         ///< null when permanence_frames is 0
+  std::unique_ptr<ObjectPermanence> moving_permanence_;  ///< null when moving_permanence_frames is 0
+  cv::Mat evidence_small_, kept_small_;  ///< this frame's own findings; regions kept from the last frame
+  cv::Mat cleaned_small_;                ///< final dynamic pixels at background resolution, before the margin
+  cv::Mat previous_mask_;                ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 
 }  // namespace mask
