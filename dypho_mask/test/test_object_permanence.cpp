@@ -105,6 +105,39 @@ TEST(ObjectPermanence, ADepthJumpOrTheBackgroundReleasesAPixel) {
   EXPECT_EQ(count(kept, kPerson), kPerson.area());
 }
 
+TEST(ObjectPermanence, ASurfaceThatStandsInFrontOfNothingIsDropped) {
+  // A patch of wall the mask once took in, where the background model has no value (never seen):
+  // nothing around it is farther, so it is not kept; a person in the same place is.
+  const cv::Mat unknown_background = cv::Mat::zeros(kSize, CV_32FC1);
+  const cv::Mat wall = depthWithPerson(kPerson, 3.0f);
+  cv::Mat kept;
+  ObjectPermanence p(settings(30));
+  p.remember(maskOf(kPerson), maskOf(kPerson), wall);
+  p.carry(shiftFlowHalfRes(0.f), wall, unknown_background, kept);
+  EXPECT_EQ(cv::countNonZero(kept), 0);
+
+  ObjectPermanence q(settings(30));
+  const cv::Mat person = depthWithPerson(kPerson);
+  q.remember(maskOf(kPerson), maskOf(kPerson), person);
+  q.carry(shiftFlowHalfRes(0.f), person, unknown_background, kept);
+  EXPECT_EQ(count(kept, kPerson), kPerson.area()) << "the wall around the person is 1.5 m farther";
+
+  // Where the background has values behind the patch, they speak for it (it stands 1 m in front).
+  cv::Mat background(kSize, CV_32FC1, cv::Scalar(4.0f));
+  ObjectPermanence r(settings(30));
+  r.remember(maskOf(kPerson), maskOf(kPerson), wall);
+  r.carry(shiftFlowHalfRes(0.f), wall, background, kept);
+  EXPECT_EQ(count(kept, kPerson), kPerson.area());
+
+  // With the test off (min_farther_outline_share 0) the patch stays.
+  PermanenceSettings off = settings(30);
+  off.min_farther_outline_share = 0.0;
+  ObjectPermanence o(off);
+  o.remember(maskOf(kPerson), maskOf(kPerson), wall);
+  o.carry(shiftFlowHalfRes(0.f), wall, unknown_background, kept);
+  EXPECT_EQ(count(kept, kPerson), kPerson.area());
+}
+
 TEST(ObjectPermanence, NoFlowNoDepthOrResetKeepNothing) {
   ObjectPermanence p(settings(30));
   const cv::Mat depth = depthWithPerson(kPerson);
@@ -131,5 +164,11 @@ TEST(ObjectPermanence, BadSettingsAreRejected) {
   PermanenceSettings s;
   s.max_depth_change_m = 0.0;
   EXPECT_THROW((ObjectPermanence(s)), std::invalid_argument);
+  PermanenceSettings share;
+  share.min_farther_outline_share = 1.5;
+  EXPECT_THROW((ObjectPermanence(share)), std::invalid_argument);
+  share.min_farther_outline_share = 0.1;
+  share.min_background_share = -0.1;
+  EXPECT_THROW((ObjectPermanence(share)), std::invalid_argument);
 }  // namespace DYPHO_UNITY_ID
 }  // namespace DYPHO_UNITY_ID

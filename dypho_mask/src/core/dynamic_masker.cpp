@@ -378,7 +378,7 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
     // What this frame found itself (the evidence that restarts a surface's quiet count), then
     // the surfaces of the previous frame that are still there.
     combined_.copyTo(evidence_small_);
-    permanence->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_);
+    permanence->carry(flow_.lastFlow(), depth_small_, background_.prior(), kept_small_, evidence_small_);
     combined_ |= kept_small_;
   }
   if (options_.background.grow_in_depth) {

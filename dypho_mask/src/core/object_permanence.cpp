@@ -25,6 +25,10 @@ inline float surfaceStep(float z) {
   return static_cast<float>(grow.max_step_m + grow.max_step_rel * z);
 }
 
+/// Distance from a kept pixel at which its surroundings are read, in the four axis directions [px
+/// at the background model's resolution].
+constexpr int kOutlineOffsetPx = 3;
+
 /// Labels the surfaces of `mask` (non-zero pixels with depth): 4-connected pixels whose depths
 /// differ by at most surfaceStep() share a label (1..n); other pixels get 0. Returns n + 1.
 int labelSurfaces(const cv::Mat& mask, const cv::Mat& depth_m, cv::Mat& labels, std::vector<int>& queue) {
@@ -62,6 +66,13 @@ ObjectPermanence::ObjectPermanence(const PermanenceSettings& settings) : setting
     throw std::invalid_argument("permanence max_quiet_frames must be in [1, 10000], got " +
                                 std::to_string(settings.max_quiet_frames));
   }
+  for (const double share : {settings.min_background_share, settings.min_farther_outline_share}) {
+    if (!(share >= 0.0 && share <= 1.0)) {
+      throw std::invalid_argument(
+          "permanence min_background_share and min_farther_outline_share must be in [0, 1], got " +
+          std::to_string(share));
+    }
+  }
   if (!(settings.max_depth_change_m > 0.0) || !(settings.sigma_m > 0.0)) {
     throw std::invalid_argument("permanence max_depth_change_m and sigma_m must be > 0");
   }
@@ -72,7 +83,8 @@ void ObjectPermanence::reset() {
   kept_.release();
 }
 
-void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const cv::Mat& background_m, cv::Mat& kept) {
+void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const cv::Mat& background_m, cv::Mat& kept,
+                             const cv::Mat& found_now) {
   CV_Assert(depth_m.type() == CV_32FC1);
   const cv::Size size = depth_m.size();
   kept.create(size, CV_8UC1);
@@ -114,7 +126,60 @@ void ObjectPermanence::carry(const cv::Mat& flow, const cv::Mat& depth_m, const 
       k[x] = 255;
     }
   }
+  if (settings_.min_farther_outline_share > 0.0) dropSurfacesInFrontOfNothing(depth_m, background_m, found_now, kept);
   kept.copyTo(kept_);
+}
+
+void ObjectPermanence::dropSurfacesInFrontOfNothing(const cv::Mat& depth_m, const cv::Mat& background_m,
+                                                    const cv::Mat& found_now, cv::Mat& kept) {
+  // A kept pixel with a background value stands in front of it (carry() dropped the explained
+  // ones). A surface with too few of them must show in its surroundings that it stands in front
+  // of something; otherwise it is a patch of wall or floor the background model has never seen,
+  // which the mask once took in with a person.
+  const int n = labelSurfaces(kept, depth_m, labels_, queue_);
+  if (n <= 1) return;
+  const auto count = static_cast<size_t>(n);
+  std::vector<int> total(count, 0), with_background(count, 0), around(count, 0), farther(count, 0);
+  const bool have_background = !background_m.empty();
+  const bool have_found = !found_now.empty();
+  if (have_found) CV_Assert(found_now.type() == CV_8UC1 && found_now.size() == kept.size());
+  const float sigma = static_cast<float>(settings_.sigma_m);
+  const int w = kept.cols, h = kept.rows;
+  // The surroundings: valid depth, neither kept nor found dynamic now (the person's other parts).
+  const auto surrounding = [&](int x, int y) {
+    return x >= 0 && x < w && y >= 0 && y < h && kept.at<uchar>(y, x) == 0 &&
+           (!have_found || found_now.at<uchar>(y, x) == 0) && valid(depth_m.at<float>(y, x));
+  };
+  constexpr int r = kOutlineOffsetPx;
+  for (int y = 0; y < h; ++y) {
+    const int* l = labels_.ptr<int>(y);
+    const float* d = depth_m.ptr<float>(y);
+    const float* b = have_background ? background_m.ptr<float>(y) : nullptr;
+    for (int x = 0; x < w; ++x) {
+      if (l[x] == 0) continue;
+      const auto i = static_cast<size_t>(l[x]);
+      ++total[i];
+      with_background[i] += b != nullptr && valid(b[x]);
+      const int xs[4] = {x - r, x + r, x, x};
+      const int ys[4] = {y, y, y - r, y + r};
+      for (int k = 0; k < 4; ++k) {
+        if (!surrounding(xs[k], ys[k])) continue;
+        ++around[i];
+        farther[i] += depth_m.at<float>(ys[k], xs[k]) > d[x] + sigma;
+      }
+    }
+  }
+  std::vector<bool> drop(count, false);
+  for (size_t i = 1; i < count; ++i) {
+    drop[i] = with_background[i] < settings_.min_background_share * total[i] &&
+              farther[i] < settings_.min_farther_outline_share * around[i];
+  }
+  for (int y = 0; y < h; ++y) {
+    const int* l = labels_.ptr<int>(y);
+    uchar* k = kept.ptr<uchar>(y);
+    for (int x = 0; x < w; ++x)
+      if (drop[static_cast<size_t>(l[x])]) k[x] = 0;
+  }
 }
 
 void ObjectPermanence::remember(const cv::Mat& dynamic, const cv::Mat& evidence, const cv::Mat& depth_m) {

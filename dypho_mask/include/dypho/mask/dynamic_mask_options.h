@@ -194,11 +194,11 @@ struct DynamicMaskOptions {
   /// without it the background model learns them and the keyframes take points on them. Faster,
   /// the ego-motion model's errors would be kept (TUM fr1/rpy 0.55 -> 5.45 cm without that limit).
   /// 0 = off, else in [1, 10000]. Default 0 (off): with 30, eleven moving-camera crowds of the
-  /// generator (half-sphere and xyz, 6-8 people, 300 frames) gave mask IoU 0.835 -> 0.858 (ten
-  /// better, one equal), missed 12.3 -> 9.8 %, ATE mean 0.91 -> 0.78 cm, TUM fr1/rpy unchanged,
-  /// the Bonn crowd 1.02 -> 0.94 cm; but the suite's mask bound fails on a half-sphere camera with
-  /// two people (40 frames: false-dynamic 1.78 -> 2.14 % against 2 %): it also keeps regions that
-  /// are not people (docs/journal/benchmarks-2026.md, section 58).
+  /// generator (half-sphere and xyz, 6-8 people, 300 frames) gave mask IoU 0.835 -> 0.852 (all
+  /// eleven better) at a lower false-dynamic share (4.07 -> 3.98 %), TUM fr1/rpy
+  /// unchanged, the Bonn crowd 1.02 -> 0.95 cm (fifteen frame-removal inputs 1.12 -> 1.11 cm); but
+  /// the crowds' ATE does not follow the mask: mean 0.91 -> 0.98 cm, the four xyz crowds 0.01-0.10
+  /// cm worse each (docs/journal/benchmarks-2026.md, section 59).
   int moving_permanence_frames = 0;
   /// Flow regions that the established background model explains are dropped as flow noise also
   /// while the camera is still (median flow under 2 px per frame, and 30 % of the textured view

@@ -253,8 +253,9 @@ void visitOptions(DynamicMaskOptions& options, Visitor&& visitor) {
           "frame (the flow's median), where the flow's memory and depth layers work too. People who stand (turn round, "
           "wait) have no flow; without it the background model learns them and the keyframes take points on them. 0 = "
           "off, else in [1, 10000]. Default 0 (off): with 30, eleven moving-camera crowds of the generator gave mask "
-          "IoU 0.835 -> 0.858 and the Bonn crowd 1.02 -> 0.94 cm, but the suite's false-dynamic bound of 2 % fails on "
-          "a half-sphere camera with two people (1.78 -> 2.14 %) (docs/journal/benchmarks-2026.md, section 58).");
+          "IoU 0.835 -> 0.852 at a lower false-dynamic share (4.07 -> 3.98 %), the Bonn crowd 1.02 -> 0.95 cm, TUM "
+          "fr1/rpy unchanged; but the crowds' ATE does not follow the mask (mean 0.91 -> 0.98 cm, the four xyz crowds "
+          "0.01-0.10 cm worse each) (docs/journal/benchmarks-2026.md, section 59).");
   visitor("veto_flow_while_still", options.veto_flow_while_still,
           "Flow regions that the established background model explains are dropped as flow noise also while the camera "
           "is still (median flow under 2 px per frame, and 30 % of the textured view not moving or the predicted pose "

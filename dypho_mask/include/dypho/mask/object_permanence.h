@@ -16,7 +16,11 @@
 ///    restarts at 0 on every frame on which fresh evidence (flow, background consistency, the
 ///    network, tracking's moving points) touches it, and otherwise grows by one per frame
 ///    (surface: 4-connected dynamic pixels whose depths differ by at most 0.05 m + 3 % between
-///    neighbours, the depth growth's rule).
+///    neighbours, the depth growth's rule), and
+///  - its surface (now, among the kept pixels) stands in front of something: of the background
+///    where the background has values behind it, else of its surroundings
+///    (PermanenceSettings::min_farther_outline_share). A patch of wall or floor that the mask
+///    once took in with a person, and that the background model has never seen, does not.
 /// The quiet count bounds how long a wrong surface (flow noise on a static surface the background
 /// has not seen) can last.
 
@@ -38,6 +42,15 @@ struct PermanenceSettings {
   /// A carried pixel is explained by the background when the background depth is valid and the
   /// depth >= background - sigma_m [m], > 0 (the background model's sigma).
   double sigma_m = 0.2;
+  /// A kept surface must stand in front of something: at least min_background_share of its
+  /// pixels in front of a background value, or else at least min_farther_outline_share of its
+  /// surroundings (the pixels 3 px beside each of its pixels that have depth and are neither kept
+  /// nor found dynamic now) farther than it by more than sigma_m. A surface that does neither is
+  /// dropped: a patch of wall or floor the background model has never seen, which the mask once
+  /// took in with a person (a person stands in front of the floor and wall around them). Both in
+  /// [0, 1]; min_farther_outline_share 0 = no surface is dropped.
+  double min_background_share = 0.5;
+  double min_farther_outline_share = 0.1;
 };
 
 /// Carries dynamic surfaces from frame to frame. Not thread-safe; one instance per image stream.
@@ -51,7 +64,8 @@ class ObjectPermanence {
   /// resolution [px of that resolution] (current pixel -> its position in the previous image);
   /// `depth_m` CV_32FC1 [m] (0 = none); `background_m` CV_32FC1 [m] of the same size (0 = none) or
   /// empty. `kept` is all 0 when there is no previous frame, no flow, or a size change.
-  void carry(const cv::Mat& flow_cur_to_prev, const cv::Mat& depth_m, const cv::Mat& background_m, cv::Mat& kept);
+  void carry(const cv::Mat& flow_cur_to_prev, const cv::Mat& depth_m, const cv::Mat& background_m, cv::Mat& kept,
+             const cv::Mat& found_now = cv::Mat());
 
   /// Remembers this frame's final dynamic pixels `dynamic` (CV_8UC1, non-zero = dynamic, the size
   /// of the last carry()'s depth) with their depth, and which of them fresh evidence found
@@ -64,6 +78,11 @@ class ObjectPermanence {
   void reset();
 
  private:
+  /// Drops the surfaces of `kept` (labelled at `depth_m`) that stand in front of nothing
+  /// (PermanenceSettings::min_farther_outline_share).
+  void dropSurfacesInFrontOfNothing(const cv::Mat& depth_m, const cv::Mat& background_m, const cv::Mat& found_now,
+                                    cv::Mat& kept);
+
   PermanenceSettings settings_;
   cv::Mat mask_;        ///< previous frame's dynamic pixels (CV_8UC1)
   cv::Mat depth_;       ///< previous frame's depth [m]
