@@ -23,7 +23,8 @@
 #     moving camera), same_level_always (the same on every frame of a moving camera), no_nearby
 #     (the local map without the keyframes of the reference's view: covisible keyframes only),
 #     no_static_check (no dense check of the tracked pose against the reference keyframe),
-#     no_keyframe_wait (keyframes also on poses the static check disputes)
+#     no_keyframe_wait (keyframes also on poses the static check disputes),
+#     no_ba_blur (bundle adjustment takes blurred keyframes' keypoints as sharp)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard");
 #     also synth_long: the same hard case over 900 frames (seed 4), sweeping the same view again
@@ -73,6 +74,7 @@ declare -A CONFIG=(
   [no_nearby]=$'  local_map_nearby_keyframes: 0'
   [no_static_check]=$'  static_check: false'
   [no_keyframe_wait]=$'  keyframe_wait_while_disputed: false'
+  [no_ba_blur]=$'  motion_blur_in_bundle_adjustment: false'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(

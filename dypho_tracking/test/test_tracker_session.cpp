@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <iterator>
 #include <map>
 #include <optional>
@@ -33,7 +34,7 @@ constexpr std::size_t kVersionOffset = 8;
 constexpr std::size_t kLengthOffset = 16;
 constexpr std::size_t kChecksumOffset = 24;
 constexpr std::size_t kKeyframeCountOffset = kTrackerSessionHeaderBytes + 80 + 5 * 8 + 2 * 96;
-constexpr std::size_t kFirstFeatureCountOffset = kKeyframeCountOffset + 8 + 8 + 8 + 96;
+constexpr std::size_t kFirstFeatureCountOffset = kKeyframeCountOffset + 8 + 8 + 8 + 96 + 56;  // ... pose, blur
 /// The map-point id of the first keyframe's first feature (the last field of a 112-byte feature).
 constexpr std::size_t kFirstMapPointIdOffset = kFirstFeatureCountOffset + 8 + 112 - 8;
 
@@ -86,14 +87,18 @@ MapPoint tinyPoint(std::int64_t id, std::map<std::int64_t, int> observations) {
   return p;
 }
 
-/// Two keyframes (0 and 2) of three features, four map points (point 4 was culled), keyframe 1
-/// removed, a distorted camera, a loop and an unanchored segment.
+/// Two keyframes (0 and 2) of three features, keyframe 2 made in a fast turn (blurred), four map
+/// points (point 4 was culled), keyframe 1 removed, a distorted camera, a loop and an unanchored
+/// segment.
 TrackerSession tinySession() {
   TrackerSession s;
   s.camera = test::testCamera();
   s.camera.distortion = {0.25, -0.125, 0.001953125, -0.0009765625, 0.0625};
   s.map.keyframes[0] = tinyKeyframe(0, {0, 1, -1});
   s.map.keyframes[2] = tinyKeyframe(2, {0, 2, 3});
+  s.map.keyframes[2].blur_rates.omega_rad_s = Eigen::Vector3d(0.5, -2.0, 0.25);
+  s.map.keyframes[2].blur_rates.velocity_m_s = Eigen::Vector3d(0.125, 0.0, -0.0625);
+  s.map.keyframes[2].blur_exposure_s = 0.00390625;
   s.map.points[0] = tinyPoint(0, {{0, 0}, {2, 0}});
   s.map.points[1] = tinyPoint(1, {{0, 1}});
   s.map.points[2] = tinyPoint(2, {{2, 1}});
@@ -161,7 +166,8 @@ TEST(TrackerSession, SaveAndLoadKeepEveryField) {
 }
 
 // The fuzz seed (fuzz/corpus/tracker_session/tiny.bin) is this session's file. A change of the
-// format shows here first: bump kTrackerSessionVersion, then rewrite the seed with
+// format shows here first: bump kTrackerSessionVersion, keep the old seed as the old version's
+// file (tiny_v1.bin) while the loader reads that version, then rewrite the seed with
 // DYPHO_WRITE_SESSION_SEED=1.
 TEST(TrackerSession, TinySessionIsTheFuzzSeed) {
   const std::string seed = std::string(DYPHO_SOURCE_DIR) + "/fuzz/corpus/tracker_session/tiny.bin";
@@ -170,6 +176,19 @@ TEST(TrackerSession, TinySessionIsTheFuzzSeed) {
   const std::string seed_bytes = readBytes(seed);
   EXPECT_TRUE(seed_bytes == bytes) << seed << " (" << seed_bytes.size() << " bytes) is not the " << bytes.size()
                                    << "-byte file of this session: did the format change?";
+}
+
+// A file of format version 1 (the seed as the version-1 build wrote it; it has no keyframe blur)
+// still loads: the same session with its keyframes sharp.
+TEST(TrackerSession, VersionOneFileLoadsWithSharpKeyframes) {
+  const std::string v1 = std::string(DYPHO_SOURCE_DIR) + "/fuzz/corpus/tracker_session/tiny_v1.bin";
+  ASSERT_EQ(static_cast<unsigned char>(readBytes(v1)[kVersionOffset]), 1u) << v1;
+  TrackerSession expected = tinySession();
+  for (auto& [id, keyframe] : expected.map.keyframes) {
+    keyframe.blur_rates = CameraRates();
+    keyframe.blur_exposure_s = 0.0;
+  }
+  test::expectSameSession(expected, loadTrackerSession(v1, expected.camera));
 }
 
 TEST(TrackerSession, FileCutShortAnywhereIsRefusedAndChangesNothing) {
@@ -216,11 +235,11 @@ TEST(TrackerSession, AnyFlippedByteIsRefused) {
 }
 
 TEST(TrackerSession, OtherFormatVersionIsRefused) {
-  for (int version : {0, 2, 255}) {
+  for (int version : {0, 3, 255}) {
     std::string bytes = encodeTrackerSession(tinySession());
     bytes[kVersionOffset] = static_cast<char>(version);
     const std::string message = loadError(bytes);
-    EXPECT_NE(message.find("format version " + std::to_string(version) + ", this build reads version 1"),
+    EXPECT_NE(message.find("format version " + std::to_string(version) + ", this build reads versions 1 to 2"),
               std::string::npos)
         << message;
   }
@@ -299,6 +318,12 @@ TEST(TrackerSession, InconsistentSessionIsNeitherSavedNorRestored) {
   bad = tinySession();
   bad.map.keyframes[0].T_world_camera.matrix()(0, 0) = 2.0;
   refused(bad, "keyframe 0: its pose is not a rigid transform");
+  bad = tinySession();
+  bad.map.keyframes[2].blur_exposure_s = -0.004;
+  refused(bad, "keyframe 2: its motion blur is not finite");
+  bad = tinySession();
+  bad.map.keyframes[2].blur_rates.omega_rad_s.y() = std::numeric_limits<double>::quiet_NaN();
+  refused(bad, "keyframe 2: its motion blur is not finite");
   bad = tinySession();
   bad.map.keyframes[2].features.depth_m.pop_back();
   refused(bad, "keyframe 2: its feature arrays differ in length");

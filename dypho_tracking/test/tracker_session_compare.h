@@ -34,6 +34,9 @@ inline void expectSameKeyframe(const MapKeyframe& a, const MapKeyframe& b) {
   EXPECT_EQ(a.id, b.id) << where;
   EXPECT_EQ(a.stamp_ns, b.stamp_ns) << where;
   EXPECT_TRUE(a.T_world_camera.matrix() == b.T_world_camera.matrix()) << where;
+  EXPECT_TRUE(a.blur_rates.omega_rad_s == b.blur_rates.omega_rad_s) << where;
+  EXPECT_TRUE(a.blur_rates.velocity_m_s == b.blur_rates.velocity_m_s) << where;
+  EXPECT_EQ(a.blur_exposure_s, b.blur_exposure_s) << where;
   EXPECT_EQ(a.map_point_ids, b.map_point_ids) << where;
   const FrameFeatures& fa = a.features;
   const FrameFeatures& fb = b.features;

@@ -13,6 +13,7 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include "dypho/tracking/motion_blur.h"
 #include "dypho/tracking/reprojection_error.h"
 
 namespace dypho {
@@ -76,8 +77,9 @@ void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, B
     // Skip observations behind the camera at the start (would make Evaluate fail).
     const Eigen::Vector3d p_c = pose.q * p + pose.t;
     if (!(p_c.z() > 1e-3)) continue;
-    const auto block = window->problem.AddResidualBlock(new BaReprojectionError(o.uv_px, sigma, pinhole), loss,
-                                                        pose.q.coeffs().data(), pose.t.data(), p.data());
+    const auto block = window->problem.AddResidualBlock(
+        new BaReprojectionError(o.uv_px, streakSqrtInformation(o.blur_streak_px, sigma), pinhole), loss,
+        pose.q.coeffs().data(), pose.t.data(), p.data());
     ceres::ResidualBlockId depth_block = nullptr;
     if (bf > 0 && o.depth_m > 0) {
       depth_block = window->problem.AddResidualBlock(new BaDepthError(o.depth_m, bf, sigma), loss,
@@ -192,6 +194,10 @@ void addBaObservations(const TrackerMap& map, const TrackingOptions& options, Lo
       o.uv_px = kf->features.uv_undistorted_px[i];
       o.level = std::clamp(kf->features.keypoints[i].octave, 0, options.num_levels - 1);
       o.depth_m = kf->features.depth_m[i];
+      if (options.motion_blur_in_bundle_adjustment && kf->blur_exposure_s > 0.0) {
+        const Eigen::Vector3d p_camera_m = kv.second.inverse() * problem->p_world_m.at(o.point_id);
+        o.blur_streak_px = imageVelocityPxS(p_camera_m, kf->blur_rates, problem->pinhole) * kf->blur_exposure_s;
+      }
       problem->observations.push_back(o);
     }
   }

@@ -125,7 +125,7 @@ bool BaReprojectionError::Evaluate(double const* const* parameters, double* resi
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
   const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, isotropic(inv_sigma_), p_c, residuals);
+  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, sqrt_information_, p_c, residuals);
   if (jacobians == nullptr) return true;
   if (jacobians[0] != nullptr) {
     Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);

@@ -113,7 +113,8 @@ void RgbdOdometry::setReference(std::int64_t keyframe_id) {
 
 void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
                                Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& tracked_point_ids,
-                               const Pinhole& pinhole, TrackingResult* result) {
+                               const Pinhole& pinhole, TrackingResult* result, const CameraRates& blur_rates,
+                               double blur_exposure_s) {
   pinhole_ = pinhole;  // for the global BA at the end of the run (finishRun)
   camera_ = frame.camera;
   has_pinhole_ = true;
@@ -132,6 +133,8 @@ void RgbdOdometry::addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, cons
   kf.T_world_camera = T_world_camera;
   kf.features = features;
   kf.map_point_ids = map_point_ids;
+  kf.blur_rates = blur_rates;
+  kf.blur_exposure_s = blur_exposure_s;
   const std::int64_t id = kf.id;
   map_.addKeyframe(std::move(kf));
   fuseKeyframePoints(&map_, id, pinhole, options_);

@@ -369,7 +369,7 @@ void RgbdOdometry::insertKeyframe(TrackingFrame* work) {
                                         aligned.rates.omega_rad_s, readout_s, aligned.rates.velocity_m_s);
   }
   addKeyframe(work->frame, work->mask, moved ? at_stamp : work->features(), work->T_world_camera, ids, work->pinhole,
-              &work->result);
+              &work->result, aligned.rates, aligned.blur_exposure_s);
 }
 
 void RgbdOdometry::followMap(const TrackingFrame& work) {

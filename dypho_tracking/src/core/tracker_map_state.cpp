@@ -42,6 +42,10 @@ std::string keyframeProblem(std::int64_t key, const MapKeyframe& keyframe, std::
   const std::string name = "keyframe " + std::to_string(key) + ": ";
   if (keyframe.id != key || key < 0) return name + "has the id " + std::to_string(keyframe.id);
   if (!isRigidPose(keyframe.T_world_camera)) return name + "its pose is not a rigid transform";
+  if (!keyframe.blur_rates.omega_rad_s.allFinite() || !keyframe.blur_rates.velocity_m_s.allFinite() ||
+      !std::isfinite(keyframe.blur_exposure_s) || keyframe.blur_exposure_s < 0.0) {
+    return name + "its motion blur is not finite (velocities) or not a non-negative exposure";
+  }
   const std::string features = featuresProblem(keyframe.features);
   if (!features.empty()) return name + features;
   if (keyframe.map_point_ids.size() != keyframe.features.size()) {

@@ -61,8 +61,8 @@ bool finiteCamera(const CameraIntrinsics& c) {
 }
 
 /// The checks of the header in `bytes` (magic, size, version, length, checksum); throws the
-/// problem without the file name.
-void checkHeader(const std::string& bytes) {
+/// problem without the file name. Returns the format version.
+std::uint32_t checkHeader(const std::string& bytes) {
   if (bytes.empty()) throw std::runtime_error("the file is empty");
   if (std::memcmp(bytes.data(), kMagic, std::min(bytes.size(), sizeof kMagic)) != 0) {
     throw std::runtime_error("not a DyPho-SLAM tracker session (it does not start with 'DYPHOTRK')");
@@ -73,8 +73,9 @@ void checkHeader(const std::string& bytes) {
   }
   ByteReader header(bytes.data() + sizeof kMagic, kTrackerSessionHeaderBytes - sizeof kMagic);
   const std::uint32_t version = header.u32();
-  if (version != kTrackerSessionVersion) {
-    throw std::runtime_error("format version " + std::to_string(version) + ", this build reads version " +
+  if (version < kTrackerSessionOldestVersion || version > kTrackerSessionVersion) {
+    throw std::runtime_error("format version " + std::to_string(version) + ", this build reads versions " +
+                             std::to_string(kTrackerSessionOldestVersion) + " to " +
                              std::to_string(kTrackerSessionVersion) + " only (saved by another DyPho-SLAM version?)");
   }
   if (const std::uint32_t reserved = header.u32(); reserved != 0) {
@@ -95,6 +96,7 @@ void checkHeader(const std::string& bytes) {
     throw std::runtime_error("checksum mismatch, the file is corrupt (payload FNV-1a 64 " + hex(actual) +
                              ", the header says " + hex(checksum) + ")");
   }
+  return version;
 }
 
 }  // namespace
@@ -168,9 +170,9 @@ TrackerSession decode(const std::string& bytes, const CameraIntrinsics* run_came
   auto fail = [&](const std::string& what) { return std::runtime_error("cannot load '" + source + "': " + what); };
   TrackerSession session;
   try {
-    checkHeader(bytes);
-    session =
-        decodeSessionPayload(bytes.data() + kTrackerSessionHeaderBytes, bytes.size() - kTrackerSessionHeaderBytes);
+    const std::uint32_t version = checkHeader(bytes);
+    session = decodeSessionPayload(bytes.data() + kTrackerSessionHeaderBytes, bytes.size() - kTrackerSessionHeaderBytes,
+                                   version);
   } catch (const std::runtime_error& e) {
     throw fail(e.what());
   }

@@ -18,7 +18,8 @@ constexpr std::size_t kPoseBytes = 12 * 8;             // 3x4 matrix, f64, row-m
 constexpr std::size_t kKeypointBytes = 5 * 4 + 2 * 4;  // x y size angle response, octave class_id
 constexpr std::size_t kDescriptorBytes = 32;           // ORB
 constexpr std::size_t kFeatureBytes = kKeypointBytes + 2 * 8 + 4 + 3 * 8 + kDescriptorBytes + 8;
-constexpr std::size_t kKeyframeMinBytes = 8 + 8 + kPoseBytes + 8;  // id, stamp, pose, feature count
+constexpr std::size_t kBlurBytes = 7 * 8;                          // omega, velocity, exposure (version 2)
+constexpr std::size_t kKeyframeMinBytes = 8 + 8 + kPoseBytes + 8;  // id, stamp, pose, feature count (+ blur)
 constexpr std::size_t kObservationBytes = 8 + 4;                   // keyframe id, feature index
 constexpr std::size_t kPointMinBytes = 8 + 3 * 8 + kDescriptorBytes + kKeypointBytes + 8 + 8 + 6 * 4 + 4;
 constexpr std::size_t kRemovedBytes = 8 + 8 + kPoseBytes;  // id, parent id, pose
@@ -89,6 +90,9 @@ void putKeyframe(const MapKeyframe& kf, ByteWriter* w) {
   w->i64(kf.id);
   w->i64(kf.stamp_ns);
   putPose(kf.T_world_camera, w);
+  for (int k = 0; k < 3; ++k) w->f64(kf.blur_rates.omega_rad_s[k]);
+  for (int k = 0; k < 3; ++k) w->f64(kf.blur_rates.velocity_m_s[k]);
+  w->f64(kf.blur_exposure_s);
   const FrameFeatures& f = kf.features;
   w->u64(f.size());
   for (std::size_t i = 0; i < f.size(); ++i) {
@@ -102,11 +106,16 @@ void putKeyframe(const MapKeyframe& kf, ByteWriter* w) {
   }
 }
 
-MapKeyframe getKeyframe(ByteReader* r) {
+MapKeyframe getKeyframe(ByteReader* r, std::uint32_t version) {
   MapKeyframe kf;
   kf.id = r->i64();
   kf.stamp_ns = r->i64();
   kf.T_world_camera = getPose(r);
+  if (version >= 2) {
+    for (int k = 0; k < 3; ++k) kf.blur_rates.omega_rad_s[k] = r->f64();
+    for (int k = 0; k < 3; ++k) kf.blur_rates.velocity_m_s[k] = r->f64();
+    kf.blur_exposure_s = r->f64();
+  }
   const std::size_t n = r->count(kFeatureBytes, "features");
   FrameFeatures& f = kf.features;
   f.keypoints.resize(n);
@@ -183,7 +192,9 @@ void insertInOrder(std::int64_t id, Value&& value, const char* what, Map* record
 /// A first guess of the payload size, so the bytes are not copied while they grow.
 std::size_t payloadSizeEstimate(const TrackerSession& s) {
   std::size_t bytes = 512 + s.map.removed.size() * kRemovedBytes + s.reported_poses.size() * kReportedBytes;
-  for (const auto& [id, kf] : s.map.keyframes) bytes += kKeyframeMinBytes + kf.features.size() * kFeatureBytes;
+  for (const auto& [id, kf] : s.map.keyframes) {
+    bytes += kKeyframeMinBytes + kBlurBytes + kf.features.size() * kFeatureBytes;
+  }
   for (const auto& [id, p] : s.map.points) bytes += kPointMinBytes + p.observations.size() * kObservationBytes;
   return bytes;
 }
@@ -302,12 +313,13 @@ void encodeSessionPayload(const TrackerSession& s, ByteWriter* w) {
   }
 }
 
-TrackerSession decodeSessionPayload(const char* data, std::size_t size) {
+TrackerSession decodeSessionPayload(const char* data, std::size_t size, std::uint32_t version) {
   ByteReader r(data, size);
   TrackerSession s;
   getTrackerFields(&r, &s);
-  for (std::size_t n = r.count(kKeyframeMinBytes, "keyframes"), i = 0; i < n; ++i) {
-    MapKeyframe kf = getKeyframe(&r);
+  const std::size_t keyframe_min_bytes = kKeyframeMinBytes + (version >= 2 ? kBlurBytes : 0);
+  for (std::size_t n = r.count(keyframe_min_bytes, "keyframes"), i = 0; i < n; ++i) {
+    MapKeyframe kf = getKeyframe(&r, version);
     insertInOrder(kf.id, std::move(kf), "keyframe", &s.map.keyframes);
   }
   for (std::size_t n = r.count(kPointMinBytes, "map points"), i = 0; i < n; ++i) {

@@ -66,10 +66,11 @@ class ByteReader {
 /// Appends the payload of `session` (see docs/file_formats.md) to `out`.
 void encodeSessionPayload(const TrackerSession& session, ByteWriter* out);
 
-/// The session in a payload; throws std::runtime_error saying what is wrong (a count larger than
+/// The session in a payload of format `version` (kTrackerSessionOldestVersion to
+/// kTrackerSessionVersion); throws std::runtime_error saying what is wrong (a count larger than
 /// the bytes left, ids out of order, bytes left over). Its content is not checked further here
 /// (trackerSessionProblem).
-TrackerSession decodeSessionPayload(const char* data, std::size_t size);
+TrackerSession decodeSessionPayload(const char* data, std::size_t size, std::uint32_t version);
 
 }  // namespace tracking
 }  // namespace dypho

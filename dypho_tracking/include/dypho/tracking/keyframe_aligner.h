@@ -25,6 +25,9 @@ struct AlignmentResult {
   /// The camera's velocities during the frame with a rolling shutter (PoseOptimizerResult); zero
   /// without one.
   CameraRates rates;
+  /// The exposure the pose refinement weighted the keypoints' blur with (PoseOptimizerResult) [s];
+  /// 0 = sharp.
+  double blur_exposure_s = 0.0;
   std::vector<FeatureMatch> matches;  ///< matches used for the final pose
   std::vector<bool> inliers;          ///< per match: pose inlier
   int num_inliers = 0;                ///< count of inliers

@@ -36,6 +36,9 @@ struct LocalBaObservation {
   Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();  ///< undistorted keypoint [px]
   int level = 0;                                    ///< pyramid level
   double depth_m = 0.0;                             ///< measured depth, 0 = none
+  /// The point's image motion over its keyframe's exposure at the start [px] (motion_blur.h);
+  /// zero = sharp.
+  Eigen::Vector2d blur_streak_px = Eigen::Vector2d::Zero();
 };
 
 /// A local BA window copied out of the map (LocalBundleAdjuster::prepare): solving it touches

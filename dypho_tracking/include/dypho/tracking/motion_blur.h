@@ -35,19 +35,24 @@ inline Eigen::Vector2d imageVelocityPxS(const Eigen::Vector3d& p_camera_m, const
 }
 
 /// Square-root information W (2x2, symmetric) of a keypoint with standard deviation sigma_px
-/// [px] (> 0) whose point, at p_camera_m, is blurred over exposure_s [s] by `rates` (file
-/// comment). exposure_s <= 0, no motion or a non-finite streak: I / sigma_px.
-inline Eigen::Matrix2d blurSqrtInformation(const Eigen::Vector3d& p_camera_m, const CameraRates& rates,
-                                           const Pinhole& pinhole, double exposure_s, double sigma_px) {
+/// [px] (> 0) blurred along `streak_px`, its image motion over the exposure [px] (file comment).
+/// A zero or non-finite streak: I / sigma_px.
+inline Eigen::Matrix2d streakSqrtInformation(const Eigen::Vector2d& streak_px, double sigma_px) {
   const Eigen::Matrix2d isotropic = Eigen::Matrix2d::Identity() / sigma_px;
-  if (!(exposure_s > 0.0)) return isotropic;
-  const Eigen::Vector2d streak_px = imageVelocityPxS(p_camera_m, rates, pinhole) * exposure_s;
   const double length_px = streak_px.norm();
   if (!std::isfinite(length_px) || !(length_px > 1e-9)) return isotropic;
   const Eigen::Vector2d along = streak_px / length_px;
   const Eigen::Vector2d across(-along.y(), along.x());
   const double sigma_along_px = std::sqrt(sigma_px * sigma_px + length_px * length_px / 12.0);
   return across * across.transpose() / sigma_px + along * along.transpose() / sigma_along_px;
+}
+
+/// The same W of a keypoint whose point, at p_camera_m, is blurred over exposure_s [s] by
+/// `rates`. exposure_s <= 0, no motion or a non-finite streak: I / sigma_px.
+inline Eigen::Matrix2d blurSqrtInformation(const Eigen::Vector3d& p_camera_m, const CameraRates& rates,
+                                           const Pinhole& pinhole, double exposure_s, double sigma_px) {
+  if (!(exposure_s > 0.0)) return Eigen::Matrix2d::Identity() / sigma_px;
+  return streakSqrtInformation(imageVelocityPxS(p_camera_m, rates, pinhole) * exposure_s, sigma_px);
 }
 
 }  // namespace tracking

@@ -89,13 +89,16 @@ class BaReprojectionError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
  public:
   /// uv_px: observed undistorted pixel [px]; sigma_px: keypoint standard deviation [px] (> 0).
   BaReprojectionError(const Eigen::Vector2d& uv_px, double sigma_px, const Pinhole& pinhole)
-      : uv_px_(uv_px), inv_sigma_(1.0 / sigma_px), pinhole_(pinhole) {}
+      : BaReprojectionError(uv_px, Eigen::Matrix2d::Identity() / sigma_px, pinhole) {}
+  /// The same with a 2x2 square-root information [1/px] (a blurred keypoint, motion_blur.h).
+  BaReprojectionError(const Eigen::Vector2d& uv_px, const Eigen::Matrix2d& sqrt_information, const Pinhole& pinhole)
+      : uv_px_(uv_px), sqrt_information_(sqrt_information), pinhole_(pinhole) {}
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   Eigen::Vector2d uv_px_;
-  double inv_sigma_;
+  Eigen::Matrix2d sqrt_information_;
   Pinhole pinhole_;
 };
 

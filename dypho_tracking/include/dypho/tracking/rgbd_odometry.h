@@ -228,10 +228,12 @@ class RgbdOdometry {
   /// Adds `features` as a new keyframe at T_world_camera (map_point_ids per feature: the matched
   /// map point or -1), runs local BA, point and keyframe culling and loop closure, fills the result fields.
   /// T_world_tracked is taken by value: it may be the last pose, which a local BA finished here
-  /// moves.
+  /// moves. blur_rates / blur_exposure_s: the frame's motion blur as the pose refinement weighted
+  /// it (MapKeyframe::blur_rates); an exposure of 0 = sharp.
   void addKeyframe(const RgbdFrame& frame, const cv::Mat& mask, const FrameFeatures& features,
                    Eigen::Isometry3d T_world_tracked, const std::vector<std::int64_t>& map_point_ids,
-                   const Pinhole& pinhole, TrackingResult* result);
+                   const Pinhole& pinhole, TrackingResult* result, const CameraRates& blur_rates = CameraRates(),
+                   double blur_exposure_s = 0.0);
   /// Keyframes (other than the new one) whose pose moved by more than the correction thresholds
   /// since it was last reported, appended to result->corrected_keyframes; the pose mapping holds
   /// thus never differs from the tracker's by more than those thresholds.

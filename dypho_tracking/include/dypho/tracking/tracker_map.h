@@ -17,6 +17,7 @@
 #include "dypho/common/types.h"
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/keyframe_points.h"
+#include "dypho/tracking/rolling_shutter_error.h"
 #include "dypho/tracking/tracking_options.h"
 
 namespace dypho {
@@ -51,6 +52,10 @@ struct MapKeyframe {
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();  ///< pose (changed by BA / loops)
   FrameFeatures features;                                            ///< keypoints, undistorted px, depth, 3D in camera
   std::vector<std::int64_t> map_point_ids;                           ///< per feature: its map point id (-1 = culled)
+  /// Motion blur of the keyframe's image: the camera's velocities during its frame and the
+  /// exposure its keypoints are weighted with in bundle adjustment (motion_blur.h) [s]; 0 = sharp.
+  CameraRates blur_rates;
+  double blur_exposure_s = 0.0;
   // The keyframe's images are handed to mapping and not kept here: nothing in tracking reads
   // them, and a long run would otherwise hold every keyframe's images (2.4 MB each at 640x480).
 };

@@ -3,7 +3,7 @@
 /// The tracker's state as a file, to go on later in the same world frame: save a session, resume
 /// it, localise in yesterday's map (RgbdOdometry::session / restoreSession).
 ///
-/// File format (version 1, every number little-endian; docs/file_formats.md has the full layout):
+/// File format (version 2, every number little-endian; docs/file_formats.md has the full layout):
 ///   header, 32 bytes: magic "DYPHOTRK", u32 format version, u32 reserved (0),
 ///                     u64 payload length [bytes], u64 FNV-1a 64 of the payload;
 ///   payload: camera, tracker counters and poses, keyframes (with their features), map points
@@ -25,8 +25,10 @@
 namespace dypho {
 namespace tracking {
 
-/// Format version this build writes and reads (another version is refused).
-constexpr std::uint32_t kTrackerSessionVersion = 1;
+/// Format version this build writes. It reads this one and kTrackerSessionOldestVersion (version
+/// 1 has no keyframe blur: its keyframes load as sharp); another version is refused.
+constexpr std::uint32_t kTrackerSessionVersion = 2;
+constexpr std::uint32_t kTrackerSessionOldestVersion = 1;
 /// Bytes of the header before the payload.
 constexpr std::size_t kTrackerSessionHeaderBytes = 32;
 

@@ -122,6 +122,10 @@ void visitPoseOptions(TrackingOptions& options, Visitor&& visitor) {
           "The blur is weighted only on frames whose motion model turns at least this fast [rad/s]; default 0.5, "
           "range [0, 100]. People crossing a still camera's view drag its motion model; weighted by that seeming "
           "motion's streaks, the keypoints would give way along it.");
+  visitor("motion_blur_in_bundle_adjustment", options.motion_blur_in_bundle_adjustment,
+          "A keyframe keeps the blur its pose refinement weighted, and local and global bundle adjustment weight its "
+          "keypoints by the same streaks, so a keyframe made in a fast turn gives way along them instead of carrying "
+          "their scatter into its pose and points. Default true.");
 }
 
 /// Keyframe decisions (TrackingOptions).
