@@ -185,6 +185,8 @@ void writeSolution(const BaWindow& window, LocalBaSolution* solution) {
 void addBaObservations(const TrackerMap& map, const TrackingOptions& options, LocalBaProblem* problem) {
   for (const auto& kv : problem->T_world_keyframe) {
     const MapKeyframe* kf = map.keyframe(kv.first);
+    const bool blurred = options.motion_blur_in_bundle_adjustment && kf->blur_exposure_s > 0.0;
+    const Eigen::Isometry3d T_camera_world = kv.second.inverse();
     for (size_t i = 0; i < kf->map_point_ids.size(); ++i) {
       if (problem->p_world_m.count(kf->map_point_ids[i]) == 0) continue;
       LocalBaObservation o;
@@ -194,8 +196,8 @@ void addBaObservations(const TrackerMap& map, const TrackingOptions& options, Lo
       o.uv_px = kf->features.uv_undistorted_px[i];
       o.level = std::clamp(kf->features.keypoints[i].octave, 0, options.num_levels - 1);
       o.depth_m = kf->features.depth_m[i];
-      if (options.motion_blur_in_bundle_adjustment && kf->blur_exposure_s > 0.0) {
-        const Eigen::Vector3d p_camera_m = kv.second.inverse() * problem->p_world_m.at(o.point_id);
+      if (blurred) {
+        const Eigen::Vector3d p_camera_m = T_camera_world * problem->p_world_m.at(o.point_id);
         o.blur_streak_px = imageVelocityPxS(p_camera_m, kf->blur_rates, problem->pinhole) * kf->blur_exposure_s;
       }
       problem->observations.push_back(o);
