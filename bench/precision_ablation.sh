@@ -24,7 +24,9 @@
 #     (the local map without the keyframes of the reference's view: covisible keyframes only),
 #     no_static_check (no dense check of the tracked pose against the reference keyframe),
 #     no_keyframe_wait (keyframes also on poses the static check disputes),
-#     no_ba_blur (bundle adjustment takes blurred keyframes' keypoints as sharp)
+#     no_ba_blur (bundle adjustment takes blurred keyframes' keypoints as sharp),
+#     frame_refinement (each frame with at most 5 % of it masked optimised again against the
+#     final map at the end), frame_refinement_all (every frame, movers in view or not)
 #   DYPHO_ABLATION_DROPS: frame removals (default: "whole every15 random10")
 #   DYPHO_ABLATION_SEQUENCES: (default: "fr1_flow fr1_none bonn_flow bonn_detector synth_hard");
 #     also synth_long: the same hard case over 900 frames (seed 4), sweeping the same view again
@@ -75,6 +77,8 @@ declare -A CONFIG=(
   [no_static_check]=$'  static_check: false'
   [no_keyframe_wait]=$'  keyframe_wait_while_disputed: false'
   [no_ba_blur]=$'  motion_blur_in_bundle_adjustment: false'
+  [frame_refinement]=$'  final_frame_refinement: true'
+  [frame_refinement_all]=$'  final_frame_refinement: true\n  final_frame_refinement_max_masked_fraction: 1'
 )
 # name -> mask options (YAML lines under mask:), for the mask's parts that serve tracking.
 declare -A MASK_CONFIG=(

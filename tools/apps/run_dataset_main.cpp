@@ -357,6 +357,12 @@ void printRunSummary(const Args& args, SlamPipeline& pipeline, const RunTally& t
                                : " ms/frame median (mask + tracking + mapping)\n")
             << "global BA:    at end " << tracking::describe(outputs.run_end.global_ba) << "; after loops "
             << tracking::describeAfterLoop(pipeline.tracking().odometry().globalBaStats()) << "\n";
+  const tracking::FrameRefinementResult& refined = outputs.run_end.frame_refinement;
+  if (pipeline.tracking().odometry().options().final_frame_refinement) {
+    std::cout << "refined:      " << refined.frames_refined << " frames against the final map, " << refined.frames_kept
+              << " kept as tracked (" << refined.frames_out_of_time << " for lack of time; " << refined.ms
+              << " ms; tracking.final_frame_refinement)\n";
+  }
   if (!args.resume.empty()) {
     std::cout << "resumed:      " << args.resume;
     if (tally.first_ok_index >= 0)

@@ -52,7 +52,8 @@ RgbdOdometry::RgbdOdometry(const TrackingOptions& options)
       global_ba_(options),
       pose_optimizer_(options),
       static_check_(staticCheckSettings(options)),
-      dense_(denseSettings(options)) {}
+      dense_(denseSettings(options)),
+      frame_refiner_(options) {}
 
 void RgbdOdometry::reset() {
   if (pending_ba_.valid()) pending_ba_.wait();  // its copy belongs to the world being forgotten
@@ -62,6 +63,7 @@ void RgbdOdometry::reset() {
   map_.clear();
   static_check_.clear();
   dense_.clear();
+  frame_refiner_.clear();
   reference_id_ = -1;
   views_stale_ = false;
   local_view_ = KeyframePoints();

@@ -75,6 +75,11 @@ RunEnd RgbdOdometry::finishRun() {
   return end;
 }
 
+FrameRefinementResult RgbdOdometry::refineRecordedPoses(std::vector<RecordedPose>* records) const {
+  if (!has_pinhole_) return {};
+  return frame_refiner_.refine(map_, pinhole_, records);
+}
+
 std::size_t RgbdOdometry::adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe) {
   if (options_.localization_only) return 0;  // the loaded map is not changed
   std::map<std::int64_t, Eigen::Isometry3d> poses;

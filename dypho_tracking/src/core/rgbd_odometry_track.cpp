@@ -101,6 +101,13 @@ TrackingResult RgbdOdometry::track(const RgbdFrame& frame, const cv::Mat& mask, 
   if (work.aligned.success && work.T_world_camera.matrix().allFinite()) {
     acceptPose(&work);
     compensateStartKeyframe(&work);
+    // A pose the static check or the dense refinement set came from pixels, not from these
+    // matches (moving ones may have carried them): it is kept as it is.
+    if (!work.result.static_check_corrected && work.result.dense_correction_m < 0.0) {
+      frame_refiner_.record(frame.stamp_ns, work.aligned,
+                            work.aligned.matches_refer_to_fallback ? own_view_ : local_view_, work.features(),
+                            work.result.masked_fraction);
+    }
     if (options_.localization_only) {  // the map stays as loaded: only the reference follows
       followMap(work);
       return finishFrame(&work);

@@ -65,6 +65,9 @@ void validateLoopAndGlobalBa(const TrackingOptions& o) {
   requireRange("global_ba_prior_sigma_deg", o.global_ba_prior_sigma_deg, 0.0, 90.0);
   requireRange("global_ba_prior_sigma_m", o.global_ba_prior_sigma_m, 0.0, 10.0);
   requireRange("global_ba_max_seconds", o.global_ba_max_seconds, 0.1, 3600.0);
+  requireRange("final_frame_refinement_max_frames", o.final_frame_refinement_max_frames, 0, 1000000);
+  requireRange("final_frame_refinement_max_seconds", o.final_frame_refinement_max_seconds, 0.1, 3600.0);
+  requireRange("final_frame_refinement_max_masked_fraction", o.final_frame_refinement_max_masked_fraction, 0.0, 1.0);
   requireRange("trajectory_smoothing_s", o.trajectory_smoothing_s, 0.0, 1.0);
   requireRange("trajectory_smoothing_outlier_sigmas", o.trajectory_smoothing_outlier_sigmas, 0.0, 100.0);
 }

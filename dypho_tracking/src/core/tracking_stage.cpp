@@ -55,7 +55,9 @@ TrackingOutput TrackingStage::process(const RgbdFrame& frame, const cv::Mat& mas
 
 RunEnd TrackingStage::finishRun() {
   std::lock_guard<std::mutex> lock(mutex_);
-  return odometry_.finishRun();
+  RunEnd end = odometry_.finishRun();
+  end.frame_refinement = odometry_.refineRecordedPoses(recorder_.mutableRecords());
+  return end;
 }
 
 std::size_t TrackingStage::adoptKeyframePoses(const KeyframePoseCorrections& T_world_keyframe) {

@@ -514,8 +514,12 @@ class TrackingNodelet : public nodelet::Nodelet {
   /// corrections are not published: the graph is going down.
   void finishRun() {
     const tracking::RunEnd end = stage_->finishRun();
-    NODELET_INFO_STREAM("final global BA: " << tracking::describe(end.global_ba) << ", "
-                                            << end.corrected_keyframes.size() << " keyframes corrected");
+    NODELET_INFO_STREAM("final global BA: "
+                        << tracking::describe(end.global_ba) << ", " << end.corrected_keyframes.size()
+                        << " keyframes corrected; " << end.frame_refinement.frames_refined
+                        << " frames refined against the final map, " << end.frame_refinement.frames_kept
+                        << " kept as tracked (" << end.frame_refinement.frames_out_of_time << " for lack of time; "
+                        << end.frame_refinement.ms << " ms)");
   }
 
   std::string saveTrajectory(const std::string& dir) {

@@ -18,6 +18,7 @@
 #include "dypho/common/motion_prior.h"
 #include "dypho/common/types.h"
 #include "dypho/tracking/feature_preparer.h"
+#include "dypho/tracking/final_frame_refiner.h"
 #include "dypho/tracking/dense_rgbd_aligner.h"
 #include "dypho/tracking/frame_features.h"
 #include "dypho/tracking/global_bundle_adjuster.h"
@@ -48,6 +49,9 @@ struct RunEnd {
   /// Keyframes moved since they were last reported (the local BA in flight, the global BA), for
   /// mapping to re-anchor, as TrackingResult::corrected_keyframes.
   KeyframePoseCorrections corrected_keyframes;
+  /// Each frame's pose optimised again against the final map (TrackingStage::finishRun,
+  /// TrackingOptions::final_frame_refinement).
+  FrameRefinementResult frame_refinement;
 };
 
 /// RGB-D visual odometry against a local map, with local BA, relocalisation and loop closure.
@@ -112,6 +116,9 @@ class RgbdOdometry {
   /// and the local-map views are rebuilt, so tracking may go on after it. Call it before saving
   /// a trajectory: trajectories re-expressed on their keyframes (TrajectoryRecorder) follow it.
   RunEnd finishRun();
+  /// After finishRun: each of `records` (this run's frames) optimised again against the final
+  /// map (FinalFrameRefiner; TrackingOptions::final_frame_refinement).
+  FrameRefinementResult refineRecordedPoses(std::vector<RecordedPose>* records) const;
 
   /// Takes keyframe poses refined elsewhere (the Gaussian map's joint refinement) as the map's
   /// own: the keyframes move there, their map points with them (TrackerMap::applyKeyframePoses),
@@ -295,9 +302,10 @@ class RgbdOdometry {
   bool has_pinhole_ = false;
   /// A restored session's map is searched by relocalisation until the camera is found in it.
   bool searching_map_ = false;
-  PoseOptimizer pose_optimizer_;   ///< re-estimation after the static check
-  StaticSceneCheck static_check_;  ///< dense check against the reference keyframe
-  DenseRgbdAligner dense_;         ///< dense refinement against the reference keyframe
+  PoseOptimizer pose_optimizer_;     ///< re-estimation after the static check
+  StaticSceneCheck static_check_;    ///< dense check against the reference keyframe
+  DenseRgbdAligner dense_;           ///< dense refinement against the reference keyframe
+  FinalFrameRefiner frame_refiner_;  ///< the tracked frames' evidence, for refineRecordedPoses
   /// Local BA in flight (local_ba_async_frames > 0); declared after local_ba_, which it uses.
   std::future<LocalBaSolution> pending_ba_;
   std::int64_t pending_ba_keyframe_id_ = -1;

@@ -512,6 +512,34 @@ struct TrackingOptions {
   /// global BA in its shutdown, before it saves, and roslaunch escalates to SIGTERM 15 s after
   /// its SIGINT. Range [0.1, 3600].
   double global_ba_max_seconds = 4.0;
+  /// After the final global BA, each tracked frame's pose is optimised once more against the
+  /// final positions of the map points it matched (FinalFrameRefiner: the tracking estimator, from
+  /// its saved pose, with its own keypoints, depths and velocities); the saved trajectory takes
+  /// it when at least min_inliers inliers remain. A frame was tracked against points that the
+  /// later keyframes' local BAs and the global BA refined since; its pose relative to its keyframe
+  /// does not follow them. A pose the static check or the dense refinement set is kept as it is
+  /// (it came from pixels, not from its matches). Default false: it gains on static scenes (TUM
+  /// fr1/rpy 0.59 -> 0.56 cm, every 15th frame removed 0.76 -> 0.75, no mask 0.65 -> 0.63) and
+  /// loses a little in a crowd (Bonn crowd window 1.02 -> 1.04 cm, YOLOX-nano 0.83 -> 0.85; every
+  /// frame refined lost more there); on for a scene without people
+  /// (docs/journal/benchmarks-2026.md section 61).
+  bool final_frame_refinement = false;
+  /// The newest this many tracked frames keep their inlier observations for the final refinement
+  /// (about 10 KB per frame); older frames keep their tracked pose [frames]; default 1800 (one
+  /// minute at 30 Hz, about 18 MB; refining them takes a few seconds of the shutdown), range
+  /// [0, 1000000]; 0 = none kept.
+  int final_frame_refinement_max_frames = 1800;
+  /// Only frames whose mask called at most this share of the image dynamic are refined: with
+  /// movers in view, points on people who stood still may be among the inliers, and the tracked
+  /// pose (checked by the static check) is kept [-]; default 0.05, range [0, 1]; 1 = every frame.
+  /// Every frame refined gained on TUM fr1/rpy and the generator's fast turns but lost on five of
+  /// the Bonn crowd window's six inputs (docs/journal/benchmarks-2026.md section 61).
+  double final_frame_refinement_max_masked_fraction = 0.05;
+  /// Wall-time budget of the final refinement [s]: it goes from the newest frame back, and the
+  /// frames it did not reach keep their tracked pose; default 2 (about 1000 frames on one core of
+  /// the 2-core VM; the tracking nodelet refines inside its shutdown, after the final global BA),
+  /// range [0.1, 3600].
+  double final_frame_refinement_max_seconds = 2.0;
   /// The saved trajectory (trajectory.txt; not the poses published at frame time): each frame's
   /// position is replaced by the straight line fitted in time through the positions of its
   /// segment within +- this many seconds (smoothPositions, trajectory_recorder.h) [s]; default

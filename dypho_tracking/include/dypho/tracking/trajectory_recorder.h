@@ -82,6 +82,8 @@ class TrajectoryRecorder {
   std::vector<std::pair<Timestamp, Eigen::Isometry3d>> onlinePoses() const;
 
   const std::vector<RecordedPose>& records() const { return records_; }
+  /// For a refinement of the relative poses (FinalFrameRefiner).
+  std::vector<RecordedPose>* mutableRecords() { return &records_; }
   void clear() { records_.clear(); }
 
  private:
