@@ -52,7 +52,8 @@ struct Scene {
       p_world_true.push_back(p);
       const Eigen::Vector3d p_kf = p + Eigen::Vector3d(point_noise(rng), point_noise(rng), point_noise(rng));
       const Eigen::Vector2d uv_kf = kPinhole.project(p_kf);
-      kf.features.keypoints.emplace_back(cv::Point2f(static_cast<float>(uv_kf.x()), static_cast<float>(uv_kf.y())), 8.f);
+      kf.features.keypoints.emplace_back(cv::Point2f(static_cast<float>(uv_kf.x()), static_cast<float>(uv_kf.y())),
+                                         8.f);
       kf.features.uv_undistorted_px.push_back(uv_kf);
       kf.features.depth_m.push_back(static_cast<float>(p_kf.z()));
       kf.features.p_camera_m.push_back(p_kf);
@@ -94,7 +95,8 @@ struct Scene {
 
   /// The map's points moved to where a later BA would put them: the truth.
   void refinePoints(const KeyframePoints& reference) {
-    for (std::size_t i = 0; i < reference.size(); ++i) map.mutablePoint(reference.map_point_ids[i])->p_world_m = p_world_true[i];
+    for (std::size_t i = 0; i < reference.size(); ++i)
+      map.mutablePoint(reference.map_point_ids[i])->p_world_m = p_world_true[i];
   }
 
   RecordedPose recorded(Timestamp stamp_ns, const AlignmentResult& aligned) const {
@@ -106,7 +108,8 @@ struct Scene {
   }
 
   double errorM(const RecordedPose& r) const {
-    return ((map.keyframe(0)->T_world_camera * r.T_reference_camera).translation() - T_world_frame.translation()).norm();
+    return ((map.keyframe(0)->T_world_camera * r.T_reference_camera).translation() - T_world_frame.translation())
+        .norm();
   }
 };
 
@@ -127,8 +130,8 @@ TEST(FinalFrameRefiner, AFrameFollowsThePointsALaterBaRefined) {
   EXPECT_EQ(result.frames_refined, 1u);
   EXPECT_EQ(result.frames_kept, 0u);
   const double refined_m = scene.errorM(records[0]);
-  std::cout << "frame against 2 cm noisy points: " << tracked_m * 1000 << " mm; against the refined points: "
-            << refined_m * 1000 << " mm\n";
+  std::cout << "frame against 2 cm noisy points: " << tracked_m * 1000
+            << " mm; against the refined points: " << refined_m * 1000 << " mm\n";
   // Tracked against points 2 cm off, the frame is millimetres off (what makes the test able to
   // fail); against the true points, with 0.3 px keypoint noise and 200 points, it is at the
   // optimiser's precision, a small fraction of that.
