@@ -83,6 +83,37 @@ TEST(BackgroundModel, RecursionWeightsAndRevealedBackground) {
   EXPECT_EQ(cv::countNonZero(dyn), 0);
 }
 
+// A consistency region the raw mask supports on at least the given share of its pixels stays
+// (a person the flow found); one below it is cleared and reported; the background then takes the
+// current depth on exactly the reported pixels where the depth is valid.
+TEST(BackgroundModel, UnsupportedFailureRegionsAreClearedAndRelearnt) {
+  cv::Mat consistency = cv::Mat::zeros(20, 30, CV_8UC1), raw = consistency.clone(), cleared;
+  consistency(cv::Rect(2, 2, 10, 10)).setTo(255);  // 100 px, 20 supported: a person
+  raw(cv::Rect(2, 2, 10, 2)).setTo(255);
+  consistency(cv::Rect(16, 2, 10, 10)).setTo(255);  // 100 px, 5 supported: a wrong warp
+  raw(cv::Rect(16, 2, 5, 1)).setTo(255);
+  consistency(cv::Rect(2, 15, 4, 4)).setTo(255);  // 16 px, none supported
+  dropUnsupportedRegions(raw, 0.1, consistency, cleared);
+  EXPECT_EQ(cv::countNonZero(consistency), 100);
+  EXPECT_EQ(cv::countNonZero(consistency(cv::Rect(2, 2, 10, 10))), 100);
+  EXPECT_EQ(cv::countNonZero(cleared), 116);
+  EXPECT_EQ(cv::countNonZero(cleared(cv::Rect(16, 2, 10, 10))), 100);
+
+  BackgroundOptions o;
+  BackgroundModel model(o);
+  const cv::Mat far(20, 30, CV_32FC1, cv::Scalar(3.0f)), none;
+  cv::Mat dynamic, no_raw = cv::Mat::zeros(20, 30, CV_8UC1);
+  model.process(far, no_raw, none, cam(30, 20), std::nullopt, dynamic);  // B = 3 m everywhere
+  cv::Mat near(20, 30, CV_32FC1, cv::Scalar(1.0f));
+  near.at<float>(5, 20) = 0.0f;  // no depth: B keeps its value
+  model.relearn(near, cleared);
+  const cv::Mat& b = model.background();
+  EXPECT_FLOAT_EQ(b.at<float>(5, 18), 1.0f);
+  EXPECT_FLOAT_EQ(b.at<float>(5, 20), 3.0f);
+  EXPECT_FLOAT_EQ(b.at<float>(5, 5), 3.0f);  // the supported region keeps B
+  EXPECT_FLOAT_EQ(b.at<float>(16, 3), 1.0f);
+}
+
 TEST(BackgroundModel, ForwardWarpOfAPlaneMatchesTheMovedCamera) {
   const CameraIntrinsics c = cam(80, 60);
   cv::Mat plane(60, 80, CV_32FC1, cv::Scalar(2.0f)), warped;

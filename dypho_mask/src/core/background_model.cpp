@@ -159,6 +159,37 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
   }
 }
 
+void dropUnsupportedRegions(const cv::Mat& raw_dynamic, double min_support_share, cv::Mat& consistency_dynamic,
+                            cv::Mat& cleared) {
+  CV_Assert(raw_dynamic.type() == CV_8UC1 && consistency_dynamic.type() == CV_8UC1 &&
+            raw_dynamic.size() == consistency_dynamic.size());
+  cleared.create(consistency_dynamic.size(), CV_8UC1);
+  cleared.setTo(0);
+  cv::Mat labels;
+  const int regions = cv::connectedComponents(consistency_dynamic, labels, 8, CV_32S);
+  if (regions <= 1) return;
+  std::vector<int> area(static_cast<size_t>(regions), 0), supported(static_cast<size_t>(regions), 0);
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const uchar* r = raw_dynamic.ptr<uchar>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      ++area[static_cast<size_t>(l[x])];
+      if (r[x] != 0) ++supported[static_cast<size_t>(l[x])];
+    }
+  }
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    uchar* c = consistency_dynamic.ptr<uchar>(y);
+    uchar* out = cleared.ptr<uchar>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      const size_t k = static_cast<size_t>(l[x]);
+      if (k == 0 || supported[k] >= min_support_share * area[k]) continue;
+      c[x] = 0;
+      out[x] = 255;
+    }
+  }
+}
+
 BackgroundModel::BackgroundModel(const BackgroundOptions& options) : options_((options.validate(), options)) {}
 
 void BackgroundModel::process(const cv::Mat& depth_m, const cv::Mat& raw_dynamic, const cv::Mat& rendered_depth_m,
@@ -259,6 +290,19 @@ void BackgroundModel::update(const cv::Mat& depth_m, const cv::Mat& rendered_dep
         den += wd;
       }
       b[x] = den > 0.f ? num / den : 0.f;
+    }
+  }
+}
+
+void BackgroundModel::relearn(const cv::Mat& depth_m, const cv::Mat& pixels) {
+  CV_Assert(depth_m.type() == CV_32FC1 && pixels.type() == CV_8UC1 && pixels.size() == depth_m.size());
+  if (background_.size() != depth_m.size()) return;
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* d = depth_m.ptr<float>(y);
+    const uchar* m = pixels.ptr<uchar>(y);
+    float* b = background_.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (m[x] != 0 && valid(d[x])) b[x] = d[x];
     }
   }
 }

@@ -84,6 +84,8 @@ void BackgroundOptions::validate() const {
           "background_grow_max_ratio must be finite and >= 0, got " + std::to_string(grow_max_ratio));
   require(veto_after_updates >= 0,
           "background_veto_after_updates must be >= 0, got " + std::to_string(veto_after_updates));
+  require(warp_error_min_share >= 0.0 && warp_error_min_share <= 1.0,
+          "background_warp_error_min_share must be in [0, 1], got " + std::to_string(warp_error_min_share));
 }
 
 void DynamicMaskOptions::validate() const {

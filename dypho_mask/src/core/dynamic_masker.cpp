@@ -369,6 +369,8 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
   }
   cv::resize(consistency_small_, result.consistency_mask, f.size, 0, 0, cv::INTER_NEAREST);
   const bool still = vetoFlowOnBackground(f);
+  const bool warp_error = dropBackgroundWarpError(f);
+  if (warp_error) addNote(result, "background carried with a wrong motion: its unsupported failures relearnt");
   cv::bitwise_or(consistency_small_, raw_small_, combined_);
   if (options_.moving_point_seeds && !f.prior.moving_points_camera_m.empty()) {
     addMovingPointSeeds(f.prior.moving_points_camera_m, scaled(f.frame.camera, f.small, options_.background.scale));
@@ -390,12 +392,39 @@ void DynamicMasker::fuseAtBackground(const FrameState& f, MaskResult& result) {
   }
   // B_i learns D_i only where nothing (raw, consistency, grown) calls the pixel dynamic.
   background_.update(depth_small_, rendered_small_, combined_);
+  if (warp_error) {
+    relearn_small_.setTo(0, combined_);  // what the raw mask grew over stays unlearnt
+    background_.relearn(depth_small_, relearn_small_);
+  }
   ++background_updates_;
   finish(combined_, f.size, true, result);
   // The other mode's memory (or both, with none in use) starts afresh.
   if (permanence_ && permanence != permanence_.get()) permanence_->reset();
   if (moving_permanence_ && permanence != moving_permanence_.get()) moving_permanence_->reset();
   if (permanence) permanence->remember(cleaned_small_, evidence_small_, depth_small_);
+}
+
+bool DynamicMasker::dropBackgroundWarpError(const FrameState& f) {
+  // Support share of a failing region below which it is the warp's error (a person the flow or
+  // the network found is mostly inside their mask).
+  constexpr double kMinSupportShare = 0.1;
+  const double min_share = options_.background.warp_error_min_share;
+  if (min_share <= 0.0) return false;
+  const cv::Mat& carried = flow_.carriedPrevious();
+  if (carried.empty()) {
+    carried_small_.create(f.small, CV_8UC1);
+    carried_small_.setTo(0);
+  } else {
+    cv::resize(carried, carried_small_, f.small, 0, 0, cv::INTER_NEAREST);
+  }
+  // New failures: in neither the raw mask nor the previous frame's (relearn_small_ as scratch).
+  cv::bitwise_or(raw_small_, carried_small_, relearn_small_);
+  cv::bitwise_not(relearn_small_, relearn_small_);
+  cv::bitwise_and(relearn_small_, consistency_small_, relearn_small_);
+  const double new_share = static_cast<double>(cv::countNonZero(relearn_small_)) / relearn_small_.total();
+  if (new_share <= min_share) return false;
+  dropUnsupportedRegions(raw_small_, kMinSupportShare, consistency_small_, relearn_small_);
+  return true;
 }
 
 ObjectPermanence* DynamicMasker::activePermanence(const FrameState& f, bool still) const {

@@ -55,6 +55,12 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
                              double sigma_m, double min_consistent_share, double min_checked_share,
                              cv::Mat& raw_dynamic);
 
+/// Clears from `consistency_dynamic` (CV_8UC1, in place) each 8-connected region of which less
+/// than `min_support_share` of the pixels are also in `raw_dynamic` (the flow or network mask,
+/// same size), and sets exactly the cleared pixels in `cleared` (CV_8UC1, 255 = cleared).
+void dropUnsupportedRegions(const cv::Mat& raw_dynamic, double min_support_share, cv::Mat& consistency_dynamic,
+                            cv::Mat& cleared);
+
 /// `nearest_m` = the minimum of the valid (> 0) depths of `depth_m` within a disc of `radius_px`
 /// around each pixel, at the pixels where `depth_m` itself is valid (0 elsewhere). radius 0 copies.
 void nearestWithin(const cv::Mat& depth_m, int radius_px, cv::Mat& nearest_m);
@@ -107,6 +113,9 @@ class BackgroundModel {
   const cv::Mat& prior() const { return prior_; }
   /// Forgets B.
   void reset() { background_.release(); }
+  /// B = D outright on the non-zero pixels of `pixels` where D is valid (B's own value there was
+  /// found wrong); `depth_m` and `pixels` at background resolution.
+  void relearn(const cv::Mat& depth_m, const cv::Mat& pixels);
 
  private:
   BackgroundOptions options_;

@@ -201,6 +201,10 @@ class DynamicMasker {
   /// The object permanence that serves this frame (see DynamicMaskOptions::permanence_frames and
   /// moving_permanence_frames), null when none does; `still` = cameraStill() of the frame.
   ObjectPermanence* activePermanence(const FrameState& f, bool still) const;
+  /// BackgroundOptions::warp_error_min_share: when the frame's new, unsupported consistency
+  /// failures show that B was carried with a wrong motion, takes the unsupported failure regions
+  /// out of consistency_small_ into relearn_small_ and returns true.
+  bool dropBackgroundWarpError(const FrameState& f);
   /// Both object permanences forget what they kept.
   void resetPermanence();
   /// Step 3 without the background model: flow mask OR segment mask at input size, finished.
@@ -242,9 +246,10 @@ class DynamicMasker {
   int halo_small_px_ = 6;                                ///< width of the flow's halo at background resolution [px]
   std::unique_ptr<ObjectPermanence> permanence_;         ///< null when permanence_frames is 0
   std::unique_ptr<ObjectPermanence> moving_permanence_;  ///< null when moving_permanence_frames is 0
-  cv::Mat evidence_small_, kept_small_;  ///< this frame's own findings; regions kept from the last frame
-  cv::Mat cleaned_small_;                ///< final dynamic pixels at background resolution, before the margin
-  cv::Mat previous_mask_;                ///< final mask of the previous frame (input size), see FlowMotionMasker
+  cv::Mat evidence_small_, kept_small_;    ///< this frame's own findings; regions kept from the last frame
+  cv::Mat cleaned_small_;                  ///< final dynamic pixels at background resolution, before the margin
+  cv::Mat carried_small_, relearn_small_;  ///< previous mask along the flow; B's warp errors taken out
+  cv::Mat previous_mask_;                  ///< final mask of the previous frame (input size), see FlowMotionMasker
 };
 
 }  // namespace mask

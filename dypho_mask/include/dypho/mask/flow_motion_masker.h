@@ -157,6 +157,9 @@ class FlowMotionMasker {
   /// Backward flow of the last compute() (current -> previous image) at flow resolution
   /// [flow px], CV_32FC2; empty when the last call computed none (first frame, bad input).
   const cv::Mat& lastFlow() const { return last_flow_valid_ ? flow_ : empty_; }
+  /// The previous frame's mask carried along the flow into the last computed frame (CV_8UC1,
+  /// 255 = dynamic, flow resolution); empty when there was none.
+  const cv::Mat& carriedPrevious() const { return carried_; }
 
   /// Forgets the previous image; the next frame is treated as a first frame.
   void reset();

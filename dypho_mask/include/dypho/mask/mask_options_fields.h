@@ -186,6 +186,13 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
       "Flow regions that the background explains (same depth, no consistency pixel) are dropped only after this many "
       "background updates since the start or a reset, >= 0: B starts as D minus a raw mask that may miss most of a "
       "person, and vetoing against that B erases the person's own flow detections. Default 10 (1/3 s at 30 Hz).");
+  visitor("warp_error_min_share", options.warp_error_min_share,
+          "When the consistency failures of a frame that neither the raw mask (flow, network) nor the previous "
+          "frame's mask carried along the flow explains cover more than this share of the view, the background was "
+          "carried with a wrong motion: each failing region the raw mask does not support (under 10 % of it) is "
+          "unmasked and the background takes the current depth there. Otherwise the masked static scene is never "
+          "learnt and stays masked (live on TUM fr1/rpy after fast turns: 30-70 % of the desk for 20-30 frames). In "
+          "[0, 1]; 0 = off. Default 0.05.");
 }
 
 namespace detail {
