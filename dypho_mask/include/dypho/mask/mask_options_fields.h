@@ -189,7 +189,7 @@ void visitOptions(BackgroundOptions& options, Visitor&& visitor) {
   visitor("warp_error_min_share", options.warp_error_min_share,
           "When the consistency failures of a frame that neither the raw mask (flow, network) nor the previous "
           "frame's mask carried along the flow explains cover more than this share of the view, the background was "
-          "carried with a wrong motion: each failing region the raw mask does not support (under 10 % of it) is "
+          "carried with a wrong motion: each failing region the raw mask does not support (under a quarter of it) is "
           "unmasked and the background takes the current depth there. Otherwise the masked static scene is never "
           "learnt and stays masked (live on TUM fr1/rpy after fast turns: 30-70 % of the desk for 20-30 frames). In "
           "[0, 1]; 0 = off. Default 0.05.");
