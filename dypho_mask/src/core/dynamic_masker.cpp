@@ -412,12 +412,8 @@ bool DynamicMasker::dropBackgroundWarpError(const FrameState& f) {
   const double min_share = options_.background.warp_error_min_share;
   if (min_share <= 0.0) return false;
   const cv::Mat& carried = flow_.carriedPrevious();
-  if (carried.empty()) {
-    carried_small_.create(f.small, CV_8UC1);
-    carried_small_.setTo(0);
-  } else {
-    cv::resize(carried, carried_small_, f.small, 0, 0, cv::INTER_NEAREST);
-  }
+  carried_small_ = cv::Mat::zeros(f.small, CV_8UC1);
+  if (!carried.empty()) cv::resize(carried, carried_small_, f.small, 0, 0, cv::INTER_NEAREST);
   // New failures: in neither the raw mask nor the previous frame's (relearn_small_ as scratch).
   cv::bitwise_or(raw_small_, carried_small_, relearn_small_);
   cv::bitwise_not(relearn_small_, relearn_small_);
