@@ -161,8 +161,9 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
 
 void dropUnsupportedRegions(const cv::Mat& raw_dynamic, double min_support_share, cv::Mat& consistency_dynamic,
                             cv::Mat& cleared) {
-  CV_Assert(raw_dynamic.type() == CV_8UC1 && consistency_dynamic.type() == CV_8UC1 &&
-            raw_dynamic.size() == consistency_dynamic.size());
+  CV_Assert(
+      consistency_dynamic.type() == CV_8UC1 &&
+      (raw_dynamic.empty() || (raw_dynamic.type() == CV_8UC1 && raw_dynamic.size() == consistency_dynamic.size())));
   cleared.create(consistency_dynamic.size(), CV_8UC1);
   cleared.setTo(0);
   cv::Mat labels;
@@ -171,10 +172,10 @@ void dropUnsupportedRegions(const cv::Mat& raw_dynamic, double min_support_share
   std::vector<int> area(static_cast<size_t>(regions), 0), supported(static_cast<size_t>(regions), 0);
   for (int y = 0; y < labels.rows; ++y) {
     const int* l = labels.ptr<int>(y);
-    const uchar* r = raw_dynamic.ptr<uchar>(y);
+    const uchar* r = raw_dynamic.empty() ? nullptr : raw_dynamic.ptr<uchar>(y);
     for (int x = 0; x < labels.cols; ++x) {
       ++area[static_cast<size_t>(l[x])];
-      if (r[x] != 0) ++supported[static_cast<size_t>(l[x])];
+      if (r != nullptr && r[x] != 0) ++supported[static_cast<size_t>(l[x])];
     }
   }
   for (int y = 0; y < labels.rows; ++y) {

@@ -412,7 +412,8 @@ bool DynamicMasker::dropBackgroundWarpError(const FrameState& f) {
   const double min_share = options_.background.warp_error_min_share;
   if (min_share <= 0.0) return false;
   const cv::Mat& carried = flow_.carriedPrevious();
-  carried_small_ = cv::Mat::zeros(f.small, CV_8UC1);
+  carried_small_.create(f.small, CV_8UC1);
+  carried_small_.setTo(0);
   if (!carried.empty()) cv::resize(carried, carried_small_, f.small, 0, 0, cv::INTER_NEAREST);
   // New failures: in neither the raw mask nor the previous frame's (relearn_small_ as scratch).
   cv::bitwise_or(raw_small_, carried_small_, relearn_small_);
@@ -420,14 +421,11 @@ bool DynamicMasker::dropBackgroundWarpError(const FrameState& f) {
   cv::bitwise_and(relearn_small_, consistency_small_, relearn_small_);
   const double new_share = static_cast<double>(cv::countNonZero(relearn_small_)) / relearn_small_.total();
   if (new_share <= min_share) return false;
-  if (f.flow.degraded) {
-    // A degraded flow's mask is the previous mask carried along, no evidence of this frame's: the
-    // network's mask alone supports a region then (carried_small_ reused for it).
-    carried_small_.setTo(0);
-    if (!f.seg.mask.empty()) cv::resize(f.seg.mask, carried_small_, f.small, 0, 0, cv::INTER_NEAREST);
-  }
-  dropUnsupportedRegions(f.flow.degraded ? carried_small_ : raw_small_, kMinSupportShare, consistency_small_,
-                         relearn_small_);
+  // A degraded flow's mask is the previous mask carried along, no evidence of this frame's: the
+  // network's mask alone (seg_small_, cutRawMaskAtBackground) supports a region then.
+  const cv::Mat none;
+  const cv::Mat& support = !f.flow.degraded ? raw_small_ : f.seg.mask.empty() ? none : seg_small_;
+  dropUnsupportedRegions(support, kMinSupportShare, consistency_small_, relearn_small_);
   return true;
 }
 

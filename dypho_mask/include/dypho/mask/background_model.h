@@ -57,7 +57,8 @@ void vetoRegionsOnBackground(const cv::Mat& background_m, const cv::Mat& depth_m
 
 /// Clears from `consistency_dynamic` (CV_8UC1, in place) each 8-connected region of which less
 /// than `min_support_share` of the pixels are also in `raw_dynamic` (the flow or network mask,
-/// same size), and sets exactly the cleared pixels in `cleared` (CV_8UC1, 255 = cleared).
+/// same size; empty = supports nothing), and sets exactly the cleared pixels in `cleared`
+/// (CV_8UC1, 255 = cleared).
 void dropUnsupportedRegions(const cv::Mat& raw_dynamic, double min_support_share, cv::Mat& consistency_dynamic,
                             cv::Mat& cleared);
 
