@@ -110,6 +110,24 @@ std::array<double, 3> viewSummary(const std::string& report, const std::string& 
   return {-1.0, 0.0, 0.0};
 }
 
+TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
+  const std::string data = sharedDir() + "/data/rgbd_bonn_crowd_frames200to399";
+  const std::string model = sharedDir() + "/models/yolox_nano.onnx";
+  if (!exists(data)) GTEST_SKIP() << "SKIPPED: " << data << " not found (needs ../shared beside the repo)";
+  if (!exists(model)) GTEST_SKIP() << "SKIPPED: " << model << " not found (needs ../shared beside the repo)";
+  const std::string out = testOut() + "/bonn";
+  ASSERT_EQ(std::system(("mkdir -p '" + out + "'").c_str()), 0);
+  {
+    std::ofstream config(out + "/detector.yaml");
+    config << "mask:\n  yolo_model_path: \"" << model << "\"\n";
+  }
+  ASSERT_EQ(runDataset(data, out, std::string(kTrajectoryOnly) + " --config '" + out + "/detector.yaml'"), 0);
+  const auto gt = dypho::tools::applyBonnCorrection(dypho::readTumTrajectory(data + "/groundtruth.txt"));
+  const double ate = ateOf(out, gt);
+  std::cout << "Bonn crowd 200-399: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
+  EXPECT_LT(ate, DYPHO_BONN_ATE_BOUND_M);
+}
+
 /// The Gaussian map of real frames: fr1/rpy's first 40 frames (11 keyframes) with the map on,
 /// scored at every 10th frame by the runner (view_evaluation.txt). Measured on the 2-core VM:
 /// 25.38 dB over the 4 views, coverage 100 %; the bound is 3 dB below, as for the synthetic map
@@ -148,24 +166,6 @@ TEST(DatasetRun, TumFr1RpyFirst150) {
   EXPECT_GE(masked, 0.0) << "timing.csv without masked_fraction";
   EXPECT_LE(masked, DYPHO_FR1_MASKED_BOUND);
   expectRealMap(data);
-}
-
-TEST(DatasetRun, BonnCrowdFrames200to399WithDetector) {
-  const std::string data = sharedDir() + "/data/rgbd_bonn_crowd_frames200to399";
-  const std::string model = sharedDir() + "/models/yolox_nano.onnx";
-  if (!exists(data)) GTEST_SKIP() << "SKIPPED: " << data << " not found (needs ../shared beside the repo)";
-  if (!exists(model)) GTEST_SKIP() << "SKIPPED: " << model << " not found (needs ../shared beside the repo)";
-  const std::string out = testOut() + "/bonn";
-  ASSERT_EQ(std::system(("mkdir -p '" + out + "'").c_str()), 0);
-  {
-    std::ofstream config(out + "/detector.yaml");
-    config << "mask:\n  yolo_model_path: \"" << model << "\"\n";
-  }
-  ASSERT_EQ(runDataset(data, out, std::string(kTrajectoryOnly) + " --config '" + out + "/detector.yaml'"), 0);
-  const auto gt = dypho::tools::applyBonnCorrection(dypho::readTumTrajectory(data + "/groundtruth.txt"));
-  const double ate = ateOf(out, gt);
-  std::cout << "Bonn crowd 200-399: ATE RMSE " << ate * 100 << " cm (Bonn correction applied)\n";
-  EXPECT_LT(ate, DYPHO_BONN_ATE_BOUND_M);
 }
 
 TEST(DatasetRun, BonnCrowdFrames200to399FlowMaskOnly) {
@@ -252,11 +252,16 @@ TEST(DatasetRun, SyntheticDefaultInput) {
   EXPECT_EQ(readText(no_map + "/trajectory.txt"), with_map_trajectory);
 }
 
-/// A fresh 150-frame synthetic sequence in testOut()/<name> (no bag).
+/// Frames of makeSynthetic's sequence: the runs on it use at most 40 (the generator takes about
+/// 0.1 s of CPU per frame; three of the sequence at 150 frames were about 30 s of the suite).
+constexpr int kShortSequenceFrames = 45;
+
+/// A fresh kShortSequenceFrames-frame synthetic sequence in testOut()/<name> (no bag).
 std::string makeSynthetic(const std::string& name) {
   const std::string data = testOut() + "/" + name;
-  const std::string cmd = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data +
-                          "' --frames 150 --motion halfsphere --people 1 --seed 5 --no-bag > /dev/null";
+  const std::string cmd = std::string("rm -rf '") + data + "' && '" + DYPHO_SYNTH + "' --out '" + data + "' --frames " +
+                          std::to_string(kShortSequenceFrames) +
+                          " --motion halfsphere --people 1 --seed 5 --no-bag > /dev/null";
   EXPECT_EQ(std::system(cmd.c_str()), 0);
   return data;
 }
@@ -276,7 +281,7 @@ std::vector<std::string> listedFiles(const std::string& list) {
 TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
   const std::string data = makeSynthetic("synth_damaged");
   const std::vector<std::string> rgb = listedFiles(data + "/rgb.txt");
-  ASSERT_EQ(rgb.size(), 150u);
+  ASSERT_EQ(rgb.size(), static_cast<std::size_t>(kShortSequenceFrames));
   // The first 40 frames are run (--max-frames; the whole list is still read, garbage line
   // included): frame 20 is damaged, and the map is built and written around the gap.
   const std::string damaged = data + "/" + rgb[20];
@@ -300,8 +305,10 @@ TEST(DatasetRun, UnreadableFrameAndGarbageLineAreSkippedAndNamed) {
 
 // After the unreadable-frame run in the file: gtest deals tests to its shards in file order (test
 // i to shard i mod 2, scripts/run_gtest.sh --shards), and the order keeps the two shards of
-// test_datasets about even (on the 2-core VM 266 and 298 s; the longest test, the default input
-// with its map over the whole sequence, 95 s).
+// test_datasets about even: the detector's Bonn run before fr1's, the bad-input checks before the
+// resumed session (on the 2-core VM 417 and 400 s, against 426 and 334 s in the order before; the
+// longest test, the default input with its map over the whole sequence, 130 s beside the other
+// shard).
 #ifdef DYPHO_SYNTH_BAG
 TEST(DatasetRun, SyntheticBagInput) {
   // The bag written by dypho_synth for the graph test (TUM topic names, 32FC1 depth, camera_info);
@@ -328,8 +335,8 @@ TEST(DatasetRun, SigintWritesWhatWasProcessed) {
   const std::string script = "mkdir -p '" + out + "'; '" + std::string(DYPHO_RUN_DATASET) + "' --dataset '" + data +
                              "' --out '" + out + "' > '" + log +
                              "' 2>&1 & pid=$!; "
-                             "for i in $(seq 600); do grep -q '21/150' '" +
-                             log +
+                             "for i in $(seq 600); do grep -q '21/" +
+                             std::to_string(kShortSequenceFrames) + "' '" + log +
                              "' && break; sleep 0.1; done; "
                              "kill -INT $pid; wait $pid";
   std::ofstream(out + "_sigint.sh") << script << "\n";
@@ -338,9 +345,34 @@ TEST(DatasetRun, SigintWritesWhatWasProcessed) {
   ASSERT_EQ(WEXITSTATUS(status), 130) << "the run was not stopped by SIGINT (finished, or failed)";
   const auto poses = dypho::readTumTrajectory(out + "/trajectory.txt");
   EXPECT_GT(poses.size(), 0u);
-  EXPECT_LT(poses.size(), 150u);
+  EXPECT_LT(poses.size(), static_cast<std::size_t>(kShortSequenceFrames));
   EXPECT_TRUE(exists(out + "/map.ply"));
   EXPECT_NE(readText(log).find("stopped by a signal"), std::string::npos);
+}
+
+TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
+  const std::string out = testOut() + "/bad";
+  EXPECT_NE(runDataset("/nonexistent/folder", out), 0);
+  std::ifstream log(out + "/log.txt");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("/nonexistent/folder"), std::string::npos);
+  // A folder without rgb.txt, with the camera given.
+  const std::string empty = testOut() + "/empty_dataset";
+  ASSERT_EQ(std::system(("mkdir -p '" + empty + "'").c_str()), 0);
+  EXPECT_NE(runDataset(empty, out, "--camera tum_fr1"), 0);
+  // A frame count that is not a whole number is refused by name, not read as its prefix ("1e").
+  for (const char* bad : {"1e", "2.5", "-3", "x"}) {
+    EXPECT_NE(runDataset(empty, out, std::string("--camera tum_fr1 --max-frames ") + bad), 0) << bad;
+    EXPECT_NE(readText(out + "/log.txt").find("error: --max-frames needs a"), std::string::npos) << bad;
+  }
+  // No camera given and none detectable: asks for --camera.
+  EXPECT_NE(runDataset(empty, out), 0);
+  std::ifstream log2(out + "/log.txt");
+  const std::string text2((std::istreambuf_iterator<char>(log2)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text2.find("--camera"), std::string::npos);
+  // An option given twice is refused, not silently replaced by the second value.
+  EXPECT_NE(runDataset(empty, out, "--camera tum_fr1 --config a.yaml --config b.yaml"), 0);
+  EXPECT_NE(readText(out + "/log.txt").find("--config given twice"), std::string::npos);
 }
 
 // A run's session resumed through the command line, localisation only: relocalised on the first
@@ -378,31 +410,6 @@ TEST(DatasetRun, ResumedLocalisationOnlyLeavesTheSavedMap) {
   EXPECT_NE(WEXITSTATUS(std::system(cmd.c_str())), 0);
   EXPECT_NE(readText(refused + ".log").find("no session in"), std::string::npos) << readText(refused + ".log");
   EXPECT_FALSE(exists(refused)) << "a refused --resume left " << refused;
-}
-
-TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
-  const std::string out = testOut() + "/bad";
-  EXPECT_NE(runDataset("/nonexistent/folder", out), 0);
-  std::ifstream log(out + "/log.txt");
-  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("/nonexistent/folder"), std::string::npos);
-  // A folder without rgb.txt, with the camera given.
-  const std::string empty = testOut() + "/empty_dataset";
-  ASSERT_EQ(std::system(("mkdir -p '" + empty + "'").c_str()), 0);
-  EXPECT_NE(runDataset(empty, out, "--camera tum_fr1"), 0);
-  // A frame count that is not a whole number is refused by name, not read as its prefix ("1e").
-  for (const char* bad : {"1e", "2.5", "-3", "x"}) {
-    EXPECT_NE(runDataset(empty, out, std::string("--camera tum_fr1 --max-frames ") + bad), 0) << bad;
-    EXPECT_NE(readText(out + "/log.txt").find("error: --max-frames needs a"), std::string::npos) << bad;
-  }
-  // No camera given and none detectable: asks for --camera.
-  EXPECT_NE(runDataset(empty, out), 0);
-  std::ifstream log2(out + "/log.txt");
-  const std::string text2((std::istreambuf_iterator<char>(log2)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text2.find("--camera"), std::string::npos);
-  // An option given twice is refused, not silently replaced by the second value.
-  EXPECT_NE(runDataset(empty, out, "--camera tum_fr1 --config a.yaml --config b.yaml"), 0);
-  EXPECT_NE(readText(out + "/log.txt").find("--config given twice"), std::string::npos);
 }
 
 }  // namespace DYPHO_UNITY_ID
