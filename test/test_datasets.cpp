@@ -353,9 +353,7 @@ TEST(DatasetRun, SigintWritesWhatWasProcessed) {
 TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   const std::string out = testOut() + "/bad";
   EXPECT_NE(runDataset("/nonexistent/folder", out), 0);
-  std::ifstream log(out + "/log.txt");
-  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("/nonexistent/folder"), std::string::npos);
+  EXPECT_NE(readText(out + "/log.txt").find("/nonexistent/folder"), std::string::npos);
   // A folder without rgb.txt, with the camera given.
   const std::string empty = testOut() + "/empty_dataset";
   ASSERT_EQ(std::system(("mkdir -p '" + empty + "'").c_str()), 0);
@@ -367,9 +365,7 @@ TEST(DatasetRun, BadInputGivesClearErrorAndNonZeroExit) {
   }
   // No camera given and none detectable: asks for --camera.
   EXPECT_NE(runDataset(empty, out), 0);
-  std::ifstream log2(out + "/log.txt");
-  const std::string text2((std::istreambuf_iterator<char>(log2)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text2.find("--camera"), std::string::npos);
+  EXPECT_NE(readText(out + "/log.txt").find("--camera"), std::string::npos);
   // An option given twice is refused, not silently replaced by the second value.
   EXPECT_NE(runDataset(empty, out, "--camera tum_fr1 --config a.yaml --config b.yaml"), 0);
   EXPECT_NE(readText(out + "/log.txt").find("--config given twice"), std::string::npos);
