@@ -340,6 +340,78 @@ TEST(LocalBundleAdjuster, ABlurredKeyframeGivesWayAlongItsStreaks) {
   EXPECT_LT(weighted_m, 0.67 * as_sharp_m) << "weighted " << weighted_m << " m, as sharp " << as_sharp_m << " m";
 }
 
+/// Four keyframes on a short arc seeing 300 points 2-4 m away (0.5 px noise); keyframes 2 and 3
+/// start 2-4 cm off. With `single_view_points`, the newest keyframe also sees 20 points that no
+/// other keyframe sees (ids from 1000, exact camera coordinates).
+void buildFourKeyframes(bool single_view_points, TrackerMap* map) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> ux(-1.5, 1.5), uz(2.0, 4.0);
+  std::normal_distribution<double> pix(0.0, 0.5);
+  std::vector<Eigen::Vector3d> points(300);
+  for (auto& p : points) p = Eigen::Vector3d(ux(rng), 0.7 * ux(rng), uz(rng));
+  const std::vector<Eigen::Isometry3d> truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0, 0.03, 0, 0.1, 0, 0),
+                                                makePose(0.02, 0.05, 0, 0.2, 0.02, 0),
+                                                makePose(0.0, 0.08, 0.01, 0.3, 0.0, 0.05)};
+  const Pinhole pin = testPinhole();
+  auto observe = [&](const Eigen::Vector3d& p_c, const Eigen::Vector2d& uv, std::int64_t id, MapKeyframe* kf) {
+    cv::KeyPoint kp(static_cast<float>(uv.x()), static_cast<float>(uv.y()), 31.f);
+    kp.octave = 0;
+    kf->features.keypoints.push_back(kp);
+    kf->features.uv_undistorted_px.push_back(uv);
+    kf->features.depth_m.push_back(static_cast<float>(p_c.z()));
+    kf->features.p_camera_m.push_back(p_c);
+    kf->map_point_ids.push_back(id);
+  };
+  for (size_t k = 0; k < truth.size(); ++k) {
+    MapKeyframe kf;
+    kf.id = static_cast<std::int64_t>(k);
+    kf.T_world_camera = k >= 2 ? truth[k] * makePose(0.01, -0.01, 0.005, 0.03, -0.02, 0.02) : truth[k];
+    for (size_t j = 0; j < points.size(); ++j) {
+      const Eigen::Vector3d p_c = truth[k].inverse() * points[j];
+      observe(p_c, pin.project(p_c) + Eigen::Vector2d(pix(rng), pix(rng)), static_cast<std::int64_t>(j), &kf);
+    }
+    for (int i = 0; single_view_points && k == 3 && i < 20; ++i) {
+      const Eigen::Vector3d p_c(-0.5 + 0.05 * i, 0.2, 2.5);
+      observe(p_c, pin.project(p_c), 1000 + i, &kf);
+    }
+    kf.features.descriptors = cv::Mat(static_cast<int>(kf.map_point_ids.size()), 32, CV_8UC1, cv::Scalar(0));
+    map->addKeyframe(std::move(kf));
+  }
+}
+
+/// A point that only one keyframe of the window sees fits its observation wherever that keyframe
+/// goes: it is left out of the problem and moves rigidly with the keyframe (its camera coordinates
+/// there unchanged), and the poses are those of the same window without it.
+TEST(LocalBundleAdjuster, PointsSeenByOneKeyframeMoveWithIt) {
+  TrackingOptions options;
+  options.local_ba_keyframes = 2;  // free: the newest and the 3rd; the two oldest fixed
+  options.cull_min_found_ratio = 0;
+  TrackerMap map(options), without(options);
+  buildFourKeyframes(true, &map);
+  buildFourKeyframes(false, &without);
+  const LocalBundleAdjuster adjuster(options);
+  const LocalBaProblem problem = adjuster.prepare(map, 3, testPinhole());
+  ASSERT_TRUE(problem.message.empty()) << problem.message;
+  EXPECT_EQ(problem.p_world_m.size(), 300u);
+  ASSERT_EQ(problem.single_view_points.size(), 20u);
+  for (const SingleViewPoint& single : problem.single_view_points) EXPECT_EQ(single.keyframe_id, 3);
+
+  const Eigen::Isometry3d T_before = map.keyframe(3)->T_world_camera;
+  std::vector<Eigen::Vector3d> p_camera_before;
+  for (int i = 0; i < 20; ++i) p_camera_before.push_back(T_before.inverse() * map.point(1000 + i)->p_world_m);
+  ASSERT_TRUE(adjuster.adjust(&map, 3, testPinhole()).ran);
+  ASSERT_TRUE(adjuster.adjust(&without, 3, testPinhole()).ran);
+  const Eigen::Isometry3d T_after = map.keyframe(3)->T_world_camera;
+  ASSERT_GT((T_after.translation() - T_before.translation()).norm(), 0.005);  // the keyframe moved
+  for (int i = 0; i < 20; ++i) {
+    const Eigen::Vector3d p_camera_after = T_after.inverse() * map.point(1000 + i)->p_world_m;
+    EXPECT_LT((p_camera_after - p_camera_before[static_cast<size_t>(i)]).norm(), 1e-9) << "point " << i;
+  }
+  for (std::int64_t k : {2, 3}) {
+    EXPECT_TRUE(map.keyframe(k)->T_world_camera.isApprox(without.keyframe(k)->T_world_camera, 1e-12)) << k;
+  }
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -180,7 +180,36 @@ void writeSolution(const BaWindow& window, LocalBaSolution* solution) {
   solution->observations = static_cast<int>(window.observations.size());
 }
 
+/// The single-view points of the free keyframes, moved rigidly with them.
+void moveSingleViewPoints(const LocalBaProblem& input, LocalBaSolution* solution) {
+  for (const SingleViewPoint& single : input.single_view_points) {
+    const auto moved = solution->T_world_keyframe.find(single.keyframe_id);
+    if (moved == solution->T_world_keyframe.end()) continue;  // a fixed keyframe's: it stays
+    const Eigen::Isometry3d move = moved->second * input.T_world_keyframe.at(single.keyframe_id).inverse();
+    solution->p_world_single_view_m[single.point_id] = move * single.p_world_m;
+  }
+}
+
 }  // namespace
+
+void addBaPoints(const TrackerMap& map, const std::set<std::int64_t>& point_ids, LocalBaProblem* problem) {
+  // The keyframes of the problem that see each point: the observations addBaObservations makes.
+  std::unordered_map<std::int64_t, std::vector<std::int64_t>> seen_by;
+  for (const auto& kv : problem->T_world_keyframe) {
+    for (std::int64_t id : map.keyframe(kv.first)->map_point_ids) {
+      if (point_ids.count(id) > 0) seen_by[id].push_back(kv.first);
+    }
+  }
+  for (std::int64_t id : point_ids) {
+    const Eigen::Vector3d& p_world_m = map.point(id)->p_world_m;
+    const auto seen = seen_by.find(id);
+    if (seen != seen_by.end() && seen->second.size() == 1) {
+      problem->single_view_points.push_back({id, seen->second.front(), p_world_m});
+    } else {
+      problem->p_world_m[id] = p_world_m;
+    }
+  }
+}
 
 void addBaObservations(const TrackerMap& map, const TrackingOptions& options, LocalBaProblem* problem) {
   for (const auto& kv : problem->T_world_keyframe) {
@@ -239,6 +268,7 @@ LocalBaSolution solveBundleAdjustment(const LocalBaProblem& input, const Trackin
     return solution;
   }
   writeSolution(window, &solution);
+  moveSingleViewPoints(input, &solution);
   solution.usable = true;
   return solution;
 }
@@ -255,8 +285,10 @@ LocalBaResult applyBundleAdjustment(const LocalBaSolution& solution, TrackerMap*
     kf->T_world_camera = T_world_keyframe;
     ++result.optimized_keyframes;
   }
-  for (const auto& [id, p_world_m] : solution.p_world_m) {
-    if (MapPoint* p = map->mutablePoint(id)) p->p_world_m = p_world_m;
+  for (const auto* points : {&solution.p_world_m, &solution.p_world_single_view_m}) {
+    for (const auto& [id, p_world_m] : *points) {
+      if (MapPoint* p = map->mutablePoint(id)) p->p_world_m = p_world_m;
+    }
   }
   for (const LocalBaObservation& o : solution.outliers) {
     MapPoint* p = map->mutablePoint(o.point_id);
@@ -270,6 +302,7 @@ LocalBaResult applyBundleAdjustment(const LocalBaSolution& solution, TrackerMap*
   }
   result.fixed_keyframes = solution.fixed_keyframes;
   result.points = static_cast<int>(solution.p_world_m.size());
+  result.single_view_points = static_cast<int>(solution.p_world_single_view_m.size());
   result.observations = solution.observations;
   result.ran = true;
   return result;

@@ -2,10 +2,10 @@
 
 #include <chrono>
 #include <cmath>
-#include <map>
-#include <vector>
 #include <iomanip>
+#include <set>
 #include <sstream>
+#include <vector>
 
 #include "bundle_adjustment.h"
 
@@ -13,25 +13,6 @@ namespace dypho {
 namespace tracking {
 
 namespace {
-
-/// The points left out of the problem (seen by one keyframe) move rigidly with their keyframe:
-/// their optimum, as they then fit their observation exactly as before. Returns how many moved.
-int moveSingleViewPoints(const std::map<std::int64_t, Eigen::Isometry3d>& moves, const LocalBaSolution& solution,
-                         TrackerMap* map) {
-  std::vector<std::int64_t> single;
-  for (const auto& [id, point] : map->points()) {
-    if (point.observations.size() == 1 && solution.p_world_m.count(id) == 0) single.push_back(id);
-  }
-  int moved = 0;
-  for (std::int64_t id : single) {
-    MapPoint* point = map->mutablePoint(id);
-    const auto move = moves.find(point->observations.begin()->first);
-    if (move == moves.end()) continue;  // the fixed keyframe's points stay
-    point->p_world_m = move->second * point->p_world_m;
-    ++moved;
-  }
-  return moved;
-}
 
 /// A prior on the relative pose of each keyframe and the next (by id) as the map has it now, with
 /// global_ba_prior_sigma_deg / _m; none when either is 0, nor into the first keyframe of a
@@ -86,17 +67,17 @@ LocalBaProblem GlobalBundleAdjuster::prepare(const TrackerMap& map, const Pinhol
   }
   problem.newest_keyframe_id = map.keyframes().rbegin()->first;
   const std::int64_t oldest_id = map.keyframes().begin()->first;
+  std::set<std::int64_t> point_ids;
   for (const auto& [id, keyframe] : map.keyframes()) {
     problem.T_world_keyframe[id] = keyframe.T_world_camera;
     problem.fixed[id] = id == oldest_id || extra_fixed.count(id) > 0;
     for (std::int64_t point_id : keyframe.map_point_ids) {
-      if (point_id < 0 || problem.p_world_m.count(point_id) > 0) continue;
-      // A point seen by one keyframe only fits its observation exactly wherever the keyframe is:
-      // it adds nothing to the poses and moves with its keyframe in apply().
-      const MapPoint* point = map.point(point_id);
-      if (point != nullptr && point->observations.size() >= 2) problem.p_world_m[point_id] = point->p_world_m;
+      if (point_id >= 0 && map.point(point_id) != nullptr) point_ids.insert(point_id);
     }
   }
+  // A point seen by one keyframe only fits its observation exactly wherever the keyframe is: it
+  // adds nothing to the poses and moves with its keyframe (addBaPoints, solveBundleAdjustment).
+  addBaPoints(map, point_ids, &problem);
   if (problem.p_world_m.empty()) {
     problem.message = "no map point seen by two keyframes";
     return problem;
@@ -115,15 +96,9 @@ LocalBaSolution GlobalBundleAdjuster::solve(const LocalBaProblem& problem) const
 }
 
 GlobalBaResult GlobalBundleAdjuster::apply(const LocalBaSolution& solution, TrackerMap* map) const {
-  // Each free keyframe's move, T_world_new * T_world_old^-1, taken before it is written.
-  std::map<std::int64_t, Eigen::Isometry3d> moves;
-  for (const auto& [id, T_world_keyframe] : solution.T_world_keyframe) {
-    if (const MapKeyframe* keyframe = map->keyframe(id))
-      moves[id] = T_world_keyframe * keyframe->T_world_camera.inverse();
-  }
   const LocalBaResult applied = applyBundleAdjustment(solution, map);
   GlobalBaResult result;
-  if (applied.ran) result.single_view_points = moveSingleViewPoints(moves, solution, map);
+  result.single_view_points = applied.single_view_points;
   result.ran = applied.ran;
   result.keyframes = applied.optimized_keyframes + applied.fixed_keyframes;
   result.fixed_keyframes = applied.fixed_keyframes;

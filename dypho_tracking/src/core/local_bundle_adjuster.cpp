@@ -72,7 +72,7 @@ LocalBaProblem LocalBundleAdjuster::prepare(const TrackerMap& map, std::int64_t 
     problem.fixed[f.second] = true;
   }
   if (fixed_sorted.empty()) problem.fixed.begin()->second = true;  // oldest of the window: gauge
-  for (std::int64_t id : point_ids) problem.p_world_m[id] = map.point(id)->p_world_m;
+  addBaPoints(map, point_ids, &problem);
   addBaObservations(map, options_, &problem);
   return problem;
 }

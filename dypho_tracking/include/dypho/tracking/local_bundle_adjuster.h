@@ -23,6 +23,7 @@ struct LocalBaResult {
   int optimized_keyframes = 0;   ///< keyframes whose pose was free [count]
   int fixed_keyframes = 0;       ///< keyframes held constant (they see the points) [count]
   int points = 0;                ///< map points optimised [count]
+  int single_view_points = 0;    ///< points seen by one free keyframe, moved with it [count]
   int observations = 0;          ///< residuals [count]
   int removed_observations = 0;  ///< observations dropped as chi2 outliers [count]
   std::string message;           ///< why it did not run; empty when it ran
@@ -52,11 +53,21 @@ struct KeyframePairPrior {
   double sigma_trans_m = 0.0;                                   ///< > 0 [m]
 };
 
+/// A point that one keyframe of a BA problem sees and no other: it fits that observation
+/// wherever the keyframe ends up, so it is left out of the problem and moves rigidly with its
+/// keyframe (most of an RGB-D map: each keyframe makes points from its depth).
+struct SingleViewPoint {
+  std::int64_t point_id = -1;
+  std::int64_t keyframe_id = -1;                        ///< the keyframe that sees it
+  Eigen::Vector3d p_world_m = Eigen::Vector3d::Zero();  ///< its position when prepared
+};
+
 struct LocalBaProblem {
   std::int64_t newest_keyframe_id = -1;
   std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;   ///< free and fixed keyframes
   std::map<std::int64_t, bool> fixed;                           ///< keyframe id -> held constant
-  std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< map points
+  std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< map points in the problem
+  std::vector<SingleViewPoint> single_view_points;              ///< left out, moved with their keyframe
   std::vector<LocalBaObservation> observations;
   std::vector<KeyframePairPrior> pose_priors;  ///< global BA's; none in local BA
   Pinhole pinhole;
@@ -69,7 +80,9 @@ struct LocalBaSolution {
   std::int64_t newest_keyframe_id = -1;
   std::map<std::int64_t, Eigen::Isometry3d> T_world_keyframe;   ///< the free keyframes' poses
   std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_m;  ///< the points' positions
-  std::vector<LocalBaObservation> outliers;                     ///< observations to remove
+  /// The single-view points of free keyframes, moved with them (written back with p_world_m).
+  std::unordered_map<std::int64_t, Eigen::Vector3d> p_world_single_view_m;
+  std::vector<LocalBaObservation> outliers;  ///< observations to remove
   int fixed_keyframes = 0;
   int observations = 0;
   std::string message;  ///< why it is not usable
@@ -83,9 +96,12 @@ struct LocalBaSolution {
 /// local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
 /// Huber (huber_px); two rounds of local_ba_iterations LM steps (dense Schur); after the first,
 /// observations with chi2 > chi2_threshold (chi2_threshold_depth with the depth term) are
-/// removed from the map (a point's last observation is kept). Writes poses and points back into the map. adjust() does
-/// it at once
-/// (~40-80 ms per keyframe at 1000 features on one core of the 2-core VM); prepare(), solve()
+/// removed from the map (a point's last observation is kept). A point that only one keyframe of
+/// the window sees (most of an RGB-D window: each keyframe makes points from its depth) adds
+/// nothing to the poses: it is left out and moved rigidly with that keyframe, as the global BA
+/// does (the window's points on TUM fr1/rpy: about 800 of 3000). Writes poses and points back
+/// into the map. adjust() does it at once (a keyframe's tracking about 60-85 ms on one core of the
+/// 2-core VM, 115-170 ms with every point in the problem); prepare(), solve()
 /// and apply() split it so that solve() can run beside tracking (RgbdOdometry,
 /// TrackingOptions::local_ba_async_frames).
 class LocalBundleAdjuster {
