@@ -209,15 +209,25 @@ TEST_F(LoopAcrossAGuess, WithTheGuessAsAnEdgeTheSegmentStaysOff) {
 
 /// Synthetic map: 4 keyframes observing 300 points; the two newest keyframes' poses and all
 /// points are perturbed; local BA with the two oldest fixed must recover the poses.
-TEST(LocalBundleAdjuster, RecoversPerturbedKeyframesAndPoints) {
-  std::mt19937 rng(3);
+/// The local BA tests' scene: 300 points 2-4 m in front of the first camera, 3 m across.
+std::vector<Eigen::Vector3d> wallPoints(std::mt19937& rng) {
   std::uniform_real_distribution<double> ux(-1.5, 1.5), uz(2.0, 4.0);
-  std::normal_distribution<double> pix(0.0, 0.5), pos(0.0, 0.03);
   std::vector<Eigen::Vector3d> points(300);
   for (auto& p : points) p = Eigen::Vector3d(ux(rng), 0.7 * ux(rng), uz(rng));
-  std::vector<Eigen::Isometry3d> truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0, 0.03, 0, 0.1, 0, 0),
-                                          makePose(0.02, 0.05, 0, 0.2, 0.02, 0),
-                                          makePose(0.0, 0.08, 0.01, 0.3, 0.0, 0.05)};
+  return points;
+}
+
+/// The local BA tests' four keyframes: 30 cm sideways, turning up to 5 deg.
+std::vector<Eigen::Isometry3d> arcPoses() {
+  return {makePose(0, 0, 0, 0, 0, 0), makePose(0, 0.03, 0, 0.1, 0, 0), makePose(0.02, 0.05, 0, 0.2, 0.02, 0),
+          makePose(0.0, 0.08, 0.01, 0.3, 0.0, 0.05)};
+}
+
+TEST(LocalBundleAdjuster, RecoversPerturbedKeyframesAndPoints) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> pix(0.0, 0.5), pos(0.0, 0.03);
+  const std::vector<Eigen::Vector3d> points = wallPoints(rng);
+  const std::vector<Eigen::Isometry3d> truth = arcPoses();
   TrackingOptions options;
   options.local_ba_keyframes = 2;  // free: newest + its most covisible (the 3rd)
   options.local_ba_iterations = 20;
@@ -281,13 +291,10 @@ TEST(LocalBundleAdjuster, RecoversPerturbedKeyframesAndPoints) {
 /// sharp: the streaks are then noise it trusts as much as the sharp keyframes' 0.3 px.
 double blurredKeyframeErrorM(bool with_blur_weights) {
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> ux(-1.5, 1.5), uz(2.0, 4.0), along(-8.0, 8.0);
+  std::uniform_real_distribution<double> along(-8.0, 8.0);
   std::normal_distribution<double> pix(0.0, 0.3);
-  std::vector<Eigen::Vector3d> points(300);
-  for (auto& p : points) p = Eigen::Vector3d(ux(rng), 0.7 * ux(rng), uz(rng));
-  const std::vector<Eigen::Isometry3d> truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0, 0.03, 0, 0.1, 0, 0),
-                                                makePose(0.02, 0.05, 0, 0.2, 0.02, 0),
-                                                makePose(0.0, 0.08, 0.01, 0.3, 0.0, 0.05)};
+  const std::vector<Eigen::Vector3d> points = wallPoints(rng);
+  const std::vector<Eigen::Isometry3d> truth = arcPoses();
   CameraRates turn;
   turn.omega_rad_s = Eigen::Vector3d(0.0, 2.0, 0.0);  // 115 deg/s about y: streaks along the rows
   const double exposure_s = 0.015;                    // 2 rad/s x 525 px x 15 ms: 15.75 px at the centre
@@ -345,13 +352,9 @@ TEST(LocalBundleAdjuster, ABlurredKeyframeGivesWayAlongItsStreaks) {
 /// other keyframe sees (ids from 1000, exact camera coordinates).
 void buildFourKeyframes(bool single_view_points, TrackerMap* map) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> ux(-1.5, 1.5), uz(2.0, 4.0);
   std::normal_distribution<double> pix(0.0, 0.5);
-  std::vector<Eigen::Vector3d> points(300);
-  for (auto& p : points) p = Eigen::Vector3d(ux(rng), 0.7 * ux(rng), uz(rng));
-  const std::vector<Eigen::Isometry3d> truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0, 0.03, 0, 0.1, 0, 0),
-                                                makePose(0.02, 0.05, 0, 0.2, 0.02, 0),
-                                                makePose(0.0, 0.08, 0.01, 0.3, 0.0, 0.05)};
+  const std::vector<Eigen::Vector3d> points = wallPoints(rng);
+  const std::vector<Eigen::Isometry3d> truth = arcPoses();
   const Pinhole pin = testPinhole();
   auto observe = [&](const Eigen::Vector3d& p_c, const Eigen::Vector2d& uv, std::int64_t id, MapKeyframe* kf) {
     cv::KeyPoint kp(static_cast<float>(uv.x()), static_cast<float>(uv.y()), 31.f);
