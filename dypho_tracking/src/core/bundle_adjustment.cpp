@@ -193,18 +193,26 @@ void moveSingleViewPoints(const LocalBaProblem& input, LocalBaSolution* solution
 }  // namespace
 
 void addBaPoints(const TrackerMap& map, const std::set<std::int64_t>& point_ids, LocalBaProblem* problem) {
-  // The keyframes of the problem that see each point: the observations addBaObservations makes.
-  std::unordered_map<std::int64_t, std::vector<std::int64_t>> seen_by;
+  // How many keyframes of the problem see each point (the observations addBaObservations makes),
+  // and the last of them.
+  struct Seen {
+    int keyframes = 0;
+    std::int64_t keyframe_id = -1;
+  };
+  std::unordered_map<std::int64_t, Seen> seen_by;
   for (const auto& kv : problem->T_world_keyframe) {
     for (std::int64_t id : map.keyframe(kv.first)->map_point_ids) {
-      if (point_ids.count(id) > 0) seen_by[id].push_back(kv.first);
+      if (point_ids.count(id) == 0) continue;
+      Seen& seen = seen_by[id];
+      ++seen.keyframes;
+      seen.keyframe_id = kv.first;
     }
   }
   for (std::int64_t id : point_ids) {
     const Eigen::Vector3d& p_world_m = map.point(id)->p_world_m;
     const auto seen = seen_by.find(id);
-    if (seen != seen_by.end() && seen->second.size() == 1) {
-      problem->single_view_points.push_back({id, seen->second.front(), p_world_m});
+    if (seen != seen_by.end() && seen->second.keyframes == 1) {
+      problem->single_view_points.push_back({id, seen->second.keyframe_id, p_world_m});
     } else {
       problem->p_world_m[id] = p_world_m;
     }

@@ -44,9 +44,9 @@ void addBaObservations(const TrackerMap& map, const TrackingOptions& options, Lo
 LocalBaSolution solveBundleAdjustment(const LocalBaProblem& problem, const TrackingOptions& options,
                                       const BaSolverSettings& settings);
 
-/// Writes `solution` into `map`: free keyframes' poses, points (single-view ones too), and the outlier observations
-/// removed (a point's last observation is kept); skips keyframes, points and observations removed
-/// or re-assigned since the problem was prepared.
+/// Writes `solution` into `map`: free keyframes' poses, points (single-view ones too), and the
+/// outlier observations removed (a point's last observation is kept); skips keyframes, points and
+/// observations removed or re-assigned since the problem was prepared.
 LocalBaResult applyBundleAdjustment(const LocalBaSolution& solution, TrackerMap* map);
 
 }  // namespace tracking
