@@ -39,26 +39,84 @@ std::vector<double> quat(const Eigen::Isometry3d& T) {
 
 std::vector<double> vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-TEST(BaReprojectionError, JacobiansMatchCentralDifferences) {
+TEST(BaRgbdError, JacobiansMatchCentralDifferences) {
   const Eigen::Isometry3d T_cw = makePose(0.1, -0.2, 0.3, 0.05, -0.1, 0.2);
   const Eigen::Vector3d P(0.3, -0.2, 2.5);
-  BaReprojectionError cost(Eigen::Vector2d(300, 250), 1.44, testPinhole());
+  // Without a loss, and with a Huber width that the pixel part (tens of px off) and the depth
+  // part (2.4 m measured, about 2.2 m predicted) both exceed.
+  for (const double huber : {0.0, 2.0}) {
+    BaRgbdError cost(Eigen::Vector2d(300, 250), Eigen::Matrix2d::Identity() / 1.44, testPinhole(), 2.4, 0.08 * 525.0,
+                     1.44, huber);
+    test::expectJacobiansMatch(cost, {quat(T_cw), vec(T_cw.translation()), vec(P)});
+  }
+}
+
+TEST(BaRgbdError, JacobiansMatchCentralDifferencesWithABlurStreak) {
+  const Eigen::Isometry3d T_cw = makePose(0.1, -0.2, 0.3, 0.05, -0.1, 0.2);
+  const Eigen::Vector3d P(0.3, -0.2, 2.5);
+  BaRgbdError cost(Eigen::Vector2d(300, 250), streakSqrtInformation(Eigen::Vector2d(9.0, -4.0), 1.44), testPinhole(),
+                   2.4, 0.08 * 525.0, 1.44, 2.0);
   test::expectJacobiansMatch(cost, {quat(T_cw), vec(T_cw.translation()), vec(P)});
 }
 
-TEST(BaReprojectionError, JacobiansMatchCentralDifferencesWithABlurStreak) {
+/// The block's squared norm is the Huber cost of its pixel part plus that of its depth part,
+/// each with its own width test: what a pixel block and a depth block with a HuberLoss each cost.
+/// Inside the width the rows are the raw residuals.
+TEST(BaRgbdError, SquaredNormIsTheHuberCostOfEachPart) {
   const Eigen::Isometry3d T_cw = makePose(0.1, -0.2, 0.3, 0.05, -0.1, 0.2);
   const Eigen::Vector3d P(0.3, -0.2, 2.5);
-  BaReprojectionError cost(Eigen::Vector2d(300, 250), streakSqrtInformation(Eigen::Vector2d(9.0, -4.0), 1.44),
-                           testPinhole());
-  test::expectJacobiansMatch(cost, {quat(T_cw), vec(T_cw.translation()), vec(P)});
+  std::vector<double> q = quat(T_cw), t = vec(T_cw.translation()), p = vec(P);
+  const double* parameters[] = {q.data(), t.data(), p.data()};
+  const Eigen::Vector2d uv_true = testPinhole().project(T_cw * P);
+  const double depth_true = (T_cw * P).z();
+  const double huber = 2.0;
+  const auto rho = [&](double s) { return s <= huber * huber ? s : 2.0 * huber * std::sqrt(s) - huber * huber; };
+  // (pixel offset [px], depth [m]): both inside, pixel outside only, depth outside only, both.
+  for (const auto& [offset_px, depth_m] : std::vector<std::pair<double, double>>{
+           {0.5, depth_true + 0.002}, {12.0, depth_true + 0.002}, {0.5, depth_true + 0.3}, {12.0, depth_true + 0.3}}) {
+    BaRgbdError cost(uv_true + Eigen::Vector2d(offset_px, 0.0), Eigen::Matrix2d::Identity(), testPinhole(), depth_m,
+                     0.08 * 525.0, 1.0, huber);
+    double raw[3], scaled[3];
+    ASSERT_TRUE(cost.rawResiduals(parameters, raw));
+    ASSERT_TRUE(cost.Evaluate(parameters, scaled, nullptr));
+    EXPECT_NEAR(std::abs(raw[0]), offset_px, 1e-9);
+    const double s_px = raw[0] * raw[0] + raw[1] * raw[1];
+    const double s_d = raw[2] * raw[2];
+    EXPECT_NEAR(scaled[0] * scaled[0] + scaled[1] * scaled[1], rho(s_px), 1e-9 * (1.0 + rho(s_px)));
+    EXPECT_NEAR(scaled[2] * scaled[2], rho(s_d), 1e-9 * (1.0 + rho(s_d)));
+    if (s_px <= huber * huber) {
+      EXPECT_EQ(scaled[0], raw[0]);
+    }
+    if (s_d <= huber * huber) {
+      EXPECT_EQ(scaled[2], raw[2]);
+    } else {
+      EXPECT_LT(std::abs(scaled[2]), std::abs(raw[2]));
+    }
+  }
 }
 
-TEST(BaDepthError, JacobiansMatchCentralDifferences) {
+/// Without a measured depth the third row is 0 and moves with nothing; the pixel rows are those
+/// with a depth.
+TEST(BaRgbdError, WithoutDepthTheThirdRowIsZero) {
   const Eigen::Isometry3d T_cw = makePose(0.1, -0.2, 0.3, 0.05, -0.1, 0.2);
   const Eigen::Vector3d P(0.3, -0.2, 2.5);
-  BaDepthError cost(2.4, 0.08 * 525.0, 1.2);
-  test::expectJacobiansMatch(cost, {quat(T_cw), vec(T_cw.translation()), vec(P)});
+  const Eigen::Matrix2d W = Eigen::Matrix2d::Identity() / 1.2;
+  BaRgbdError without(Eigen::Vector2d(300, 250), W, testPinhole(), 0.0, 0.08 * 525.0, 1.2, 2.0);
+  BaRgbdError with(Eigen::Vector2d(300, 250), W, testPinhole(), 2.4, 0.08 * 525.0, 1.2, 2.0);
+  std::vector<double> q = quat(T_cw), t = vec(T_cw.translation()), p = vec(P);
+  const double* parameters[] = {q.data(), t.data(), p.data()};
+  double r_without[3], r_with[3], J_q[12], J_t[9], J_p[9];
+  double* jacobians[] = {J_q, J_t, J_p};
+  ASSERT_TRUE(without.Evaluate(parameters, r_without, jacobians));
+  ASSERT_TRUE(with.Evaluate(parameters, r_with, nullptr));
+  EXPECT_EQ(r_without[2], 0.0);
+  EXPECT_NE(r_with[2], 0.0);
+  EXPECT_EQ(r_without[0], r_with[0]);
+  EXPECT_EQ(r_without[1], r_with[1]);
+  for (int c = 0; c < 4; ++c) EXPECT_EQ(J_q[8 + c], 0.0);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(J_t[6 + c], 0.0);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(J_p[6 + c], 0.0);
+  test::expectJacobiansMatch(without, {q, t, p});
 }
 
 TEST(BaRelativePoseError, JacobiansMatchCentralDifferences) {

@@ -2,13 +2,13 @@
 #include "bundle_adjustment.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <unordered_map>
 #include <vector>
 
-#include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
@@ -32,7 +32,9 @@ struct Observation {
   std::int64_t point_id;
   int feature_index;
   ceres::ResidualBlockId block;
-  ceres::ResidualBlockId depth_block;  ///< nullptr without depth term
+  const BaRgbdError* cost;                  ///< owned by the problem
+  std::array<const double*, 3> parameters;  ///< q, t of its keyframe, its point
+  bool has_depth;                           ///< the block has a depth term
 };
 
 /// The Ceres problem of one window: the parameter blocks it optimises in place (the points start
@@ -56,14 +58,11 @@ void addPoseBlocks(const LocalBaProblem& input, BaWindow* window) {
   }
 }
 
-/// A reprojection residual (and a depth residual where measured, when local_ba_depth_baseline_m
-/// > 0) per observation in front of its keyframe, whitened by scale_factor^level, Huber loss.
+/// A BaRgbdError per observation in front of its keyframe (with its depth term where measured,
+/// when local_ba_depth_baseline_m > 0), whitened by scale_factor^level, a Huber loss (huber_px)
+/// on its pixel part and one on its depth part (inside the block).
 void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, BaWindow* window) {
   const Pinhole& pinhole = input.pinhole;
-  // The problem takes ownership of the loss with its first residual block; without one it is
-  // freed here.
-  auto owned_loss = std::make_unique<ceres::HuberLoss>(options.huber_px);
-  ceres::LossFunction* loss = owned_loss.get();
   std::vector<double> level_sigma(static_cast<size_t>(options.num_levels));
   for (int l = 0; l < options.num_levels; ++l) {
     level_sigma[static_cast<size_t>(l)] = std::pow(options.scale_factor, l);
@@ -77,18 +76,18 @@ void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, B
     // Skip observations behind the camera at the start (would make Evaluate fail).
     const Eigen::Vector3d p_c = pose.q * p + pose.t;
     if (!(p_c.z() > 1e-3)) continue;
-    const auto block = window->problem.AddResidualBlock(
-        new BaReprojectionError(o.uv_px, streakSqrtInformation(o.blur_streak_px, sigma), pinhole), loss,
-        pose.q.coeffs().data(), pose.t.data(), p.data());
-    ceres::ResidualBlockId depth_block = nullptr;
-    if (bf > 0 && o.depth_m > 0) {
-      depth_block = window->problem.AddResidualBlock(new BaDepthError(o.depth_m, bf, sigma), loss,
-                                                     pose.q.coeffs().data(), pose.t.data(), p.data());
-    }
-    window->observations.push_back({o.keyframe_id, o.point_id, o.feature_index, block, depth_block});
+    auto* cost = new BaRgbdError(o.uv_px, streakSqrtInformation(o.blur_streak_px, sigma), pinhole, o.depth_m, bf, sigma,
+                                 options.huber_px);
+    const auto block = window->problem.AddResidualBlock(cost, nullptr, pose.q.coeffs().data(), pose.t.data(), p.data());
+    window->observations.push_back({o.keyframe_id,
+                                    o.point_id,
+                                    o.feature_index,
+                                    block,
+                                    cost,
+                                    {pose.q.coeffs().data(), pose.t.data(), p.data()},
+                                    bf > 0 && o.depth_m > 0});
     window->source.push_back(k);
   }
-  if (window->problem.NumResidualBlocks() > 0) owned_loss.release();
 }
 
 /// The problem's keyframe-pair priors (newBaRelativePoseError, no loss) between keyframes of the
@@ -144,21 +143,13 @@ void removeChi2Outliers(const LocalBaProblem& input, const TrackingOptions& opti
   ceres::Problem& problem = window->problem;
   const std::vector<Observation>& observations = window->observations;
   for (size_t k = 0; k < observations.size(); ++k) {
-    double r[2], r_depth[2] = {0, 0};  // BaDepthError's second row is its zero padding
-    double cost = 0;
-    bool ok = problem.EvaluateResidualBlock(observations[k].block, false, &cost, r, nullptr);
-    if (ok && observations[k].depth_block != nullptr) {
-      ok = problem.EvaluateResidualBlock(observations[k].depth_block, false, &cost, r_depth, nullptr);
-    }
-    const double chi2 = r[0] * r[0] + r[1] * r[1] + r_depth[0] * r_depth[0];
-    const double threshold =
-        observations[k].depth_block != nullptr ? options.chi2_threshold_depth : options.chi2_threshold;
+    double r[3];
+    const bool ok = observations[k].cost->rawResiduals(observations[k].parameters.data(), r);
+    const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    const double threshold = observations[k].has_depth ? options.chi2_threshold_depth : options.chi2_threshold;
     if (!ok || chi2 > threshold) {
       outliers->push_back(input.observations[window->source[k]]);
       problem.RemoveResidualBlock(observations[k].block);
-      if (observations[k].depth_block != nullptr) {
-        problem.RemoveResidualBlock(observations[k].depth_block);
-      }
     }
   }
 }

@@ -35,8 +35,8 @@ void addBaPoints(const TrackerMap& map, const std::set<std::int64_t>& point_ids,
 /// num_levels - 1) and measured depth.
 void addBaObservations(const TrackerMap& map, const TrackingOptions& options, LocalBaProblem* problem);
 
-/// Solves `problem`: BaReprojectionError plus BaDepthError where a depth was measured (when
-/// local_ba_depth_baseline_m > 0), whitened by scale_factor^level, Huber (huber_px); a round of
+/// Solves `problem`: a BaRgbdError per observation, with its depth row where a depth was measured
+/// (when local_ba_depth_baseline_m > 0), whitened by scale_factor^level, Huber (huber_px); a round of
 /// `settings.iterations` LM steps, removal of the chi2 outliers (chi2_threshold, or
 /// chi2_threshold_depth with the depth term), a second round; then each single-view point of a
 /// free keyframe moves with it (T_world_new T_world_old^-1; a fixed keyframe's stay). Reads

@@ -1,6 +1,7 @@
 #include "dypho/tracking/reprojection_error.h"
 
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Geometry>
 #include <ceres/autodiff_cost_function.h>
@@ -119,55 +120,78 @@ Eigen::Matrix<double, 3, 4> quaternionRotationJacobian(const double* q, const Ei
   return rotationJacobian(q, P);
 }
 
-bool BaReprojectionError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const double* q = parameters[0];
-  const double* t = parameters[1];
-  const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
-  const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
-  if (!(p_c.z() > 1e-6)) return false;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc = pixelResidual(pinhole_, uv_px_, sqrt_information_, p_c, residuals);
-  if (jacobians == nullptr) return true;
-  if (jacobians[0] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
-    J_q = d_r_d_pc * rotationJacobian(q, P);
-  }
-  if (jacobians[1] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_t(jacobians[1]);
-    J_t = d_r_d_pc;
-  }
-  if (jacobians[2] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_p(jacobians[2]);
-    J_p = d_r_d_pc * rotationMatrix(q);
-  }
-  return true;
-}
-
-bool BaDepthError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool BaRgbdError::raw(double const* const* parameters, Eigen::Vector3d* r, Eigen::Matrix3d* d_r_d_pc) const {
   const double* q = parameters[0];
   const double* t = parameters[1];
   const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
   const Eigen::Vector3d p_c = ReprojectionError::rotate(q, P) + Eigen::Vector3d(t[0], t[1], t[2]);
   if (!(p_c.z() > 1e-6)) return false;
   const double inv_z = 1.0 / p_c.z();
-  residuals[0] = bf_ * (inv_z - inv_depth_) * inv_sigma_;
-  residuals[1] = 0.0;  // the padding row (header)
+  const Eigen::Matrix<double, 2, 3> d_px = pixelResidual(pinhole_, uv_px_, sqrt_information_, p_c, r->data());
+  // Disparity b f (1/z - 1/z_meas) / sigma, d / d p_c = [0, 0, -b f / z^2] / sigma; all 0 without
+  // a depth term (bf_ = 0).
+  (*r)[2] = bf_ * (inv_z - inv_depth_) * inv_sigma_;
+  if (d_r_d_pc != nullptr) {
+    d_r_d_pc->topRows<2>() = d_px;
+    d_r_d_pc->row(2) << 0.0, 0.0, -bf_ * inv_z * inv_z * inv_sigma_;
+  }
+  return true;
+}
+
+bool BaRgbdError::rawResiduals(double const* const* parameters, double* residuals) const {
+  Eigen::Vector3d r;
+  if (!raw(parameters, &r, nullptr)) return false;
+  residuals[0] = r[0];
+  residuals[1] = r[1];
+  residuals[2] = r[2];
+  return true;
+}
+
+namespace {
+
+/// The Huber scale f(s) = sqrt(rho(s) / s) of a part with squared norm s and its derivative
+/// d f / d s; (1, 0) inside the width. rho(s) = 2 h sqrt(s) - h^2 outside, so
+/// f^2 = 2 h s^-1/2 - h^2 s^-1 and d f / d s = (-h s^-3/2 + h^2 s^-2) / (2 f).
+std::pair<double, double> huberScale(double s, double huber) {
+  if (huber <= 0.0 || s <= huber * huber) return {1.0, 0.0};
+  const double root = std::sqrt(s);
+  const double f = std::sqrt(2.0 * huber / root - huber * huber / s);
+  return {f, (-huber / (s * root) + huber * huber / (s * s)) / (2.0 * f)};
+}
+
+}  // namespace
+
+bool BaRgbdError::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  Eigen::Vector3d r;
+  Eigen::Matrix3d d_r_d_pc;
+  if (!raw(parameters, &r, jacobians != nullptr ? &d_r_d_pc : nullptr)) return false;
+  // Each part scaled by its Huber factor; its Jacobian by the product rule:
+  // d (f(s) r) = f dr + r f'(s) 2 r^T dr.
+  const auto [f_px, df_px] = huberScale(r.head<2>().squaredNorm(), huber_);
+  const auto [f_d, df_d] = huberScale(r[2] * r[2], huber_);
+  residuals[0] = f_px * r[0];
+  residuals[1] = f_px * r[1];
+  residuals[2] = f_d * r[2];
   if (jacobians == nullptr) return true;
-  // d r / d p_c = [0, 0, -bf / z^2] / sigma; the padding row's derivatives are 0.
-  const Eigen::RowVector3d d_r_d_pc(0.0, 0.0, -bf_ * inv_z * inv_z * inv_sigma_);
+  Eigen::Matrix3d d_scaled;
+  d_scaled.topRows<2>() = (f_px * Eigen::Matrix2d::Identity() + 2.0 * df_px * r.head<2>() * r.head<2>().transpose()) *
+                          d_r_d_pc.topRows<2>();
+  d_scaled.row(2) = (f_d + 2.0 * df_d * r[2] * r[2]) * d_r_d_pc.row(2);
+  const double* q = parameters[0];
+  const Eigen::Vector3d P(parameters[2][0], parameters[2][1], parameters[2][2]);
+  using Jacobian34 = Eigen::Matrix<double, 3, 4, Eigen::RowMajor>;
+  using Jacobian33 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
   if (jacobians[0] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> J_q(jacobians[0]);
-    J_q.row(0) = d_r_d_pc * rotationJacobian(q, P);
-    J_q.row(1).setZero();
+    Eigen::Map<Jacobian34> J_q(jacobians[0]);
+    J_q = d_scaled * rotationJacobian(q, P);
   }
   if (jacobians[1] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_t(jacobians[1]);
-    J_t.row(0) = d_r_d_pc;
-    J_t.row(1).setZero();
+    Eigen::Map<Jacobian33> J_t(jacobians[1]);
+    J_t = d_scaled;
   }
   if (jacobians[2] != nullptr) {
-    Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> J_p(jacobians[2]);
-    J_p.row(0) = d_r_d_pc * rotationMatrix(q);
-    J_p.row(1).setZero();
+    Eigen::Map<Jacobian33> J_p(jacobians[2]);
+    J_p = d_scaled * rotationMatrix(q);
   }
   return true;
 }

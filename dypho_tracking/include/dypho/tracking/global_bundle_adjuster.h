@@ -45,7 +45,7 @@ std::string describeAfterLoop(const GlobalBaStats& stats);
 /// they observe. The oldest keyframe is held fixed (the gauge; with the depth term the metric
 /// scale is observable), plus any keyframe in `extra_fixed` (e.g. the first keyframe of a
 /// re-initialised segment not tied to the map, whose gauge is free too). The cost is the local
-/// BA's (bundle_adjustment.h: BaReprojectionError, BaDepthError with local_ba_depth_baseline_m,
+/// BA's (bundle_adjustment.h: BaRgbdError, its depth row with local_ba_depth_baseline_m,
 /// sigma = scale_factor^level, Huber huber_px), solved with sparse Schur in two rounds of
 /// global_ba_iterations LM steps, with the chi2 outliers (chi2_threshold, chi2_threshold_depth)
 /// removed from the map in between, as local BA does, each round within half of

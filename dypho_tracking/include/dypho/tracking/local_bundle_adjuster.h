@@ -92,8 +92,8 @@ struct LocalBaSolution {
 /// most covisible keyframes; points = every map point they observe; fixed = up to
 /// local_ba_max_fixed_keyframes other keyframes observing those points (at least one keyframe is
 /// always fixed: when none is, the oldest of the window is fixed, which fixes the gauge).
-/// Cost: BaReprojectionError plus BaDepthError where the keyframe measured a depth (when
-/// local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
+/// Cost: a BaRgbdError per observation, with its depth row where the keyframe measured a depth
+/// (when local_ba_depth_baseline_m > 0; fixes the metric scale), whitened by sigma = scale_factor^level,
 /// Huber (huber_px); two rounds of local_ba_iterations LM steps (dense Schur); after the first,
 /// observations with chi2 > chi2_threshold (chi2_threshold_depth with the depth term) are
 /// removed from the map (a point's last observation is kept). A point that only one keyframe of

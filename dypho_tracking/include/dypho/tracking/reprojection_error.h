@@ -81,48 +81,59 @@ class RgbdReprojectionError final : public ceres::SizedCostFunction<3, 4, 3> {
 };
 
 /// Bundle-adjustment variant of ReprojectionError: the 3D point is a parameter too.
+/// One observation of bundle adjustment for RGB-D keyframes, as one residual block of three rows:
+/// the whitened pixel residual r_px = W (u - u_obs, v - v_obs) (conventions as
+/// ReprojectionError) and the depth term in disparity units (ORB-SLAM's virtual stereo column)
+/// r_d = b f_x (1 / z_pred - 1 / z_measured) / sigma, z_pred = (R(q) P + t)_z, which fixes the
+/// metric scale that reprojection alone leaves free when few keyframes are fixed. Without a
+/// measured depth (or with b f_x = 0) r_d is 0 with a zero Jacobian.
+///
+/// Each part carries its own Huber loss (width huber_px), inside the block: the rows are
+/// [sqrt(rho(|r_px|^2) / |r_px|^2) r_px; sqrt(rho(r_d^2) / r_d^2) r_d], rho(s) = s for
+/// s <= huber^2, else 2 huber sqrt(s) - huber^2, so the block's squared norm is
+/// rho(|r_px|^2) + rho(r_d^2): the cost of a pixel block and a depth block with a Huber loss each,
+/// in half the blocks. Add it without a Ceres loss. The Jacobians are those of these rows (the
+/// scale is continuous with a continuous derivative at the Huber width). rawResiduals() gives
+/// r_px and r_d before the loss (for chi2 tests).
+///
 /// Parameters: block 0 quaternion of T_camera_world [x, y, z, w], block 1 translation of
-/// T_camera_world [m], block 2 point in the world [m]. Residual and conventions as
-/// ReprojectionError; d r / d P = d r / d p_c * M(q), M(q) = I + 2 w [v]x + 2 [v]x^2 (the exact
-/// linear map of the rotation formula, also for non-unit q).
-class BaReprojectionError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
+/// T_camera_world [m], block 2 point in the world [m]; d r / d P = d r / d p_c * M(q),
+/// M(q) = I + 2 w [v]x + 2 [v]x^2 (the exact linear map of the rotation formula, also for
+/// non-unit q). Every block has three rows, point blocks of 3 and pose blocks of 3 (tangent), so
+/// Ceres's Schur elimination uses its fixed-size 3x3x3 kernel.
+class BaRgbdError final : public ceres::SizedCostFunction<3, 4, 3, 3> {
  public:
-  /// uv_px: observed undistorted pixel [px]; sigma_px: keypoint standard deviation [px] (> 0).
-  BaReprojectionError(const Eigen::Vector2d& uv_px, double sigma_px, const Pinhole& pinhole)
-      : BaReprojectionError(uv_px, Eigen::Matrix2d::Identity() / sigma_px, pinhole) {}
-  /// The same with a 2x2 square-root information [1/px] (a blurred keypoint, motion_blur.h).
-  BaReprojectionError(const Eigen::Vector2d& uv_px, const Eigen::Matrix2d& sqrt_information, const Pinhole& pinhole)
-      : uv_px_(uv_px), sqrt_information_(sqrt_information), pinhole_(pinhole) {}
+  /// uv_px: observed undistorted pixel [px]; sqrt_information: 2x2 square-root information of
+  /// the pixel [1/px] (I / sigma_px for a sharp keypoint; motion_blur.h for a blurred one);
+  /// depth_m: measured depth [m], <= 0 for none; bf_px_m: baseline [m] times f_x [px], 0 for no
+  /// depth term; sigma_px (> 0): the depth term's standard deviation in disparity [px];
+  /// huber: the Huber width of each part in whitened units (> 0), 0 for none (plain squares).
+  BaRgbdError(const Eigen::Vector2d& uv_px, const Eigen::Matrix2d& sqrt_information, const Pinhole& pinhole,
+              double depth_m, double bf_px_m, double sigma_px, double huber)
+      : uv_px_(uv_px),
+        sqrt_information_(sqrt_information),
+        pinhole_(pinhole),
+        inv_depth_(depth_m > 0.0 ? 1.0 / depth_m : 0.0),
+        bf_(depth_m > 0.0 ? bf_px_m : 0.0),
+        inv_sigma_(1.0 / sigma_px),
+        huber_(huber) {}
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
+  /// r_px (rows 0-1) and r_d (row 2) before the Huber loss; false behind the camera.
+  bool rawResiduals(double const* const* parameters, double* residuals) const;
+
  private:
+  /// The raw rows and d r / d p_c (3x3; nullptr: not needed).
+  bool raw(double const* const* parameters, Eigen::Vector3d* r, Eigen::Matrix3d* d_r_d_pc) const;
+
   Eigen::Vector2d uv_px_;
   Eigen::Matrix2d sqrt_information_;
   Pinhole pinhole_;
-};
-
-/// Depth term of bundle adjustment for RGB-D keyframes (ORB-SLAM's virtual stereo column in
-/// disparity units): r = b f_x (1 / z_pred - 1 / z_measured) / sigma, z_pred = (R(q) P + t)_z.
-/// Fixes the metric scale that reprojection alone leaves free when few keyframes are fixed.
-/// Same parameter blocks as BaReprojectionError.
-///
-/// Two rows, the second always 0 with a zero Jacobian: the cost is that of the one-row residual,
-/// but every residual block of the problem then has two rows, point blocks of 3 and pose blocks
-/// of 3 (tangent), so Ceres's Schur elimination picks its fixed-size 2x3x3 kernel instead of the
-/// dynamic one that mixed row counts force (a keyframe's local BA markedly faster, same steps).
-class BaDepthError final : public ceres::SizedCostFunction<2, 4, 3, 3> {
- public:
-  /// depth_m: measured depth (> 0) [m]; bf_px_m: baseline [m] times f_x [px]; sigma_px (> 0).
-  BaDepthError(double depth_m, double bf_px_m, double sigma_px)
-      : inv_depth_(1.0 / depth_m), bf_(bf_px_m), inv_sigma_(1.0 / sigma_px) {}
-
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
-
- private:
   double inv_depth_;
-  double bf_;
+  double bf_;  ///< 0: no depth term
   double inv_sigma_;
+  double huber_;  ///< 0: no loss
 };
 
 /// Prior on the relative pose of two keyframes in bundle adjustment: with the BA's pose blocks

@@ -401,9 +401,10 @@ struct TrackingOptions {
   /// Levenberg-Marquardt iterations of each of the two local BA rounds [count]; default 5,
   /// range [1, 100].
   int local_ba_iterations = 5;
-  /// Virtual stereo baseline of the depth term of local BA (BaDepthError: b f_x (1/z - 1/z_meas),
-  /// same sigma as the pixels); it fixes the metric scale [m]; default 0.08 (Kinect-like),
-  /// range [0, 1]; 0 = reprojection only (then the scale is held only by the fixed keyframes).
+  /// Virtual stereo baseline of the depth term of local BA (BaRgbdError's third row:
+  /// b f_x (1/z - 1/z_meas), same sigma as the pixels); it fixes the metric scale [m]; default
+  /// 0.08 (Kinect-like), range [0, 1]; 0 = reprojection only (then the scale is held only by the
+  /// fixed keyframes).
   double local_ba_depth_baseline_m = 0.08;
   /// Most keyframes held fixed in local BA (those seeing the window's points most) [count];
   /// default 10, range [1, 100].

@@ -314,8 +314,9 @@ void visitBackEndOptions(TrackingOptions& options, Visitor&& visitor) {
   visitor("local_ba_iterations", options.local_ba_iterations,
           "Levenberg-Marquardt iterations of each of the two local BA rounds [count]; default 5, range [1, 100].");
   visitor("local_ba_depth_baseline_m", options.local_ba_depth_baseline_m,
-          "Virtual stereo baseline of the depth term of local BA (BaDepthError: b f_x (1/z - 1/z_meas), same sigma as "
-          "the pixels); it fixes the metric scale [m]; default 0.08 (Kinect-like), range [0, 1]; 0 = rep");
+          "Virtual stereo baseline of the depth term of local BA (BaRgbdError's third row: b f_x (1/z - 1/z_meas), "
+          "same sigma as the pixels); it fixes the metric scale [m]; default 0.08 (Kinect-like), range [0, 1]; "
+          "0 = rep");
   visitor("local_ba_max_fixed_keyframes", options.local_ba_max_fixed_keyframes,
           "Most keyframes held fixed in local BA (those seeing the window's points most) [count]; default 10, range "
           "[1, 100].");
