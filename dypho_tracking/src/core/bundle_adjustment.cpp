@@ -34,7 +34,6 @@ struct Observation {
   ceres::ResidualBlockId block;
   const BaRgbdError* cost;                  ///< owned by the problem
   std::array<const double*, 3> parameters;  ///< q, t of its keyframe, its point
-  bool has_depth;                           ///< the block has a depth term
 };
 
 /// The Ceres problem of one window: the parameter blocks it optimises in place (the points start
@@ -79,13 +78,8 @@ void addResiduals(const LocalBaProblem& input, const TrackingOptions& options, B
     auto* cost = new BaRgbdError(o.uv_px, streakSqrtInformation(o.blur_streak_px, sigma), pinhole, o.depth_m, bf, sigma,
                                  options.huber_px);
     const auto block = window->problem.AddResidualBlock(cost, nullptr, pose.q.coeffs().data(), pose.t.data(), p.data());
-    window->observations.push_back({o.keyframe_id,
-                                    o.point_id,
-                                    o.feature_index,
-                                    block,
-                                    cost,
-                                    {pose.q.coeffs().data(), pose.t.data(), p.data()},
-                                    bf > 0 && o.depth_m > 0});
+    window->observations.push_back(
+        {o.keyframe_id, o.point_id, o.feature_index, block, cost, {pose.q.coeffs().data(), pose.t.data(), p.data()}});
     window->source.push_back(k);
   }
 }
@@ -146,7 +140,7 @@ void removeChi2Outliers(const LocalBaProblem& input, const TrackingOptions& opti
     double r[3];
     const bool ok = observations[k].cost->rawResiduals(observations[k].parameters.data(), r);
     const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-    const double threshold = observations[k].has_depth ? options.chi2_threshold_depth : options.chi2_threshold;
+    const double threshold = observations[k].cost->hasDepth() ? options.chi2_threshold_depth : options.chi2_threshold;
     if (!ok || chi2 > threshold) {
       outliers->push_back(input.observations[window->source[k]]);
       problem.RemoveResidualBlock(observations[k].block);

@@ -123,6 +123,9 @@ class BaRgbdError final : public ceres::SizedCostFunction<3, 4, 3, 3> {
   /// r_px (rows 0-1) and r_d (row 2) before the Huber loss; false behind the camera.
   bool rawResiduals(double const* const* parameters, double* residuals) const;
 
+  /// True when the block has a depth term (a measured depth and b f_x > 0).
+  bool hasDepth() const { return bf_ > 0.0; }
+
  private:
   /// The raw rows and d r / d p_c (3x3; nullptr: not needed).
   bool raw(double const* const* parameters, Eigen::Vector3d* r, Eigen::Matrix3d* d_r_d_pc) const;
