@@ -216,6 +216,47 @@ TEST(FinalFrameRefiner, AFrameWhosePointsWereRemovedKeepsItsPose) {
   EXPECT_TRUE(records[0].T_reference_camera.isApprox(before.T_reference_camera, 1e-12));
 }
 
+// Local mapping culls redundant keyframes, also a frame's reference: the frame's pose is then kept
+// relative to the culled keyframe, which follows the keyframe it was attached to
+// (TrackerMap::keyframePose). Such a frame is refined like any other.
+TEST(FinalFrameRefiner, AFrameWhoseReferenceKeyframeWasCulledIsRefined) {
+  Scene scene(/*point_noise_m=*/0.02);
+  const KeyframePoints reference = scene.map.keyframePoints(0);
+  const AlignmentResult aligned = scene.track(reference);
+  ASSERT_TRUE(aligned.success);
+  MapKeyframe culled;  // the frame's reference, 5 cm and 2 deg from keyframe 0
+  culled.id = 1;
+  culled.stamp_ns = 1'500'000'000;
+  culled.T_world_camera.linear() = Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  culled.T_world_camera.translation() = Eigen::Vector3d(0.05, 0.0, 0.0);
+  culled.features.descriptors = cv::Mat::zeros(0, 32, CV_8UC1);
+  culled.features.image_rows = 480;
+  scene.map.addKeyframe(culled);
+  FinalFrameRefiner refiner(refinerOptions());
+  const Timestamp stamp = 2'000'000'000;
+  refiner.record(stamp, aligned, reference, scene.frame);
+  RecordedPose r;
+  r.stamp_ns = stamp;
+  r.reference_keyframe_id = 1;
+  r.T_reference_camera = culled.T_world_camera.inverse() * aligned.T_camera_world.inverse();
+  ASSERT_TRUE(scene.map.removeKeyframe(1));
+  ASSERT_EQ(scene.map.keyframe(1), nullptr);
+  const auto errorM = [&](const RecordedPose& pose) {
+    return ((*scene.map.keyframePose(1) * pose.T_reference_camera).translation() - scene.T_world_frame.translation())
+        .norm();
+  };
+  std::vector<RecordedPose> records{r};
+  const double tracked_m = errorM(records[0]);
+
+  scene.refinePoints(reference);
+  const FrameRefinementResult result = refiner.refine(scene.map, kPinhole, &records);
+  EXPECT_EQ(result.frames_refined, 1u);
+  EXPECT_EQ(result.frames_kept, 0u);
+  // The same bounds as a frame whose reference is in the map (AFrameFollowsThePointsALaterBaRefined).
+  EXPECT_GT(tracked_m, 0.001);
+  EXPECT_LT(errorM(records[0]), 0.25 * tracked_m);
+}
+
 }  // namespace DYPHO_UNITY_ID
 }  // namespace tracking
 }  // namespace dypho

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 namespace dypho {
 namespace tracking {
@@ -52,8 +53,11 @@ FrameRefinementResult FinalFrameRefiner::refine(const TrackerMap& map, const Pin
       continue;
     }
     const auto found = frames_.find(r.stamp_ns);
-    const MapKeyframe* reference = map.keyframe(r.reference_keyframe_id);
-    if (found == frames_.end() || reference == nullptr || reference->stamp_ns == r.stamp_ns) {
+    // A culled reference keyframe still has a pose, through the keyframe it was attached to.
+    const std::optional<Eigen::Isometry3d> T_world_reference = map.keyframePose(r.reference_keyframe_id);
+    const MapKeyframe* live_reference = map.keyframe(r.reference_keyframe_id);
+    const bool keyframe_frame = live_reference != nullptr && live_reference->stamp_ns == r.stamp_ns;
+    if (found == frames_.end() || !T_world_reference || keyframe_frame) {
       ++result.frames_kept;
       continue;
     }
@@ -74,7 +78,7 @@ FrameRefinementResult FinalFrameRefiner::refine(const TrackerMap& map, const Pin
       ++result.frames_kept;
       continue;
     }
-    const Eigen::Isometry3d T_world_camera = reference->T_world_camera * r.T_reference_camera;
+    const Eigen::Isometry3d T_world_camera = *T_world_reference * r.T_reference_camera;
     const PoseOptimizerResult refined =
         optimizer_.optimize(observations, pinhole, T_world_camera.inverse(), found->second.rates);
     if (!refined.success || refined.num_inliers < options_.min_inliers ||
@@ -82,7 +86,7 @@ FrameRefinementResult FinalFrameRefiner::refine(const TrackerMap& map, const Pin
       ++result.frames_kept;
       continue;
     }
-    r.T_reference_camera = reference->T_world_camera.inverse() * refined.T_camera_world.inverse();
+    r.T_reference_camera = T_world_reference->inverse() * refined.T_camera_world.inverse();
     ++result.frames_refined;
   }
   result.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
