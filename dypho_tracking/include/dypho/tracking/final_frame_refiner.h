@@ -61,10 +61,10 @@ class FinalFrameRefiner {
               const FrameFeatures& features, double masked_fraction = 0.0);
 
   /// Optimises the pose of every record with evidence against `map` (the points' current
-  /// positions), from its current pose (reference keyframe * T_reference_camera; a culled
-  /// reference keyframe's pose through the keyframe it was attached to, TrackerMap::keyframePose), and replaces
-  /// its T_reference_camera when the optimiser keeps at least min_inliers inliers. Newest first,
-  /// for at most final_frame_refinement_max_seconds.
+  /// positions), from its current pose (reference keyframe * T_reference_camera, a culled
+  /// reference keyframe's pose taken through the keyframe it was attached to,
+  /// TrackerMap::keyframePose), and replaces its T_reference_camera when the optimiser keeps at
+  /// least min_inliers inliers. Newest first, for at most final_frame_refinement_max_seconds.
   FrameRefinementResult refine(const TrackerMap& map, const Pinhole& pinhole, std::vector<RecordedPose>* records) const;
 
   void clear() { frames_.clear(); }
