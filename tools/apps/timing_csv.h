@@ -2,7 +2,9 @@
 /// \file timing_csv.h
 /// dypho_run_dataset's timing.csv: one row per processed frame with the stage times, the tracking
 /// state and the mask's figures (columns in the header line; caught_up = 1: tracked in catch-up mode,
-/// without local BA, because frames waited behind it).
+/// without local BA, because frames waited behind it; position_sigma_mm: the largest standard
+/// deviation of the camera centre its matches allow, PoseCovariance::maxPositionSigmaM, -1 when
+/// the frame was not tracked against the map).
 
 #include <iomanip>
 #include <ostream>
@@ -29,7 +31,7 @@ inline void writeTiming(const std::string& path, const std::vector<TimingRow>& r
     os << "frame,stamp_s,load_ms,render_ms,mask_ms,features_ms,matching_ms,pnp_ms,refine_ms,tracking_ms,"
           "mapping_ms,total_ms,state,is_keyframe,num_features,num_inliers,masked_fraction,rendered_depth_used,"
           "static_check_ms,static_agreement,static_corrected,moving_points_removed,moving_points_seen,dense_ms,"
-          "dense_correction_m,caught_up\n";
+          "dense_correction_m,caught_up,position_sigma_mm\n";
     os << std::fixed;
     for (const TimingRow& r : rows) {
       const auto& t = r.report.tracking;
@@ -41,7 +43,8 @@ inline void writeTiming(const std::string& path, const std::vector<TimingRow>& r
          << (r.report.rendered_depth_used ? 1 : 0) << ',' << std::setprecision(3) << t.times.static_check << ','
          << std::setprecision(4) << t.static_agreement << ',' << (t.static_check_corrected ? 1 : 0) << ','
          << t.num_moving_points_removed << ',' << t.moving_points_camera_m.size() << ',' << std::setprecision(3)
-         << t.times.dense << ',' << std::setprecision(5) << t.dense_correction_m << ',' << (t.caught_up ? 1 : 0)
+         << t.times.dense << ',' << std::setprecision(5) << t.dense_correction_m << ',' << (t.caught_up ? 1 : 0) << ','
+         << std::setprecision(3) << (t.pose_covariance.valid ? 1e3 * t.pose_covariance.maxPositionSigmaM() : -1.0)
          << '\n';
     }
   });

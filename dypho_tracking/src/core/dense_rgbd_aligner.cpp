@@ -29,14 +29,6 @@ double tWeight(double sigmas, double dof, double max_sigmas) {
   return (dof + 1.0) / (dof + sigmas * sigmas);
 }
 
-/// d r / d(v, w) of the left perturbation q' = q + v + w x q, given d r / d q.
-Row6 leftJacobian(const Eigen::Vector3d& q, const Eigen::Vector3d& dr_dq) {
-  Row6 j;
-  j.head<3>() = dr_dq.transpose();
-  j.tail<3>() = q.cross(dr_dq).transpose();
-  return j;
-}
-
 /// The depth edge threshold at depth z [m]: neighbours further apart belong to different surfaces.
 double edgeToleranceM(const DenseAlignerSettings& s, double z) { return std::max(0.03, 4.0 * depthSigmaM(s, z)); }
 
@@ -304,29 +296,6 @@ DenseAlignment DenseRgbdAligner::align(const Eigen::Isometry3d& T_current_refere
   out.T_current_reference = T;
   out.success = true;
   return out;
-}
-
-PoseInformation featurePoseInformation(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
-                                       const Eigen::Isometry3d& T_camera_world, double scale_factor,
-                                       double depth_baseline_m) {
-  PoseInformation H = PoseInformation::Zero();
-  const double bf = depth_baseline_m * pinhole.fx;
-  for (const PoseObservation& o : inliers) {
-    const Eigen::Vector3d q = T_camera_world * o.p_world_m;
-    if (q.z() < 1e-3) continue;
-    const double iz = 1.0 / q.z();
-    const double sigma = std::pow(scale_factor, std::max(0, o.level));
-    const double w = 1.0 / (sigma * sigma);
-    const Eigen::Vector3d du_dq(pinhole.fx * iz, 0.0, -pinhole.fx * q.x() * iz * iz);
-    const Eigen::Vector3d dv_dq(0.0, pinhole.fy * iz, -pinhole.fy * q.y() * iz * iz);
-    const Row6 ju = leftJacobian(q, du_dq), jv = leftJacobian(q, dv_dq);
-    H.noalias() += w * (ju.transpose() * ju + jv.transpose() * jv);
-    if (bf > 0.0 && o.depth_m > 0.0) {  // u_right = u - bf / z
-      const Row6 jr = leftJacobian(q, du_dq + Eigen::Vector3d(0.0, 0.0, bf * iz * iz));
-      H.noalias() += w * jr.transpose() * jr;
-    }
-  }
-  return H;
 }
 
 }  // namespace tracking

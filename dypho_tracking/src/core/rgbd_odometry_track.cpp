@@ -51,12 +51,13 @@ double imageTurnDeg(const std::vector<FeatureMatch>& matches, const KeyframePoin
   return std::atan(*median / pinhole.fx) * 180.0 / M_PI;
 }
 
-/// The pose observations of the inlier matches of `aligned` (into `ref`).
+/// The pose observations of the inlier matches of `aligned` (into `ref`), with their rows' times
+/// under a rolling shutter read out over `readout_s` (0: global shutter).
 std::vector<PoseObservation> inlierObservations(const AlignmentResult& aligned, const KeyframePoints& ref,
-                                                const FrameFeatures& features) {
+                                                const FrameFeatures& features, double readout_s) {
   std::vector<PoseObservation> observations;
   for (std::size_t m = 0; m < aligned.matches.size(); ++m) {
-    if (aligned.inliers[m]) observations.push_back(observationOf(aligned.matches[m], ref, features));
+    if (aligned.inliers[m]) observations.push_back(observationOf(aligned.matches[m], ref, features, readout_s));
   }
   return observations;
 }
@@ -285,7 +286,7 @@ void RgbdOdometry::refineDensely(TrackingFrame* work) {
   if (options_.dense_feature_prior_weight > 0.0) {
     const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
     prior.information = options_.dense_feature_prior_weight *
-                        featurePoseInformation(inlierObservations(aligned, ref, work->features()), work->pinhole,
+                        featurePoseInformation(inlierObservations(aligned, ref, work->features(), 0.0), work->pinhole,
                                                T_features, options_.scale_factor, options_.depth_baseline_m);
   }
   dense_.setCurrent(work->frame, work->mask);
@@ -338,6 +339,10 @@ void RgbdOdometry::acceptPose(TrackingFrame* work) {
   result.T_world_camera = T_world_camera;
   result.num_matches = static_cast<int>(aligned.matches.size());
   result.num_inliers = aligned.num_inliers;
+  const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
+  result.pose_covariance = poseCovariance(
+      inlierObservations(aligned, ref, work->features(), options_.rolling_shutter_readout_ms * 1e-3), work->pinhole,
+      aligned.T_camera_world, aligned.rates, options_.scale_factor, options_.depth_baseline_m);
 }
 
 KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {

@@ -15,14 +15,12 @@
 
 #include "dypho/common/types.h"
 #include "dypho/tracking/pinhole.h"
+#include "dypho/tracking/pose_covariance.h"
 #include "dypho/tracking/pose_optimizer.h"
 #include "dypho/tracking/static_scene_check.h"
 
 namespace dypho {
 namespace tracking {
-
-/// Information matrix of a 6-dof pose on its left perturbation [v (m), w (rad)], T' = exp(d) T.
-using PoseInformation = Eigen::Matrix<double, 6, 6>;
 
 /// Settings of DenseRgbdAligner (from TrackingOptions::dense_*).
 struct DenseAlignerSettings {
@@ -112,15 +110,6 @@ class DenseRgbdAligner {
   std::vector<Level> levels_;             ///< [0] finest
   std::vector<UndistortMaps> undistort_;  ///< per level; used when the camera has distortion
 };
-
-/// Information of the feature pose T_camera_world from its inlier observations: the sum of
-/// J^T J / sigma^2 of their RGB-D reprojection residuals (sigma = scale_factor^level [px]; the
-/// virtual right column of RgbdReprojectionError when depth_baseline_m > 0 and the observation
-/// has a depth), on the left perturbation of T_camera_world (which is also that of
-/// T_current_reference = T_camera_world * T_world_reference).
-PoseInformation featurePoseInformation(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
-                                       const Eigen::Isometry3d& T_camera_world, double scale_factor,
-                                       double depth_baseline_m);
 
 }  // namespace tracking
 }  // namespace dypho

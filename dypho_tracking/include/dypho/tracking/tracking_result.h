@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "dypho/common/types.h"
+#include "dypho/tracking/pose_covariance.h"
 
 namespace dypho {
 namespace tracking {
@@ -57,10 +58,14 @@ struct TrackingResult {
   /// Camera optical frame in the world frame (world = first keyframe). When not kOk: the last good
   /// pose (identity before initialisation). Always finite.
   Eigen::Isometry3d T_world_camera = Eigen::Isometry3d::Identity();
-  bool is_keyframe = false;    ///< this frame became a new keyframe
-  int num_features = 0;        ///< keypoints with valid depth in this frame [count]
-  int num_matches = 0;         ///< keyframe-to-frame matches used for the final pose [count]
-  int num_inliers = 0;         ///< pose inliers after the chi2 outlier rounds [count]
+  bool is_keyframe = false;  ///< this frame became a new keyframe
+  int num_features = 0;      ///< keypoints with valid depth in this frame [count]
+  int num_matches = 0;       ///< keyframe-to-frame matches used for the final pose [count]
+  int num_inliers = 0;       ///< pose inliers after the chi2 outlier rounds [count]
+  /// How precisely this frame's inlier matches fix T_world_camera, relative to the map's points
+  /// (poseCovariance); invalid on frames not tracked against the map (lost, the first keyframe,
+  /// relocalised).
+  PoseCovariance pose_covariance;
   double masked_fraction = 0;  ///< fraction of pixels marked dynamic in the mask [0, 1]
   KeyframeConstPtr keyframe;   ///< the new keyframe; non-null exactly when is_keyframe
   std::string message;         ///< why LOST / NOT_INITIALIZED / reset; empty when all went well
