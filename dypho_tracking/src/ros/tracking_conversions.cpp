@@ -55,6 +55,18 @@ dypho_slam::TrackingStatus toStatusMsg(const tracking::TrackingOutput& out, cons
   return status;
 }
 
+geometry_msgs::PoseWithCovarianceStamped toPoseWithCovarianceMsg(const tracking::TrackingResult& result,
+                                                                 const std_msgs::Header& header) {
+  geometry_msgs::PoseWithCovarianceStamped msg;
+  msg.header = header;
+  msg.pose.pose = rc::toPoseMsg(result.T_world_camera);
+  for (int r = 0; r < 6; ++r) {
+    for (int c = 0; c < 6; ++c)
+      msg.pose.covariance[static_cast<std::size_t>(6 * r + c)] = result.pose_covariance.world(r, c);
+  }
+  return msg;
+}
+
 void fillLiveCounters(dypho_slam::TrackingStatus& status, const tracking::LiveCounters& counters,
                       const tracking::LiveStatistics& statistics) {
   status.tracking_p50_ms = static_cast<float>(statistics.tracking_p50_ms);

@@ -9,6 +9,7 @@
 
 #include <dypho_slam/StageTiming.h>
 #include <dypho_slam/TrackingStatus.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <std_msgs/Header.h>
 
@@ -30,6 +31,11 @@ dypho_slam::TrackingStatus toStatusMsg(const tracking::TrackingOutput& out, cons
 /// The live tracker's counters and rolling figures into `status`.
 void fillLiveCounters(dypho_slam::TrackingStatus& status, const tracking::LiveCounters& counters,
                       const tracking::LiveStatistics& statistics);
+
+/// The frame's pose in `header`'s frame (the map) with its PoseCovariance, row-major in ROS's
+/// order (x, y, z, rotation about x, y, z); call only when result.pose_covariance.valid.
+geometry_msgs::PoseWithCovarianceStamped toPoseWithCovarianceMsg(const tracking::TrackingResult& result,
+                                                                 const std_msgs::Header& header);
 
 /// The tracker's stage times of one frame.
 dypho_slam::StageTiming toTimingMsg(const tracking::TrackingResult& result, const std_msgs::Header& header);

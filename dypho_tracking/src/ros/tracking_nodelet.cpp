@@ -31,6 +31,7 @@
 #include <dypho_slam/TrackingStatus.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
@@ -122,6 +123,7 @@ class TrackingNodelet : public nodelet::Nodelet {
 
     // 3. Outputs.
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("pose", 10);
+    pose_covariance_pub_ = nh.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_with_covariance", 10);
     path_ = std::make_unique<rc::ThrottledPathPublisher>(nh, "path", params_.map_frame, params_.max_path_length,
                                                          params_.path_period_s);
     status_pub_ = nh.advertise<dypho_slam::TrackingStatus>("tracking_status", 10);
@@ -293,6 +295,7 @@ class TrackingNodelet : public nodelet::Nodelet {
     pose->header.frame_id = params_.map_frame;
     pose->pose = rc::toPoseMsg(result.T_world_camera);
     pose_pub_.publish(pose);
+    if (result.pose_covariance.valid) pose_covariance_pub_.publish(toPoseWithCovarianceMsg(result, pose->header));
     updatePath(*pose, result.is_keyframe || result.loop_closed || out.restarted);
     if (params_.publish_tf) {
       const auto tfs = toTfMsgs(result.T_world_camera, out.T_map_odom, header.stamp, params_.map_frame,
@@ -545,6 +548,8 @@ class TrackingNodelet : public nodelet::Nodelet {
   std::unique_ptr<rc::ThrottledPathPublisher> path_;
 
   ros::Publisher pose_pub_, status_pub_, keyframe_pub_, corrections_pub_, timing_pub_;
+  /// The pose with its covariance relative to the map's points (PoseCovariance), when it has one.
+  ros::Publisher pose_covariance_pub_;
   ros::Publisher moving_points_pub_;  ///< features seen moving (sensor_msgs/PointCloud2, camera optical frame)
   ros::ServiceServer reset_srv_, save_srv_;
   std::filesystem::file_time_type start_time_;  ///< session halves older than this are not this run's
