@@ -112,8 +112,8 @@ TEST(PoseCovariance, MatchesTheScatterOfTheEstimate) {
     const Eigen::Matrix<double, 6, 1> eigenvalues = whitenedScatter(s);
     EXPECT_GT(eigenvalues.minCoeff(), 0.75) << cases[k].name << ": " << eigenvalues.transpose();
     EXPECT_LT(eigenvalues.maxCoeff(), 1.33) << cases[k].name << ": " << eigenvalues.transpose();
-    max_sigma_m[k] = std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(s.predicted.topLeftCorner<3, 3>())
-                                   .eigenvalues()(2));
+    max_sigma_m[k] =
+        std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(s.predicted.topLeftCorner<3, 3>()).eigenvalues()(2));
   }
   // The far patch leaves the centre far less certain (its shift-turn ambiguity).
   EXPECT_GT(max_sigma_m[1], 5.0 * max_sigma_m[0]) << max_sigma_m[0] << " m vs " << max_sigma_m[1] << " m";
