@@ -2,33 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <utility>
 
 #include <Eigen/Eigenvalues>
 
 namespace dypho {
 namespace tracking {
-namespace {
-
-/// The squared residuals of `o` at the pose, whitened as featurePoseInformation weighs them, and
-/// their count; 0 residuals when the point is not in front of the camera.
-std::pair<double, int> whitenedChi2(const PoseObservation& o, const Pinhole& pinhole,
-                                    const Eigen::Isometry3d& T_camera_world, const CameraRates& rates, double sigma_px,
-                                    double bf) {
-  const Eigen::Vector3d q = pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m);
-  if (q.z() < 1e-3) return {0.0, 0};
-  const Eigen::Vector2d e = pinhole.project(q) - o.uv_px;
-  double chi2 = e.squaredNorm();
-  int count = 2;
-  if (bf > 0.0 && o.depth_m > 0.0) {
-    const double e_right = e.x() - bf / q.z() + bf / o.depth_m;
-    chi2 += e_right * e_right;
-    ++count;
-  }
-  return {chi2 / (sigma_px * sigma_px), count};
-}
-
-}  // namespace
 
 PoseInformation featurePoseInformation(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
                                        const Eigen::Isometry3d& T_camera_world, double scale_factor,
@@ -61,11 +39,12 @@ PoseCovariance poseCovariance(const std::vector<PoseObservation>& inliers, const
   double chi2 = 0.0;
   int residuals = 0, points = 0;
   for (const PoseObservation& o : inliers) {
-    const auto [c, n] =
-        whitenedChi2(o, pinhole, T_camera_world, rates, std::pow(scale_factor, std::max(0, o.level)), bf);
-    chi2 += c;
-    residuals += n;
-    points += n > 0 ? 1 : 0;
+    const Eigen::Vector3d p_c = pointAtRowTime(rates, o.row_time_s, T_camera_world * o.p_world_m);
+    if (p_c.z() < 1e-3) continue;  // as featurePoseInformation
+    const double sigma_px = std::pow(scale_factor, std::max(0, o.level));
+    chi2 += whitenedChi2(o, p_c, pinhole, Eigen::Matrix2d::Identity() / sigma_px, sigma_px, bf);
+    residuals += hasDepthResidual(o, bf) ? 3 : 2;
+    ++points;
   }
   if (points < 3 || !std::isfinite(chi2)) return out;
   const PoseInformation H = featurePoseInformation(inliers, pinhole, T_camera_world, scale_factor, depth_baseline_m);

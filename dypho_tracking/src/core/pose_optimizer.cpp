@@ -57,19 +57,25 @@ double PoseOptimizer::exposureS(const CameraRates& rates) const {
   return turning ? std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3 : 0.0;
 }
 
-bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
-                                   const CameraRates& rates, double exposure_s) const {
-  if (!(p_c.z() > 1e-6)) return false;
+double whitenedChi2(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
+                    const Eigen::Matrix2d& sqrt_information, double sigma_px, double bf) {
   const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
-  const double sigma_px = sigma(o.level);
-  double chi2 = (blurSqrtInformation(p_c, rates, pinhole, exposure_s, sigma_px) * e).squaredNorm();
-  const double bf = options_.depth_baseline_m * pinhole.fx;
-  const bool with_depth = bf > 0.0 && o.depth_m > 0.0;
-  if (with_depth) {
+  double chi2 = (sqrt_information * e).squaredNorm();
+  if (hasDepthResidual(o, bf)) {
     const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
     chi2 += e_right * e_right / (sigma_px * sigma_px);
   }
-  return chi2 < (with_depth ? options_.chi2_threshold_depth : options_.chi2_threshold);
+  return chi2;
+}
+
+bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
+                                   const CameraRates& rates, double exposure_s) const {
+  if (!(p_c.z() > 1e-6)) return false;
+  const double sigma_px = sigma(o.level);
+  const double bf = options_.depth_baseline_m * pinhole.fx;
+  const double chi2 =
+      whitenedChi2(o, p_c, pinhole, blurSqrtInformation(p_c, rates, pinhole, exposure_s, sigma_px), sigma_px, bf);
+  return chi2 < (hasDepthResidual(o, bf) ? options_.chi2_threshold_depth : options_.chi2_threshold);
 }
 
 std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
@@ -77,7 +83,7 @@ std::vector<std::unique_ptr<ceres::CostFunction>> PoseOptimizer::makeCosts(
     const Eigen::Isometry3d& T_camera_world_init, const CameraRates& rates_init, double exposure_s) const {
   const size_t n = observations.size();
   const double bf = options_.depth_baseline_m * pinhole.fx;
-  const auto has_depth = [&](const PoseObservation& o) { return bf > 0.0 && o.depth_m > 0.0; };
+  const auto has_depth = [&](const PoseObservation& o) { return hasDepthResidual(o, bf); };
   std::vector<std::unique_ptr<ceres::CostFunction>> costs(n);
   for (size_t i = 0; i < n; ++i) {
     const PoseObservation& o = observations[i];
