@@ -147,6 +147,7 @@ bool KeyframeAligner::refine(const KeyframePoints& reference, const FrameFeature
   result->T_camera_world = opt.T_camera_world;
   result->rates = opt.rates;
   result->blur_exposure_s = opt.blur_exposure_s;
+  result->blur_rates = opt.blur_rates;
   result->matches = matches;
   result->inliers = opt.inliers;
   result->num_inliers = opt.num_inliers;

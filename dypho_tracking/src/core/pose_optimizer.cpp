@@ -52,6 +52,25 @@ bool PoseOptimizer::rollingShutter(const std::vector<PoseObservation>& observati
   return false;
 }
 
+double PoseOptimizer::omegaPriorSigma(const CameraRates& rates) const {
+  return std::max(options_.rolling_shutter_rate_sigma_rad_s,
+                  options_.rolling_shutter_rate_sigma_ratio * rates.omega_rad_s.norm());
+}
+
+PoseCosts PoseOptimizer::costsAt(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
+                                 const Eigen::Isometry3d& T_camera_world, const CameraRates& rates,
+                                 double exposure_s) const {
+  PoseCosts costs;
+  costs.rolling = rollingShutter(observations);
+  costs.observations = makeCosts(observations, pinhole, costs.rolling, T_camera_world, rates, exposure_s);
+  if (costs.rolling) {
+    costs.omega_sigma_rad_s = omegaPriorSigma(rates);
+    costs.velocity_sigma_m_s = options_.rolling_shutter_velocity_sigma_m_s;
+  }
+  costs.bf_px_m = options_.depth_baseline_m * pinhole.fx;
+  return costs;
+}
+
 double PoseOptimizer::exposureS(const CameraRates& rates) const {
   const bool turning = rates.omega_rad_s.allFinite() && rates.omega_rad_s.norm() >= options_.motion_blur_min_rate_rad_s;
   return turning ? std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3 : 0.0;
@@ -239,13 +258,12 @@ PoseOptimizerResult PoseOptimizer::optimize(const std::vector<PoseObservation>& 
   }
   const std::vector<std::unique_ptr<ceres::CostFunction>> costs =
       makeCosts(observations, pinhole, rolling, T_camera_world_init, rates, exposure_s);
+  result.blur_rates = rates;  // the start's: the weights and the priors' widths were taken there
   RoundSetup setup(options_.huber_px, options_.refine_iterations);
   std::unique_ptr<ceres::CostFunction> omega_prior, velocity_prior;
   RateUnknown rate;
   if (rolling) {
-    const double omega_sigma_rad_s = std::max(options_.rolling_shutter_rate_sigma_rad_s,
-                                              options_.rolling_shutter_rate_sigma_ratio * rates.omega_rad_s.norm());
-    omega_prior = std::make_unique<RatePrior>(rates.omega_rad_s, omega_sigma_rad_s);
+    omega_prior = std::make_unique<RatePrior>(rates.omega_rad_s, omegaPriorSigma(rates));
     velocity_prior = std::make_unique<RatePrior>(rates.velocity_m_s, options_.rolling_shutter_velocity_sigma_m_s);
     rate = RateUnknown{&rates, omega_prior.get(), velocity_prior.get()};
   }

@@ -341,8 +341,8 @@ void RgbdOdometry::acceptPose(TrackingFrame* work) {
   result.num_inliers = aligned.num_inliers;
   const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
   result.pose_covariance = poseCovariance(
-      inlierObservations(aligned, ref, work->features(), options_.rolling_shutter_readout_ms * 1e-3), work->pinhole,
-      aligned.T_camera_world, aligned.rates, options_.scale_factor, options_.depth_baseline_m);
+      pose_optimizer_, inlierObservations(aligned, ref, work->features(), options_.rolling_shutter_readout_ms * 1e-3),
+      work->pinhole, aligned.T_camera_world, aligned.rates, aligned.blur_rates, aligned.blur_exposure_s);
 }
 
 KeyframeDecision RgbdOdometry::decideKeyframe(const TrackingFrame& work) const {

@@ -28,6 +28,9 @@ struct AlignmentResult {
   /// The exposure the pose refinement weighted the keypoints' blur with (PoseOptimizerResult) [s];
   /// 0 = sharp.
   double blur_exposure_s = 0.0;
+  /// The velocities the pose refinement took its blur weights and velocity priors at
+  /// (PoseOptimizerResult).
+  CameraRates blur_rates;
   std::vector<FeatureMatch> matches;  ///< matches used for the final pose
   std::vector<bool> inliers;          ///< per match: pose inlier
   int num_inliers = 0;                ///< count of inliers

@@ -50,19 +50,22 @@ struct PoseCovariance {
   double maxPositionSigmaM() const;
 };
 
-/// The covariance of the pose T_camera_world estimated from `inliers` (the motion-only BA's
-/// inlier observations): the inverse of their Gauss-Newton information (featurePoseInformation:
-/// reprojection residuals whitened by the keypoints' pyramid-level sigma, plus the depth residual
-/// when depth_baseline_m > 0), scaled by the variance factor, the squared whitened residuals at
-/// the pose (with `rates` for the rows of a rolling shutter) per residual minus 6, at least 1: a
-/// pose is never reported more precise than the keypoint noise model allows.
+/// The covariance of the pose T_camera_world that `optimizer` estimated from `inliers` (its
+/// inlier observations), with `rates`, `blur_rates` and `exposure_s` from that estimate
+/// (PoseOptimizerResult's rates, blur_rates and blur_exposure_s): the inverse of the
+/// Gauss-Newton information of the residuals the solve minimised (PoseOptimizer::costsAt: each
+/// keypoint whitened by its pyramid level's sigma and, on a fast turn, by its blur streak, plus
+/// the depth residual when depth_baseline_m > 0), scaled by the variance factor, their squared
+/// residuals per residual minus 6, at least 1: a pose is never reported more precise than the
+/// keypoint noise model allows. With a rolling shutter the velocities were estimated with the
+/// pose, under priors: they are marginalised out (a Schur complement), so what they leave
+/// uncertain is in the pose's.
 /// It is the precision relative to the points, which are taken as exact: the map's own error
-/// (drift between keyframes) is not in it, and neither is the uncertainty of a rolling shutter's
-/// velocities, which are held at their estimate. Invalid with fewer than 3 points in front of the
+/// (drift between keyframes) is not in it. Invalid with fewer than 3 points in front of the
 /// camera or an information matrix whose smallest eigenvalue is below 1e-9 of its largest.
-PoseCovariance poseCovariance(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
-                              const Eigen::Isometry3d& T_camera_world, const CameraRates& rates, double scale_factor,
-                              double depth_baseline_m);
+PoseCovariance poseCovariance(const PoseOptimizer& optimizer, const std::vector<PoseObservation>& inliers,
+                              const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world, const CameraRates& rates,
+                              const CameraRates& blur_rates, double exposure_s);
 
 }  // namespace tracking
 }  // namespace dypho

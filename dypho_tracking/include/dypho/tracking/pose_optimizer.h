@@ -57,7 +57,25 @@ struct PoseOptimizerResult {
   /// The exposure the pixel residuals were weighted with [s]: motion_blur_exposure_ms when the
   /// motion model (`rates_prior`) turned at motion_blur_min_rate_rad_s or faster, else 0.
   double blur_exposure_s = 0.0;
+  /// The velocities the solve took its blur weights and its velocity priors' widths at: the
+  /// start's (`rates_prior` when used, else zero).
+  CameraRates blur_rates;
   std::string message;  ///< why it failed; empty on success
+};
+
+/// The residuals PoseOptimizer::optimize minimises, built at one pose and one set of velocities
+/// (PoseOptimizer::costsAt): what a covariance of its estimate is computed from.
+struct PoseCosts {
+  /// One cost per observation, in order (blocks: the quaternion of T_camera_world [x, y, z, w],
+  /// its translation [m], and when `rolling` the angular [rad/s] and linear [m/s] velocity).
+  std::vector<std::unique_ptr<ceres::CostFunction>> observations;
+  bool rolling = false;  ///< the velocities are unknowns, with the priors below
+  /// The widths of the velocities' priors [rad/s], [m/s]; 0 when !rolling.
+  double omega_sigma_rad_s = 0.0;
+  double velocity_sigma_m_s = 0.0;
+  /// The virtual stereo depth_baseline_m * fx [px m]: hasDepthResidual(o, bf_px_m) says which
+  /// costs have a third, depth residual.
+  double bf_px_m = 0.0;
 };
 
 /// Minimises sum_j rho_huber(|e_j|^2 / sigma_j^2), e_j = uv_j - pi(T_camera_world P_j) (plus the
@@ -100,6 +118,13 @@ class PoseOptimizer {
   /// for another observation.
   bool agrees(const PoseObservation& observation, const Pinhole& pinhole, const PoseOptimizerResult& estimate) const;
 
+  /// The residuals optimize() builds for `observations`, each keypoint whitened by its level's
+  /// sigma and by its blur over `exposure_s` (0 = sharp) at (T_camera_world, rates), and the widths
+  /// of the velocity priors at `rates`. With a solve's blur_rates and blur_exposure_s
+  /// (PoseOptimizerResult) and its pose, they are the residuals that solve minimised.
+  PoseCosts costsAt(const std::vector<PoseObservation>& observations, const Pinhole& pinhole,
+                    const Eigen::Isometry3d& T_camera_world, const CameraRates& rates, double exposure_s) const;
+
  private:
   double sigma(int level) const;
   /// agrees() with the point already in its row's camera frame, its blur weighted as by
@@ -111,6 +136,9 @@ class PoseOptimizer {
   double exposureS(const CameraRates& rates) const;
   /// True when the rolling shutter is modelled for `observations` (a readout and row times).
   bool rollingShutter(const std::vector<PoseObservation>& observations) const;
+  /// The angular velocity prior's width about `rates`: the larger of
+  /// rolling_shutter_rate_sigma_rad_s and rolling_shutter_rate_sigma_ratio times their turn rate.
+  double omegaPriorSigma(const CameraRates& rates) const;
   /// One residual per observation: RgbdReprojectionError when it has a depth and
   /// depth_baseline_m > 0, else ReprojectionError; RollingShutterReprojectionError when
   /// `rolling`; whitened by sigma(level), and with an exposure by the keypoint's blur at the start
