@@ -115,7 +115,10 @@ TEST(DenseRgbdAligner, FeatureInformationIsTheGaussNewtonHessianOfTheReprojectio
     observations.push_back(o);
   }
   const double scale_factor = 1.2, baseline_m = 0.08;
-  const PoseInformation H = featurePoseInformation(observations, pinhole, T_camera_world, scale_factor, baseline_m);
+  TrackingOptions options;
+  options.scale_factor = scale_factor;
+  options.depth_baseline_m = baseline_m;
+  const PoseInformation H = featurePoseInformation(PoseOptimizer(options), observations, pinhole, T_camera_world);
   // The same from a numerical Jacobian of [u, v, u - b fx / z] / sigma under T' = exp(d) T.
   PoseInformation numeric = PoseInformation::Zero();
   const double h = 1e-6;

@@ -11,29 +11,6 @@
 namespace dypho {
 namespace tracking {
 
-PoseInformation featurePoseInformation(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
-                                       const Eigen::Isometry3d& T_camera_world, double scale_factor,
-                                       double depth_baseline_m) {
-  PoseInformation H = PoseInformation::Zero();
-  const double bf = depth_baseline_m * pinhole.fx;
-  for (const PoseObservation& o : inliers) {
-    const Eigen::Vector3d q = T_camera_world * o.p_world_m;
-    if (q.z() < 1e-3) continue;
-    const double iz = 1.0 / q.z();
-    const double sigma = std::pow(scale_factor, std::max(0, o.level));
-    const double w = 1.0 / (sigma * sigma);
-    const Eigen::Vector3d du_dq(pinhole.fx * iz, 0.0, -pinhole.fx * q.x() * iz * iz);
-    const Eigen::Vector3d dv_dq(0.0, pinhole.fy * iz, -pinhole.fy * q.y() * iz * iz);
-    const Eigen::Matrix<double, 1, 6> ju = leftJacobian(q, du_dq), jv = leftJacobian(q, dv_dq);
-    H.noalias() += w * (ju.transpose() * ju + jv.transpose() * jv);
-    if (bf > 0.0 && o.depth_m > 0.0) {  // u_right = u - bf / z
-      const Eigen::Matrix<double, 1, 6> jr = leftJacobian(q, du_dq + Eigen::Vector3d(0.0, 0.0, bf * iz * iz));
-      H.noalias() += w * jr.transpose() * jr;
-    }
-  }
-  return H;
-}
-
 namespace {
 
 /// The solve's unknowns on their tangent: a left turn d of T_camera_world's rotation (R' = exp(d)
@@ -41,6 +18,13 @@ namespace {
 constexpr int kPose = 6;
 constexpr int kUnknowns = 12;
 using Information = Eigen::Matrix<double, kUnknowns, kUnknowns>;
+
+/// [t]x, the cross product with t as a matrix.
+Eigen::Matrix3d skew(const Eigen::Vector3d& t) {
+  Eigen::Matrix3d m;
+  m << 0.0, -t.z(), t.y(), t.z(), 0.0, -t.x(), -t.y(), t.x(), 0.0;
+  return m;
+}
 
 /// The Gauss-Newton information H = sum J^T J of the solve's residuals at the estimate (the
 /// velocities' priors not yet in it), their chi2 and the number of their measured residuals (2 per
@@ -95,6 +79,18 @@ Accumulated accumulate(const PoseCosts& costs, const std::vector<PoseObservation
 
 }  // namespace
 
+PoseInformation featurePoseInformation(const PoseOptimizer& optimizer, const std::vector<PoseObservation>& inliers,
+                                       const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world) {
+  const PoseCosts costs = optimizer.costsAt(inliers, pinhole, T_camera_world, CameraRates(), 0.0);
+  const PoseInformation H = accumulate(costs, inliers, T_camera_world, CameraRates()).H.topLeftCorner<kPose, kPose>();
+  // T' = exp(v, w) T turns R by w and moves t to exp(w) t + v: (d, dt) = (w, v - [t]x w).
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  A.topRightCorner<3, 3>() = Eigen::Matrix3d::Identity();
+  A.bottomLeftCorner<3, 3>() = Eigen::Matrix3d::Identity();
+  A.bottomRightCorner<3, 3>() = -skew(T_camera_world.translation());
+  return A.transpose() * H * A;
+}
+
 PoseCovariance poseCovariance(const PoseOptimizer& optimizer, const std::vector<PoseObservation>& inliers,
                               const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world, const CameraRates& rates,
                               const CameraRates& blur_rates, double exposure_s) {
@@ -123,11 +119,8 @@ PoseCovariance poseCovariance(const PoseOptimizer& optimizer, const std::vector<
   // The centre c = -R^T t moves by -R^T dt - R^T [t]x d to first order, and R_world_camera' =
   // R^T exp(-d) turns by -R^T d about the world axes.
   const Eigen::Matrix3d Rt = T_camera_world.rotation().transpose();
-  const Eigen::Vector3d t = T_camera_world.translation();
-  Eigen::Matrix3d t_cross;
-  t_cross << 0.0, -t.z(), t.y(), t.z(), 0.0, -t.x(), -t.y(), t.x(), 0.0;
   Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Zero();
-  J.topLeftCorner<3, 3>() = -Rt * t_cross;
+  J.topLeftCorner<3, 3>() = -Rt * skew(T_camera_world.translation());
   J.topRightCorner<3, 3>() = -Rt;
   J.bottomLeftCorner<3, 3>() = -Rt;
   out.world = J * covariance_tangent * J.transpose();

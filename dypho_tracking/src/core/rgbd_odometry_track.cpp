@@ -286,8 +286,8 @@ void RgbdOdometry::refineDensely(TrackingFrame* work) {
   if (options_.dense_feature_prior_weight > 0.0) {
     const KeyframePoints& ref = aligned.matches_refer_to_fallback ? own_view_ : local_view_;
     prior.information = options_.dense_feature_prior_weight *
-                        featurePoseInformation(inlierObservations(aligned, ref, work->features(), 0.0), work->pinhole,
-                                               T_features, options_.scale_factor, options_.depth_baseline_m);
+                        featurePoseInformation(pose_optimizer_, inlierObservations(aligned, ref, work->features(), 0.0),
+                                               work->pinhole, T_features);
   }
   dense_.setCurrent(work->frame, work->mask);
   const DenseAlignment dense = dense_.align(prior.T_current_reference, prior);

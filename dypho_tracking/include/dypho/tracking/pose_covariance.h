@@ -28,14 +28,14 @@ inline Eigen::Matrix<double, 1, 6> leftJacobian(const Eigen::Vector3d& q, const 
   return j;
 }
 
-/// Information of the feature pose T_camera_world from its inlier observations: the sum of
-/// J^T J / sigma^2 of their RGB-D reprojection residuals (sigma = scale_factor^level [px]; the
-/// virtual right column of RgbdReprojectionError when depth_baseline_m > 0 and the observation
-/// has a depth), on the left perturbation of T_camera_world (which is also that of
-/// T_current_reference = T_camera_world * T_world_reference).
-PoseInformation featurePoseInformation(const std::vector<PoseObservation>& inliers, const Pinhole& pinhole,
-                                       const Eigen::Isometry3d& T_camera_world, double scale_factor,
-                                       double depth_baseline_m);
+/// Information of the feature pose T_camera_world from its inlier observations, on the left
+/// perturbation T' = exp(v, w) T_camera_world (which is also that of T_current_reference =
+/// T_camera_world * T_world_reference): the Gauss-Newton information of the residuals `optimizer`
+/// minimises for them at that pose (PoseOptimizer::costsAt: sigma = scale_factor^level [px], the
+/// virtual right column when depth_baseline_m > 0 and the observation has a depth), sharp, and with
+/// a rolling shutter's velocities held at zero (observations at the stamp: row time 0).
+PoseInformation featurePoseInformation(const PoseOptimizer& optimizer, const std::vector<PoseObservation>& inliers,
+                                       const Pinhole& pinhole, const Eigen::Isometry3d& T_camera_world);
 
 /// Covariance of a camera pose, ordered as ROS's geometry_msgs/PoseWithCovariance: the camera
 /// centre along the world axes x, y, z [m^2], then a small rotation of the camera about the world

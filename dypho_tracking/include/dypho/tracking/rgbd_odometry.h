@@ -302,7 +302,7 @@ class RgbdOdometry {
   bool has_pinhole_ = false;
   /// A restored session's map is searched by relocalisation until the camera is found in it.
   bool searching_map_ = false;
-  PoseOptimizer pose_optimizer_;     ///< re-estimation after the static check; each pose's covariance
+  PoseOptimizer pose_optimizer_;     ///< re-estimation after the static check; pose covariance, dense prior
   StaticSceneCheck static_check_;    ///< dense check against the reference keyframe
   DenseRgbdAligner dense_;           ///< dense refinement against the reference keyframe
   FinalFrameRefiner frame_refiner_;  ///< the tracked frames' evidence, for refineRecordedPoses
