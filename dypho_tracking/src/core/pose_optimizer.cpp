@@ -18,6 +18,24 @@
 namespace dypho {
 namespace tracking {
 
+namespace {
+
+/// The whitened squared residual of `o` with its point at `p_c` in the camera (in front of it):
+/// the pixel residual times `sqrt_information`, plus with hasDepthResidual the virtual right
+/// column's residual over sigma_px^2. What the inlier test compares with its chi2 thresholds.
+double whitenedChi2(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
+                    const Eigen::Matrix2d& sqrt_information, double sigma_px, double bf) {
+  const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
+  double chi2 = (sqrt_information * e).squaredNorm();
+  if (hasDepthResidual(o, bf)) {
+    const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
+    chi2 += e_right * e_right / (sigma_px * sigma_px);
+  }
+  return chi2;
+}
+
+}  // namespace
+
 PoseOptimizer::PoseOptimizer(const TrackingOptions& options) : options_(options) {
   options_.validate();
   level_sigma_.resize(static_cast<size_t>(options_.num_levels));
@@ -74,17 +92,6 @@ PoseCosts PoseOptimizer::costsAt(const std::vector<PoseObservation>& observation
 double PoseOptimizer::exposureS(const CameraRates& rates) const {
   const bool turning = rates.omega_rad_s.allFinite() && rates.omega_rad_s.norm() >= options_.motion_blur_min_rate_rad_s;
   return turning ? std::max(0.0, options_.motion_blur_exposure_ms) * 1e-3 : 0.0;
-}
-
-double whitenedChi2(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
-                    const Eigen::Matrix2d& sqrt_information, double sigma_px, double bf) {
-  const Eigen::Vector2d e = pinhole.project(p_c) - o.uv_px;
-  double chi2 = (sqrt_information * e).squaredNorm();
-  if (hasDepthResidual(o, bf)) {
-    const double e_right = e.x() - bf / p_c.z() + bf / o.depth_m;
-    chi2 += e_right * e_right / (sigma_px * sigma_px);
-  }
-  return chi2;
 }
 
 bool PoseOptimizer::agreesInCamera(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,

@@ -37,12 +37,6 @@ struct PoseObservation {
 /// bf = depth_baseline_m * fx > 0 [px m] and a measured depth.
 inline bool hasDepthResidual(const PoseObservation& o, double bf) { return bf > 0.0 && o.depth_m > 0.0; }
 
-/// The whitened squared residual of `o` with its point at `p_c` in the camera (in front of it):
-/// the pixel residual times `sqrt_information`, plus with hasDepthResidual the virtual right
-/// column's residual over sigma_px^2. What the inlier tests compare with their chi2 thresholds.
-double whitenedChi2(const PoseObservation& o, const Eigen::Vector3d& p_c, const Pinhole& pinhole,
-                    const Eigen::Matrix2d& sqrt_information, double sigma_px, double bf);
-
 /// Result of PoseOptimizer::optimize.
 struct PoseOptimizerResult {
   bool success = false;  ///< true when Ceres ran and at least 3 inliers remained
